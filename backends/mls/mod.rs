@@ -1,0 +1,314 @@
+//! MLS elasticity backend (Müller, Keiser, Nealen, Pauly, Gross, Alexa 2004,
+//! "Point based animation of elastic, plastic and melting objects").
+//!
+//! Written only against phyxel's public API, as an outside crate would be.
+//!
+//! Per phyxel i, with the rest stencil `d_j` of [`MlsStencil`]:
+//! `J = I + ∇uᵀ` (our `∇u` is stored with column b = ∂u/∂x_b, so `J = I + G`),
+//! strain `ε = ½(JᵀJ − I)` (or the paper's `JᵀJ − I`), plastic part removed,
+//! stress `σ = λ tr(ε) I + 2μ ε` plus the Kelvin–Voigt viscous stress `τ C ε̇`,
+//! `P_i = −v_i J σ − v_i k_v (det J − 1) cof(J)`; forces `f_j += P_i d_j`, `f_i += P_i d_i`.
+//! Since `d_i = −Σ_j d_j`, each phyxel's forces sum to zero: momentum is conserved.
+
+use glam::{Mat3, Vec3};
+use phyxel::columns::Vec3s;
+use phyxel::dynamics::{Diagnostics, Dynamics, StepContext, integrate_symplectic};
+use phyxel::material::{Material, StrainForm};
+use phyxel::mls::MlsStencil;
+use phyxel::phyxels::Phyxels;
+use rayon::prelude::*;
+
+/// Courant number of the stable step `dt = CFL · r_min / c` (c: P-wave speed).
+/// Chosen from the measured stability limit (docs/BACKENDS.md).
+pub const CFL: f32 = 0.5;
+
+/// MLS elasticity for one object.
+pub struct MlsDynamics {
+    stencil: MlsStencil,
+    /// `incoming[in_off[j]..in_off[j + 1]]`: (phyxel i, stencil entry k) with j = neighbours[k].
+    in_off: Vec<u32>,
+    incoming: Vec<(u32, u32)>,
+    /// Displacement gradient per phyxel (column b = ∂u/∂x_b).
+    grad: Vec<Mat3>,
+    /// `P_i` per phyxel (N per unit `d`).
+    stress_force: Vec<Mat3>,
+    internal: Vec3s,
+    /// Plastic strain per phyxel; empty for elastic materials (no plasticity work).
+    plastic: Vec<Mat3>,
+    max_strain: f32,
+}
+
+impl MlsDynamics {
+    /// Builds the rest stencil of `phyxels`.
+    pub fn new(phyxels: &Phyxels, material: &Material) -> Self {
+        let n = phyxels.len();
+        let stencil = MlsStencil::build(phyxels);
+        let mut count = vec![0u32; n + 1];
+        for &j in &stencil.neighbours {
+            count[j as usize + 1] += 1;
+        }
+        for j in 0..n {
+            count[j + 1] += count[j];
+        }
+        let in_off = count.clone();
+        let mut incoming = vec![(0u32, 0u32); stencil.neighbours.len()];
+        for i in 0..n {
+            for k in stencil.row(i) {
+                let j = stencil.neighbours[k] as usize;
+                incoming[count[j] as usize] = (i as u32, k as u32);
+                count[j] += 1;
+            }
+        }
+        Self {
+            stencil,
+            in_off,
+            incoming,
+            grad: vec![Mat3::ZERO; n],
+            stress_force: vec![Mat3::ZERO; n],
+            internal: Vec3s::zeros(n),
+            plastic: if material.is_plastic() {
+                vec![Mat3::ZERO; n]
+            } else {
+                Vec::new()
+            },
+            max_strain: 0.0,
+        }
+    }
+
+    /// The rest stencil (for diagnostics and tests).
+    pub fn stencil(&self) -> &MlsStencil {
+        &self.stencil
+    }
+
+    /// Number of phyxels whose moment matrix was ill-conditioned.
+    pub fn ill_conditioned(&self) -> usize {
+        self.stencil.ill_conditioned.iter().filter(|&&b| b).count()
+    }
+
+    /// Plastic strain per phyxel (empty for elastic materials).
+    pub fn plastic_strain(&self) -> &[Mat3] {
+        &self.plastic
+    }
+
+    /// Internal elastic forces of the current state, in `self.internal` (N).
+    /// `dt` only matters for plastic flow.
+    pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
+        let st = &self.stencil;
+        st.displacement_gradients(&phyxels.pos, &phyxels.rest, &mut self.grad);
+        let law = Law::new(material, dt);
+        let grad = &self.grad;
+        let vel = &phyxels.vel;
+        let volume = &phyxels.volume;
+        let stress_at = |i: usize, plastic: Option<&mut Mat3>| {
+            let strain_rate_grad = if law.tau > 0.0 {
+                Some(st.gradient_of(i, |j| vel.get(j)))
+            } else {
+                None
+            };
+            law.stress_force(grad[i], strain_rate_grad, plastic, volume[i])
+        };
+        let max_strain = if self.plastic.is_empty() {
+            self.stress_force
+                .par_iter_mut()
+                .enumerate()
+                .map(|(i, p)| {
+                    let (pf, e) = stress_at(i, None);
+                    *p = pf;
+                    e
+                })
+                .reduce(|| 0.0, f32::max)
+        } else {
+            self.stress_force
+                .par_iter_mut()
+                .zip(self.plastic.par_iter_mut())
+                .enumerate()
+                .map(|(i, (p, ep))| {
+                    let (pf, e) = stress_at(i, Some(ep));
+                    *p = pf;
+                    e
+                })
+                .reduce(|| 0.0, f32::max)
+        };
+        self.max_strain = max_strain;
+        self.gather_forces();
+    }
+
+    /// `f_j = P_j d_j(self) + Σ_{i: j ∈ N(i)} P_i d_ij`, gathered per phyxel so the
+    /// parallel loop writes disjoint entries and the sum order is fixed (deterministic).
+    fn gather_forces(&mut self) {
+        let st = &self.stencil;
+        let pf = &self.stress_force;
+        let (in_off, incoming) = (&self.in_off, &self.incoming);
+        let n = st.len();
+        let forces: Vec<Vec3> = (0..n)
+            .into_par_iter()
+            .map(|j| {
+                let mut f = pf[j] * st.d_self[j];
+                for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
+                    f += pf[i as usize] * st.d[k as usize];
+                }
+                f
+            })
+            .collect();
+        for (j, f) in forces.into_iter().enumerate() {
+            self.internal.set(j, f);
+        }
+    }
+
+    /// Internal forces of the last step (N).
+    pub fn internal_forces(&self) -> &Vec3s {
+        &self.internal
+    }
+}
+
+/// The constitutive law of a material, resolved once per step.
+#[derive(Clone, Copy)]
+struct Law {
+    lambda: f32,
+    mu: f32,
+    kv: f32,
+    tau: f32,
+    paper: bool,
+    plastic_yield: f32,
+    plastic_creep_dt: f32,
+    plastic_max: f32,
+}
+
+impl Law {
+    fn new(m: &Material, dt: f32) -> Self {
+        let (lambda, mu) = m.lame();
+        Self {
+            lambda,
+            mu,
+            kv: m.k_volume(),
+            tau: m.damping,
+            paper: m.strain == StrainForm::Paper,
+            plastic_yield: m.plastic_yield,
+            plastic_creep_dt: m.plastic_creep * dt,
+            plastic_max: m.plastic_max,
+        }
+    }
+
+    /// Isotropic Hooke law `σ = λ tr(ε) I + 2μ ε`.
+    #[inline]
+    fn hooke(&self, e: Mat3) -> Mat3 {
+        let tr = e.x_axis.x + e.y_axis.y + e.z_axis.z;
+        Mat3::from_diagonal(Vec3::splat(self.lambda * tr)) + e * (2.0 * self.mu)
+    }
+
+    /// Strain of the deformation gradient `j` (calibrated or paper form).
+    #[inline]
+    fn strain(&self, j: Mat3) -> Mat3 {
+        let c = j.transpose() * j - Mat3::IDENTITY;
+        if self.paper { c } else { c * 0.5 }
+    }
+
+    /// `P = −v (s J σ + k_v (det J − 1) cof J)` and the strain norm, updating plastic strain.
+    #[inline]
+    fn stress_force(
+        &self,
+        grad: Mat3,
+        vel_grad: Option<Mat3>,
+        plastic: Option<&mut Mat3>,
+        volume: f32,
+    ) -> (Mat3, f32) {
+        let j = Mat3::IDENTITY + grad;
+        let strain = self.strain(j);
+        let mut elastic = strain;
+        if let Some(ep) = plastic {
+            let e = strain - *ep;
+            if frobenius(e) > self.plastic_yield {
+                *ep += e * self.plastic_creep_dt;
+            }
+            let norm = frobenius(*ep);
+            if norm > self.plastic_max {
+                *ep *= self.plastic_max / norm;
+            }
+            elastic = strain - *ep;
+        }
+        let mut sigma = self.hooke(elastic);
+        if let Some(jd) = vel_grad {
+            // ε̇ of the strain measure: ½(JᵀJ̇ + J̇ᵀJ) (twice that for the paper form).
+            let rate = j.transpose() * jd + jd.transpose() * j;
+            let rate = if self.paper { rate } else { rate * 0.5 };
+            sigma += self.hooke(rate) * self.tau;
+        }
+        let s = if self.paper { 2.0 } else { 1.0 };
+        let mut p = j * sigma * (-volume * s);
+        if self.kv > 0.0 {
+            let cof = Mat3::from_cols(
+                j.y_axis.cross(j.z_axis),
+                j.z_axis.cross(j.x_axis),
+                j.x_axis.cross(j.y_axis),
+            );
+            p -= cof * (volume * self.kv * (j.determinant() - 1.0));
+        }
+        (p, frobenius(strain))
+    }
+
+    /// Elastic energy density ½ ε:σ + ½ k_v (det J − 1)² (J/m³); its derivative with
+    /// respect to J is the P of [`Law::stress_force`] in either strain form.
+    fn energy_density(&self, grad: Mat3, plastic: Option<&Mat3>) -> f32 {
+        let j = Mat3::IDENTITY + grad;
+        let mut e = self.strain(j);
+        if let Some(ep) = plastic {
+            e -= *ep;
+        }
+        let sigma = self.hooke(e);
+        let dot = (0..3).map(|c| e.col(c).dot(sigma.col(c))).sum::<f32>();
+        let dv = j.determinant() - 1.0;
+        0.5 * dot + 0.5 * self.kv * dv * dv
+    }
+}
+
+#[inline]
+fn frobenius(m: Mat3) -> f32 {
+    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
+}
+
+impl Dynamics for MlsDynamics {
+    fn name(&self) -> &str {
+        "mls"
+    }
+
+    fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) {
+        self.compute_forces(phyxels, ctx.material, ctx.dt);
+        integrate_symplectic(phyxels, &self.internal, ctx);
+    }
+
+    fn stable_dt(&self, phyxels: &Phyxels, m: &Material) -> f32 {
+        let (lambda, mu) = m.lame();
+        let stiff = if m.strain == StrainForm::Paper {
+            4.0
+        } else {
+            1.0
+        };
+        let modulus = stiff * (lambda + 2.0 * mu) + m.k_volume();
+        let c = (modulus / m.density).sqrt();
+        let r_min = phyxels.spacing[..phyxels.len()]
+            .iter()
+            .fold(f32::INFINITY, |a, &b| a.min(b));
+        // Kelvin–Voigt damping of the fastest mode (ω ≈ 2c/r) shrinks the bound by
+        // √(1 + ζ²) − ζ with ζ = τω/2.
+        let zeta = m.damping * c / r_min;
+        CFL * r_min / c * ((1.0 + zeta * zeta).sqrt() - zeta)
+    }
+
+    fn displacement_gradient(&self) -> Option<&[Mat3]> {
+        Some(&self.grad)
+    }
+
+    fn diagnostics(&self, phyxels: &Phyxels, material: &Material) -> Diagnostics {
+        let law = Law::new(material, 0.0);
+        let energy = (0..phyxels.len())
+            .map(|i| {
+                law.energy_density(self.grad[i], self.plastic.get(i)) as f64
+                    * phyxels.volume[i] as f64
+            })
+            .sum();
+        Diagnostics {
+            elastic_energy: Some(energy),
+            max_strain: Some(self.max_strain),
+        }
+    }
+}

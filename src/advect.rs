@@ -1,0 +1,109 @@
+//! Surfel advection: surfels follow the phyxels' MLS displacement field (Müller et al.
+//! 2004, §5): `u(s) = Σ w_i (u_i + ∇u_i (s₀ − x₀ᵢ)) / Σ w_i`, normals `n ∝ J⁻ᵀ n₀`
+//! with `J = I + Σ w_i ∇u_i / Σ w_i`. Weights use rest positions, so they are fixed
+//! and precomputed once.
+
+use crate::grid::Grid;
+use crate::kernel::poly6_shape;
+use crate::phyxels::Phyxels;
+use crate::surfels::Surfels;
+use glam::{Mat3, Vec3};
+use rayon::prelude::*;
+
+/// Number of nearest phyxels a surfel binds to when none lies within its radius.
+pub const MIN_BINDING: usize = 4;
+
+/// Fixed binding of each surfel to nearby phyxels, with normalised weights.
+#[derive(Clone, Debug, Default)]
+pub struct SurfelBinding {
+    offsets: Vec<u32>,
+    phyxel: Vec<u32>,
+    weight: Vec<f32>,
+    /// Rest offset `s₀ − x₀ᵢ`.
+    offset: Vec<Vec3>,
+}
+
+impl SurfelBinding {
+    /// Binds every surfel to the phyxels whose influence radius contains it at rest,
+    /// or to its [`MIN_BINDING`] nearest phyxels when none does.
+    pub fn build(surfels: &Surfels, phyxels: &Phyxels) -> Self {
+        let mut b = Self {
+            offsets: vec![0],
+            ..Default::default()
+        };
+        if phyxels.is_empty() {
+            b.offsets.resize(surfels.len() + 1, 0);
+            return b;
+        }
+        let grid: Grid = phyxels.rest_grid();
+        let h_max = grid.cell();
+        let rows: Vec<Vec<(u32, f32, Vec3)>> = (0..surfels.len())
+            .into_par_iter()
+            .map(|s| {
+                let x = surfels.rest.get(s);
+                let mut row = Vec::new();
+                grid.for_each_within(x, h_max, |i, d2| {
+                    let w = poly6_shape(d2, phyxels.radius[i]);
+                    if w > 0.0 {
+                        row.push((i as u32, w, x - phyxels.rest.get(i)));
+                    }
+                });
+                if row.is_empty() {
+                    let mut knn = Vec::new();
+                    grid.k_nearest(x, MIN_BINDING, &mut knn);
+                    let h = knn.last().map_or(1.0, |e| e.1.sqrt()) * 1.5 + 1e-12;
+                    for (i, d2) in knn {
+                        row.push((i as u32, poly6_shape(d2, h), x - phyxels.rest.get(i)));
+                    }
+                }
+                row.sort_unstable_by_key(|e| e.0);
+                let sum: f32 = row.iter().map(|e| e.1).sum();
+                row.iter_mut().for_each(|e| e.1 /= sum);
+                row
+            })
+            .collect();
+        for row in rows {
+            for (i, w, o) in row {
+                b.phyxel.push(i);
+                b.weight.push(w);
+                b.offset.push(o);
+            }
+            b.offsets.push(b.phyxel.len() as u32);
+        }
+        b
+    }
+
+    /// Moves surfels, their normals and velocities with the phyxels, given the
+    /// displacement gradient of every phyxel.
+    pub fn advect(&self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
+        let out: Vec<(Vec3, Vec3, Vec3)> = (0..surfels.len())
+            .into_par_iter()
+            .map(|s| {
+                let (mut u, mut g, mut v) = (Vec3::ZERO, Mat3::ZERO, Vec3::ZERO);
+                for k in self.offsets[s] as usize..self.offsets[s + 1] as usize {
+                    let i = self.phyxel[k] as usize;
+                    let w = self.weight[k];
+                    let ui = phyxels.pos.get(i) - phyxels.rest.get(i);
+                    u += w * (ui + grad[i] * self.offset[k]);
+                    g += grad[i] * w;
+                    v += w * phyxels.vel.get(i);
+                }
+                let j = Mat3::IDENTITY + g;
+                let n0 = surfels.rest_normal.get(s);
+                // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
+                let cof = Mat3::from_cols(
+                    j.y_axis.cross(j.z_axis),
+                    j.z_axis.cross(j.x_axis),
+                    j.x_axis.cross(j.y_axis),
+                );
+                let n = (cof * n0).try_normalize().unwrap_or(surfels.normal.get(s));
+                (surfels.rest.get(s) + u, n, v)
+            })
+            .collect();
+        for (s, (x, n, v)) in out.into_iter().enumerate() {
+            surfels.pos.set(s, x);
+            surfels.normal.set(s, n);
+            surfels.vel.set(s, v);
+        }
+    }
+}

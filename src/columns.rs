@@ -1,0 +1,133 @@
+//! Struct-of-arrays columns padded to the SIMD width.
+//!
+//! Every per-point quantity is a separate `Vec<f32>` whose length is the point count
+//! rounded up to [`LANES`]; the padding lanes hold zeros so SIMD loops can run over whole
+//! chunks without a scalar tail and without changing sums.
+
+use glam::Vec3;
+
+/// SIMD width of the hot loops (`wide::f32x8`).
+pub const LANES: usize = 8;
+
+/// `n` rounded up to a multiple of [`LANES`].
+#[inline]
+pub fn padded_len(n: usize) -> usize {
+    n.div_ceil(LANES) * LANES
+}
+
+/// Three `f32` columns (x, y, z) for `len` points, padded with zeros to the SIMD width.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Vec3s {
+    pub x: Vec<f32>,
+    pub y: Vec<f32>,
+    pub z: Vec<f32>,
+    len: usize,
+}
+
+impl Vec3s {
+    /// `len` zero vectors.
+    pub fn zeros(len: usize) -> Self {
+        let p = padded_len(len);
+        Self {
+            x: vec![0.0; p],
+            y: vec![0.0; p],
+            z: vec![0.0; p],
+            len,
+        }
+    }
+
+    /// Columns holding `points`.
+    pub fn from_points(points: &[Vec3]) -> Self {
+        let mut c = Self::zeros(points.len());
+        for (i, p) in points.iter().enumerate() {
+            c.set(i, *p);
+        }
+        c
+    }
+
+    /// Number of points (without padding).
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    #[inline]
+    pub fn get(&self, i: usize) -> Vec3 {
+        Vec3::new(self.x[i], self.y[i], self.z[i])
+    }
+
+    #[inline]
+    pub fn set(&mut self, i: usize, v: Vec3) {
+        self.x[i] = v.x;
+        self.y[i] = v.y;
+        self.z[i] = v.z;
+    }
+
+    #[inline]
+    pub fn add(&mut self, i: usize, v: Vec3) {
+        self.x[i] += v.x;
+        self.y[i] += v.y;
+        self.z[i] += v.z;
+    }
+
+    /// Sets every point (padding stays zero) to zero.
+    pub fn fill_zero(&mut self) {
+        self.x.fill(0.0);
+        self.y.fill(0.0);
+        self.z.fill(0.0);
+    }
+
+    /// Iterates the points as `Vec3`.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = Vec3> + Clone + '_ {
+        (0..self.len).map(|i| self.get(i))
+    }
+
+    /// Copies the points into a `Vec<Vec3>` (for tests and output, not for hot loops).
+    pub fn to_vec(&self) -> Vec<Vec3> {
+        self.iter().collect()
+    }
+
+    /// True when every coordinate is finite.
+    pub fn all_finite(&self) -> bool {
+        self.x
+            .iter()
+            .chain(&self.y)
+            .chain(&self.z)
+            .all(|v| v.is_finite())
+    }
+
+    /// Gathers the points at `idx`, in that order.
+    pub fn gather(&self, idx: &[usize]) -> Self {
+        let mut c = Self::zeros(idx.len());
+        for (k, &i) in idx.iter().enumerate() {
+            c.set(k, self.get(i));
+        }
+        c
+    }
+}
+
+/// A padded scalar column of `len` values.
+pub fn scalar_column(values: impl ExactSizeIterator<Item = f32>) -> Vec<f32> {
+    let n = values.len();
+    let mut v: Vec<f32> = values.collect();
+    v.resize(padded_len(n), 0.0);
+    v
+}
+
+/// Loads lanes `at..at + 8` of a padded column.
+#[inline]
+pub fn load8(s: &[f32], at: usize) -> wide::f32x8 {
+    let a: [f32; 8] = s[at..at + 8].try_into().expect("column padded to LANES");
+    wide::f32x8::from(a)
+}
+
+/// Stores a lane vector to `at..at + 8` of a padded column.
+#[inline]
+pub fn store8(s: &mut [f32], at: usize, v: wide::f32x8) {
+    s[at..at + 8].copy_from_slice(&v.to_array());
+}

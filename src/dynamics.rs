@@ -1,0 +1,139 @@
+//! The `Dynamics` trait: what the contact pipeline needs from a simulation backend.
+//!
+//! The object owns its [`Phyxels`]; a backend keeps only its private state (stencils,
+//! plastic strain, ...) and moves the phyxels one step at a time. External forces
+//! (contact, user loads) arrive in `phyxels.force` and act during the next step.
+
+use crate::columns::{LANES, Vec3s, load8, store8};
+use crate::material::Material;
+use crate::phyxels::Phyxels;
+use glam::{Mat3, Vec3};
+use wide::f32x8;
+
+/// Everything a backend's step may read besides the phyxels. New fields may be added
+/// without breaking implementors.
+#[derive(Clone, Copy, Debug)]
+#[non_exhaustive]
+pub struct StepContext<'a> {
+    /// Time step (s).
+    pub dt: f32,
+    /// Gravitational acceleration (m/s²).
+    pub gravity: Vec3,
+    /// The object's material.
+    pub material: &'a Material,
+}
+
+impl<'a> StepContext<'a> {
+    pub fn new(dt: f32, gravity: Vec3, material: &'a Material) -> Self {
+        Self {
+            dt,
+            gravity,
+            material,
+        }
+    }
+}
+
+/// Diagnostics a backend may report; `None` where it has no such notion.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Diagnostics {
+    /// Potential (elastic) energy stored in the body (J).
+    pub elastic_energy: Option<f64>,
+    /// Largest Frobenius norm of the strain over the phyxels.
+    pub max_strain: Option<f32>,
+}
+
+/// A dynamics backend for the phyxels of one object.
+///
+/// Implement it in your own crate to drive the contact pipeline with your own
+/// physics; see docs/BACKENDS.md. The trait is object-safe.
+pub trait Dynamics: Send + Sync {
+    /// Short backend name, as used in scenes (`"mls"`).
+    fn name(&self) -> &str;
+
+    /// Advances the phyxels by `ctx.dt` under gravity and `phyxels.force`, then clears
+    /// `phyxels.force`. Must not move phyxels with `fixed` set.
+    fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>);
+
+    /// Largest time step (s) for which the explicit step is stable.
+    fn stable_dt(&self, phyxels: &Phyxels, material: &Material) -> f32;
+
+    /// Displacement gradient `∇u` per phyxel (column b = ∂u/∂x_b), if the backend
+    /// computes one. Without it, the core estimates one by MLS for surfel advection.
+    fn displacement_gradient(&self) -> Option<&[Mat3]> {
+        None
+    }
+
+    /// Energy and strain diagnostics of the current state.
+    fn diagnostics(&self, _phyxels: &Phyxels, _material: &Material) -> Diagnostics {
+        Diagnostics::default()
+    }
+
+    /// True for backends that never move their phyxels (ground planes, fixed obstacles):
+    /// the pipeline skips their step and advection.
+    fn is_static(&self) -> bool {
+        false
+    }
+}
+
+/// A body that does not move: ground planes and fixed obstacles.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct StaticDynamics;
+
+impl Dynamics for StaticDynamics {
+    fn name(&self) -> &str {
+        "static"
+    }
+
+    fn step(&mut self, phyxels: &mut Phyxels, _ctx: &StepContext<'_>) {
+        phyxels.force.fill_zero();
+    }
+
+    fn stable_dt(&self, _phyxels: &Phyxels, _material: &Material) -> f32 {
+        f32::INFINITY
+    }
+
+    fn is_static(&self) -> bool {
+        true
+    }
+}
+
+/// Symplectic (semi-implicit) Euler over SoA columns:
+/// `v ← v + dt (f_int + f_ext)/m + dt g`, `x ← x + dt v`; fixed phyxels keep position and
+/// zero velocity; `phyxels.force` is cleared. Shared by every backend.
+pub fn integrate_symplectic(phyxels: &mut Phyxels, internal: &Vec3s, ctx: &StepContext<'_>) {
+    let dt = f32x8::splat(ctx.dt);
+    let g = [ctx.gravity.x, ctx.gravity.y, ctx.gravity.z].map(f32x8::splat);
+    let Phyxels {
+        pos,
+        vel,
+        force,
+        mass,
+        fixed,
+        ..
+    } = phyxels;
+    for at in (0..mass.len()).step_by(LANES) {
+        let m = load8(mass, at);
+        // Padding lanes have zero mass: keep them at zero instead of dividing by it.
+        let inv_m = m.simd_gt(f32x8::ZERO).select(f32x8::ONE / m, f32x8::ZERO);
+        let free = f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
+            if fixed[at + l] == 0 && mass[at + l] > 0.0 {
+                1.0
+            } else {
+                0.0
+            }
+        }));
+        let cols = [
+            (&mut pos.x, &mut vel.x, &mut force.x, &internal.x, g[0]),
+            (&mut pos.y, &mut vel.y, &mut force.y, &internal.y, g[1]),
+            (&mut pos.z, &mut vel.z, &mut force.z, &internal.z, g[2]),
+        ];
+        for (x, v, f, fi, g) in cols {
+            let f_tot = load8(f, at) + load8(fi, at);
+            let v_new = (load8(v, at) + dt * (f_tot * inv_m + g)) * free;
+            store8(v, at, v_new);
+            let x_new = load8(x, at) + dt * v_new;
+            store8(x, at, x_new);
+            f[at..at + LANES].fill(0.0);
+        }
+    }
+}

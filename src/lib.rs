@@ -1,0 +1,80 @@
+//! # phyxel
+//!
+//! Interactive contact handling for deformable point-based objects, after Keiser et al.
+//! 2004 ("Contact handling for deformable point-based objects"), on top of the MLS
+//! point-based animation of Müller et al. 2004.
+//!
+//! Objects are point clouds: **surfels** sample the surface, **phyxels** the volume.
+//! A pluggable [`Dynamics`](dynamics::Dynamics) backend moves the phyxels; the surfels
+//! follow them; the contact pipeline then finds, resolves and responds to contacts.
+//!
+//! ```no_run
+//! use phyxel::scene::Scene;
+//! let scene = Scene::builtin("two-spheres").unwrap();
+//! let mut world = scene.build(&Default::default()).unwrap();
+//! for _ in 0..100 {
+//!     world.step();
+//! }
+//! println!("momentum {:?}", world.momentum());
+//! ```
+
+// Lets the backends under `backends/` name the engine `phyxel::...` exactly as an
+// outside crate would.
+extern crate self as phyxel;
+
+pub mod advect;
+pub mod columns;
+pub mod dynamics;
+pub mod grid;
+pub mod kernel;
+pub mod material;
+pub mod mls;
+pub mod object;
+pub mod output;
+pub mod phyxels;
+pub mod scene;
+pub mod shape;
+pub mod summary;
+pub mod surfels;
+pub mod timing;
+pub mod world;
+
+#[doc(hidden)]
+#[path = "../backends/mls/mod.rs"]
+pub mod mls_backend;
+
+/// The built-in dynamics backends, each stored under `backends/` and written only
+/// against the public API above.
+pub mod backends {
+    pub use super::mls_backend as mls;
+
+    use crate::dynamics::{Dynamics, StaticDynamics};
+    use crate::material::Material;
+    use crate::phyxels::Phyxels;
+
+    /// Names accepted by `backend = "..."` in scenes and `--backend`.
+    pub const NAMES: &[&str] = &["mls"];
+
+    /// Creates backend `name` for `phyxels`, or explains which names exist.
+    pub fn create(
+        name: &str,
+        phyxels: &Phyxels,
+        material: &Material,
+    ) -> Result<Box<dyn Dynamics>, String> {
+        match name {
+            "mls" => Ok(Box::new(mls::MlsDynamics::new(phyxels, material))),
+            "static" => Ok(Box::new(StaticDynamics)),
+            other => Err(format!(
+                "unknown backend '{other}' (available: {})",
+                NAMES.join(", ")
+            )),
+        }
+    }
+}
+
+pub use dynamics::{Dynamics, StepContext};
+pub use material::Material;
+pub use object::Object;
+pub use phyxels::Phyxels;
+pub use surfels::Surfels;
+pub use world::World;

@@ -1,0 +1,210 @@
+//! The `phyxel` command line: run scenes, list them, show them as TOML.
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use phyxel::scene::{BUILTIN, BuildOptions, DEFAULT_SCENE, Scene};
+use phyxel::summary::{RunOptions, RunSummary, run};
+use phyxel::timing::Phase;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "phyxel",
+    version,
+    about = "Contact handling for deformable point-based objects"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a built-in scene or a scene file.
+    Run {
+        /// Built-in scene name or path to a .toml scene file.
+        #[arg(default_value = DEFAULT_SCENE)]
+        scene: String,
+        /// Number of steps (default: the scene's).
+        #[arg(long)]
+        steps: Option<u64>,
+        /// Time step in seconds (default: the scene's, else 90% of the stable bound).
+        #[arg(long)]
+        dt: Option<f32>,
+        /// Backend for every deformable object (overrides the scene).
+        #[arg(long)]
+        backend: Option<String>,
+        /// Directory for PLY frames.
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Also write phyxel PLY frames to --out.
+        #[arg(long)]
+        phyxels: bool,
+        /// Print the run summary as one JSON object on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Run even when dt exceeds the stable bound.
+        #[arg(long)]
+        allow_unstable: bool,
+    },
+    /// List the built-in scenes, or print one as TOML.
+    Scenes {
+        /// Print this built-in scene as TOML (runnable with `phyxel run FILE.toml`).
+        #[arg(long)]
+        show: Option<String>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Scenes { show } => scenes(show),
+        Command::Run {
+            scene,
+            steps,
+            dt,
+            backend,
+            out,
+            phyxels,
+            json,
+            allow_unstable,
+        } => {
+            let opts = RunOptions {
+                build: BuildOptions {
+                    dt,
+                    backend,
+                    allow_unstable,
+                },
+                steps,
+                out,
+                phyxels,
+            };
+            run_scene(&scene, &opts, json)
+        }
+    }
+}
+
+fn scenes(show: Option<String>) -> ExitCode {
+    match show {
+        None => {
+            for (name, text) in BUILTIN {
+                let scene = Scene::parse(text, name).expect("built-in scenes are valid");
+                println!("{name:<16} {}", scene.description);
+            }
+            ExitCode::SUCCESS
+        }
+        Some(name) => match BUILTIN.iter().find(|(n, _)| *n == name) {
+            Some((_, text)) => {
+                print!("{text}");
+                ExitCode::SUCCESS
+            }
+            None => {
+                let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+                eprintln!(
+                    "error: unknown scene '{name}' (built-in scenes: {})",
+                    names.join(", ")
+                );
+                ExitCode::FAILURE
+            }
+        },
+    }
+}
+
+fn run_scene(arg: &str, opts: &RunOptions, json: bool) -> ExitCode {
+    let scene = match Scene::resolve(arg) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let steps = opts.steps.unwrap_or(scene.steps);
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new(steps);
+        b.set_style(
+            ProgressStyle::with_template(
+                "{msg} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})",
+            )
+            .expect("valid template")
+            .progress_chars("=> "),
+        );
+        b.set_message(scene.name.clone());
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let result = run(&scene, opts, |s| {
+        if s % 16 == 0 {
+            bar.set_position(s);
+        }
+    });
+    bar.finish_and_clear();
+    let (_, summary) = match result {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("summary serialises")
+        );
+    } else {
+        print_table(&summary);
+    }
+    if summary.finite {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!("error: the state became non-finite (NaN or infinity); try a smaller --dt");
+        ExitCode::FAILURE
+    }
+}
+
+fn print_table(s: &RunSummary) {
+    println!(
+        "scene {}  backend {}  objects {}  phyxels {}  surfels {}",
+        s.scene, s.backend, s.objects, s.phyxels, s.surfels
+    );
+    println!(
+        "{} steps of dt {:.3e} s (stable bound {:.3e} s) in {:.3} s: {:.1} steps/s",
+        s.steps, s.dt, s.stable_dt, s.wall_seconds, s.steps_per_second
+    );
+    let total: f64 = s.phase_seconds.values().sum();
+    println!(
+        "{:<16} {:>10} {:>8} {:>12}",
+        "phase", "seconds", "share", "ms/step"
+    );
+    for p in Phase::ALL {
+        let t = s.phase_seconds[p.name()];
+        println!(
+            "{:<16} {:>10.4} {:>7.1}% {:>12.4}",
+            p.name(),
+            t,
+            if total > 0.0 { 100.0 * t / total } else { 0.0 },
+            1e3 * t / s.steps.max(1) as f64
+        );
+    }
+    println!(
+        "momentum {:?} -> {:?}  finite {}  max penetration {:.3e} m",
+        s.momentum_initial, s.momentum_final, s.finite, s.max_penetration
+    );
+    for b in &s.bodies {
+        println!(
+            "  body {} '{}' ({}) mass {:.4} kg  com [{:.4}, {:.4}, {:.4}]  v [{:.4}, {:.4}, {:.4}]",
+            b.id,
+            b.name,
+            b.backend,
+            b.mass,
+            b.com[0],
+            b.com[1],
+            b.com[2],
+            b.velocity[0],
+            b.velocity[1],
+            b.velocity[2]
+        );
+    }
+}

@@ -1,0 +1,128 @@
+//! Material parameters of an object (SI units).
+
+use serde::{Deserialize, Serialize};
+
+/// Which strain measure the MLS elasticity uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum StrainForm {
+    /// Green–Saint-Venant strain `½(JᵀJ − I)` with `f = −v J σ d`: small-strain stiffness E.
+    #[default]
+    Calibrated,
+    /// The paper's `JᵀJ − I` with `f = −2 v J σ d`: four times stiffer at small strain;
+    /// kept to compare with Müller et al. 2004.
+    Paper,
+}
+
+/// Material of an object. Defaults describe a soft rubber-like solid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Material {
+    /// Rest density ρ (kg/m³).
+    pub density: f32,
+    /// Young's modulus E (Pa). Also the contact-surface weight λ (paper section 6).
+    pub young: f32,
+    /// Poisson ratio ν (dimensionless, in (−1, 0.5)).
+    pub poisson: f32,
+    /// Kelvin–Voigt retardation time τ (s): viscous stress `τ · C ε̇` damps deformation
+    /// but not rigid motion.
+    pub damping: f32,
+    /// Volume-conservation stiffness k_v (Pa), Müller et al. 2004 eq. (11);
+    /// suppresses zero-energy modes and inversion. Negative means "use 0.1 E".
+    pub volume_stiffness: f32,
+    /// Plastic yield: Frobenius norm of the elastic strain above which plastic flow starts.
+    /// Infinite (the default) means purely elastic.
+    pub plastic_yield: f32,
+    /// Plastic creep rate (1/s).
+    pub plastic_creep: f32,
+    /// Largest Frobenius norm of the plastic strain.
+    pub plastic_max: f32,
+    /// Coulomb friction coefficient μ.
+    pub friction: f32,
+    /// Strain measure of the MLS elasticity.
+    pub strain: StrainForm,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            density: 1000.0,
+            young: 1.0e5,
+            poisson: 0.3,
+            damping: 0.0,
+            volume_stiffness: -1.0,
+            plastic_yield: f32::INFINITY,
+            plastic_creep: 0.0,
+            plastic_max: 0.0,
+            friction: 0.0,
+            strain: StrainForm::Calibrated,
+        }
+    }
+}
+
+impl Material {
+    /// Lamé parameters (λ, μ) of the isotropic Hooke law (Pa).
+    pub fn lame(&self) -> (f32, f32) {
+        let (e, nu) = (self.young, self.poisson);
+        let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+        let mu = e / (2.0 * (1.0 + nu));
+        (lambda, mu)
+    }
+
+    /// Effective volume stiffness k_v (Pa).
+    pub fn k_volume(&self) -> f32 {
+        if self.volume_stiffness < 0.0 {
+            0.1 * self.young
+        } else {
+            self.volume_stiffness
+        }
+    }
+
+    /// True when the material can flow plastically.
+    pub fn is_plastic(&self) -> bool {
+        self.plastic_yield.is_finite() && self.plastic_creep > 0.0
+    }
+
+    /// Checks every field; the error names the field and the value.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |name: &str, v: f32| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v}: must be a finite number > 0"))
+            }
+        };
+        let non_negative = |name: &str, v: f32| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{name} = {v}: must be a finite number >= 0"))
+            }
+        };
+        positive("density", self.density)?;
+        positive("young", self.young)?;
+        if !(self.poisson > -1.0 && self.poisson < 0.5) {
+            return Err(format!(
+                "poisson = {}: must lie strictly between -1 and 0.5",
+                self.poisson
+            ));
+        }
+        non_negative("damping", self.damping)?;
+        if !self.volume_stiffness.is_finite() {
+            return Err(format!(
+                "volume_stiffness = {}: must be finite (negative means 0.1 * young)",
+                self.volume_stiffness
+            ));
+        }
+        if self.plastic_yield.is_nan() || self.plastic_yield < 0.0 {
+            return Err(format!(
+                "plastic_yield = {}: must be >= 0 (inf for elastic)",
+                self.plastic_yield
+            ));
+        }
+        non_negative("plastic_creep", self.plastic_creep)?;
+        non_negative("plastic_max", self.plastic_max)?;
+        non_negative("friction", self.friction)?;
+        Ok(())
+    }
+}

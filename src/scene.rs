@@ -1,0 +1,383 @@
+//! Scenes: a TOML description of a simulation (docs/SCENES.md), and the built-in ones.
+
+use crate::backends;
+use crate::material::Material;
+use crate::object::Object;
+use crate::phyxels::Phyxels;
+use crate::shape::Shape;
+use crate::surfels::Surfels;
+use crate::world::World;
+use glam::{EulerRot, Quat, Vec3};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Built-in scenes: (name, TOML text). `phyxel scenes --show NAME` prints the text.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("two-spheres", include_str!("scenes/two-spheres.toml")),
+    ("falling-sphere", include_str!("scenes/falling-sphere.toml")),
+    ("cantilever", include_str!("scenes/cantilever.toml")),
+];
+
+/// The scene `phyxel run` uses without an argument.
+pub const DEFAULT_SCENE: &str = "two-spheres";
+
+/// A whole scene file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Scene name (reported as `scene` in the run summary).
+    #[serde(default)]
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    /// Time step (s). Omitted: 90% of the largest stable step.
+    pub dt: Option<f32>,
+    /// Number of steps `phyxel run` takes.
+    #[serde(default = "default_steps")]
+    pub steps: u64,
+    /// Gravitational acceleration (m/s²).
+    #[serde(default = "default_gravity")]
+    pub gravity: [f32; 3],
+    #[serde(default)]
+    pub output: Output,
+    pub objects: Vec<ObjectSpec>,
+}
+
+fn default_steps() -> u64 {
+    1000
+}
+
+fn default_gravity() -> [f32; 3] {
+    [0.0, -9.81, 0.0]
+}
+
+/// Frame output settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Output {
+    /// Write a frame every this many steps (with `--out`).
+    pub every: u64,
+    /// Also write phyxel frames.
+    pub phyxels: bool,
+}
+
+impl Default for Output {
+    fn default() -> Self {
+        Self {
+            every: 10,
+            phyxels: false,
+        }
+    }
+}
+
+/// One `[[objects]]` entry.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectSpec {
+    #[serde(default)]
+    pub name: String,
+    pub shape: Shape,
+    /// Phyxel lattice spacing (m).
+    pub spacing: f32,
+    /// Surfel spacing (m). Omitted: half the phyxel spacing.
+    pub surfel_spacing: Option<f32>,
+    /// Dynamics backend (`"mls"`); ignored for static objects.
+    #[serde(default = "default_backend")]
+    pub backend: String,
+    /// A static object never moves (ground planes, fixed obstacles).
+    #[serde(default, rename = "static")]
+    pub is_static: bool,
+    /// Centre position (m).
+    #[serde(default)]
+    pub position: [f32; 3],
+    /// Rotation as Euler angles in degrees, applied about x, then y, then z.
+    #[serde(default)]
+    pub rotation: [f32; 3],
+    /// Initial velocity (m/s).
+    #[serde(default)]
+    pub velocity: [f32; 3],
+    #[serde(default)]
+    pub material: Material,
+    /// Anchored phyxel regions: boxes in object-local coordinates (before rotation).
+    #[serde(default)]
+    pub fixed: Vec<Region>,
+}
+
+fn default_backend() -> String {
+    "mls".into()
+}
+
+/// An axis-aligned box in object-local coordinates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Region {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+}
+
+/// Command-line overrides applied when a scene is built.
+#[derive(Clone, Debug, Default)]
+pub struct BuildOptions {
+    /// Overrides the scene's `dt`.
+    pub dt: Option<f32>,
+    /// Overrides the backend of every non-static object.
+    pub backend: Option<String>,
+    /// Run even when dt exceeds the stable bound.
+    pub allow_unstable: bool,
+}
+
+/// An error that names where in the input it comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError(pub String);
+
+impl std::fmt::Display for SceneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+impl Scene {
+    /// Parses scene TOML; `origin` names the file in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Self, SceneError> {
+        let scene: Scene =
+            toml::from_str(text).map_err(|e| SceneError(format!("{origin}: {e}")))?;
+        scene.validate(origin)?;
+        Ok(scene)
+    }
+
+    /// Reads and parses a scene file.
+    pub fn load(path: &Path) -> Result<Self, SceneError> {
+        let origin = path.display().to_string();
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SceneError(format!("{origin}: cannot read scene file: {e}")))?;
+        let mut scene = Self::parse(&text, &origin)?;
+        if scene.name.is_empty() {
+            scene.name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+        }
+        Ok(scene)
+    }
+
+    /// A built-in scene by name.
+    pub fn builtin(name: &str) -> Option<Self> {
+        BUILTIN.iter().find(|(n, _)| *n == name).map(|(n, text)| {
+            Self::parse(text, &format!("built-in scene '{n}'")).expect("built-in scenes are valid")
+        })
+    }
+
+    /// A built-in scene name, or else a path to a TOML file.
+    pub fn resolve(arg: &str) -> Result<Self, SceneError> {
+        if let Some(s) = Self::builtin(arg) {
+            return Ok(s);
+        }
+        let path = Path::new(arg);
+        if path.exists() || arg.ends_with(".toml") {
+            return Self::load(path);
+        }
+        let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+        Err(SceneError(format!(
+            "unknown scene '{arg}': not a built-in scene ({}) and no such file",
+            names.join(", ")
+        )))
+    }
+
+    /// Checks every value; errors name the file, the field and the value.
+    pub fn validate(&self, origin: &str) -> Result<(), SceneError> {
+        let err = |field: &str, msg: String| SceneError(format!("{origin}: {field}: {msg}"));
+        if let Some(dt) = self.dt
+            && !(dt.is_finite() && dt > 0.0)
+        {
+            return Err(err("dt", format!("dt = {dt}: must be a finite number > 0")));
+        }
+        if self.gravity.iter().any(|g| !g.is_finite()) {
+            return Err(err(
+                "gravity",
+                format!("gravity = {:?}: must be finite", self.gravity),
+            ));
+        }
+        if self.output.every == 0 {
+            return Err(err("output.every", "every = 0: must be >= 1".into()));
+        }
+        if self.objects.is_empty() {
+            return Err(err("objects", "the scene has no [[objects]]".into()));
+        }
+        for (k, o) in self.objects.iter().enumerate() {
+            let at = format!("objects[{k}]");
+            o.shape
+                .validate()
+                .map_err(|m| err(&format!("{at}.shape"), m))?;
+            o.material
+                .validate()
+                .map_err(|m| err(&format!("{at}.material"), m))?;
+            let size = o.shape.half_extents().max_element() * 2.0;
+            if !(o.spacing.is_finite() && o.spacing > 0.0) {
+                return Err(err(
+                    &format!("{at}.spacing"),
+                    format!("spacing = {}: must be a finite number > 0", o.spacing),
+                ));
+            }
+            if o.spacing > size {
+                return Err(err(
+                    &format!("{at}.spacing"),
+                    format!("spacing = {}: larger than the shape ({size})", o.spacing),
+                ));
+            }
+            if let Some(s) = o.surfel_spacing
+                && !(s.is_finite() && s > 0.0)
+            {
+                return Err(err(
+                    &format!("{at}.surfel_spacing"),
+                    format!("surfel_spacing = {s}: must be a finite number > 0"),
+                ));
+            }
+            let vecs = [
+                ("position", o.position),
+                ("rotation", o.rotation),
+                ("velocity", o.velocity),
+            ];
+            for (name, v) in vecs {
+                if v.iter().any(|c| !c.is_finite()) {
+                    return Err(err(
+                        &format!("{at}.{name}"),
+                        format!("{name} = {v:?}: must be finite"),
+                    ));
+                }
+            }
+            if !o.is_static && !backends::NAMES.contains(&o.backend.as_str()) {
+                return Err(err(
+                    &format!("{at}.backend"),
+                    format!(
+                        "backend = \"{}\": unknown (available: {})",
+                        o.backend,
+                        backends::NAMES.join(", ")
+                    ),
+                ));
+            }
+            for (r, reg) in o.fixed.iter().enumerate() {
+                if (0..3)
+                    .any(|c| reg.min[c].is_nan() || reg.max[c].is_nan() || reg.min[c] > reg.max[c])
+                {
+                    return Err(err(
+                        &format!("{at}.fixed[{r}]"),
+                        format!(
+                            "min = {:?}, max = {:?}: min must not exceed max",
+                            reg.min, reg.max
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The scene as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a scene serialises")
+    }
+
+    /// Samples every object and assembles the world.
+    pub fn build(&self, opts: &BuildOptions) -> Result<World, SceneError> {
+        let origin = if self.name.is_empty() {
+            "scene"
+        } else {
+            &self.name
+        };
+        let mut objects = Vec::with_capacity(self.objects.len());
+        for (k, spec) in self.objects.iter().enumerate() {
+            let backend = match (&opts.backend, spec.is_static) {
+                (_, true) => "static".to_string(),
+                (Some(b), false) => b.clone(),
+                (None, false) => spec.backend.clone(),
+            };
+            let obj = spec
+                .build(k as u32, &backend)
+                .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
+            objects.push(obj);
+        }
+        let gravity = Vec3::from(self.gravity);
+        let mut world = World::new(objects, gravity, 0.0);
+        let (stable, limiter) = world.stable_dt();
+        let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
+        let dt = match opts.dt.or(self.dt) {
+            Some(dt) => {
+                if !(dt.is_finite() && dt > 0.0) {
+                    return Err(SceneError(format!(
+                        "{origin}: dt = {dt}: must be a finite number > 0"
+                    )));
+                }
+                if dt > stable && !opts.allow_unstable {
+                    return Err(SceneError(format!(
+                        "{origin}: dt = {dt:.3e} s exceeds the stable bound {stable:.3e} s of object '{limiter}' \
+                         (explicit integration would blow up); use --dt {stable:.3e} or smaller, \
+                         a coarser spacing or a softer material, or --allow-unstable"
+                    )));
+                }
+                dt
+            }
+            None if stable.is_finite() => 0.9 * stable,
+            None => 1.0e-3,
+        };
+        world.dt = dt;
+        Ok(world)
+    }
+}
+
+impl ObjectSpec {
+    /// The rigid placement: local → world.
+    pub fn placement(&self) -> (Quat, Vec3) {
+        let r = self.rotation.map(f32::to_radians);
+        (
+            Quat::from_euler(EulerRot::XYZ, r[0], r[1], r[2]),
+            Vec3::from(self.position),
+        )
+    }
+
+    /// Samples the shape and creates the object with backend `backend`.
+    pub fn build(&self, id: u32, backend: &str) -> Result<Object, String> {
+        let (rot, pos) = self.placement();
+        let vol = self.shape.sample_volume(self.spacing);
+        let surf = self
+            .shape
+            .sample_surface(self.surfel_spacing.unwrap_or(0.5 * self.spacing));
+        let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
+        let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
+        let v = Vec3::from(self.velocity);
+        for (i, local) in vol.positions.iter().enumerate() {
+            let fixed = self
+                .fixed
+                .iter()
+                .any(|r| (0..3).all(|c| local[c] >= r.min[c] && local[c] <= r.max[c]));
+            if fixed {
+                phyxels.fixed[i] = 1;
+            } else if !self.is_static {
+                phyxels.vel.set(i, v);
+            }
+        }
+        let s_pos: Vec<Vec3> = surf.positions.iter().map(|&p| rot * p + pos).collect();
+        let s_nrm: Vec<Vec3> = surf.normals.iter().map(|&n| rot * n).collect();
+        let mut surfels = Surfels::at_rest(&s_pos, &s_nrm, &surf.radii);
+        if !self.is_static {
+            for s in 0..surfels.len() {
+                surfels.vel.set(s, v);
+            }
+        }
+        let dynamics = backends::create(backend, &phyxels, &self.material)?;
+        let name = if self.name.is_empty() {
+            format!("object{id}")
+        } else {
+            self.name.clone()
+        };
+        Ok(Object::new(
+            id,
+            name,
+            surfels,
+            phyxels,
+            self.material.clone(),
+            dynamics,
+        ))
+    }
+}

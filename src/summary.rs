@@ -1,0 +1,180 @@
+//! The run summary (`phyxel run --json`) and the loop that produces it.
+
+use crate::output;
+use crate::scene::{BuildOptions, Scene, SceneError};
+use crate::timing::Phase;
+use crate::world::World;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// How to run a scene.
+#[derive(Clone, Debug, Default)]
+pub struct RunOptions {
+    pub build: BuildOptions,
+    /// Overrides the scene's step count.
+    pub steps: Option<u64>,
+    /// Directory for PLY frames; none written without it.
+    pub out: Option<PathBuf>,
+    /// Also write phyxel frames.
+    pub phyxels: bool,
+}
+
+/// One object at the end of a run.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct BodySummary {
+    pub id: u32,
+    pub name: String,
+    pub backend: String,
+    pub phyxels: usize,
+    pub surfels: usize,
+    /// kg
+    pub mass: f64,
+    /// Centre of mass (m).
+    pub com: [f64; 3],
+    /// Velocity of the centre of mass (m/s).
+    pub velocity: [f64; 3],
+    /// Largest strain norm (dimensionless), where the backend reports it.
+    pub max_strain: Option<f32>,
+    /// Elastic energy (J), where the backend reports it.
+    pub elastic_energy: Option<f64>,
+}
+
+/// What `phyxel run --json` prints.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunSummary {
+    pub scene: String,
+    /// The backend of the deformable objects ("mixed" when they differ).
+    pub backend: String,
+    pub steps: u64,
+    /// s
+    pub dt: f32,
+    /// Largest stable dt over the objects (s).
+    pub stable_dt: f32,
+    pub objects: usize,
+    pub surfels: usize,
+    pub phyxels: usize,
+    pub wall_seconds: f64,
+    pub steps_per_second: f64,
+    /// Phase name → seconds summed over the run.
+    pub phase_seconds: BTreeMap<String, f64>,
+    /// All state finite at the end.
+    pub finite: bool,
+    /// kg·m/s
+    pub momentum_initial: [f64; 3],
+    pub momentum_final: [f64; 3],
+    /// Kinetic energy at the end (J).
+    pub kinetic_energy: f64,
+    /// Largest signed penetration depth of a colliding surfel over the run (m).
+    pub max_penetration: f32,
+    pub frames_written: u64,
+    pub bodies: Vec<BodySummary>,
+}
+
+/// Builds and runs `scene`, calling `progress(step)` after each step.
+pub fn run(
+    scene: &Scene,
+    opts: &RunOptions,
+    mut progress: impl FnMut(u64),
+) -> Result<(World, RunSummary), SceneError> {
+    let mut world = scene.build(&opts.build)?;
+    let steps = opts.steps.unwrap_or(scene.steps);
+    let momentum_initial = world.momentum();
+    let write_frames = opts.out.clone();
+    let every = scene.output.every;
+    let phyxels = opts.phyxels || scene.output.phyxels;
+    let mut frames = 0;
+    let frame = |world: &World, k: u64| -> Result<(), SceneError> {
+        if let Some(dir) = &write_frames {
+            output::write_frame(world, dir, k, phyxels)
+                .map_err(|e| SceneError(format!("writing frame {k} to {}: {e}", dir.display())))?;
+        }
+        Ok(())
+    };
+    frame(&world, 0)?;
+    frames += write_frames.is_some() as u64;
+    let t0 = Instant::now();
+    for s in 1..=steps {
+        world.step();
+        if s % every == 0 && write_frames.is_some() {
+            frame(&world, s / every)?;
+            frames += 1;
+        }
+        progress(s);
+    }
+    let wall = t0.elapsed().as_secs_f64();
+    let summary = summarize(&world, scene, steps, wall, momentum_initial, frames);
+    Ok((world, summary))
+}
+
+/// The summary of `world` after `steps` steps that took `wall` seconds.
+pub fn summarize(
+    world: &World,
+    scene: &Scene,
+    steps: u64,
+    wall: f64,
+    momentum_initial: [f64; 3],
+    frames: u64,
+) -> RunSummary {
+    let mut backends: Vec<&str> = world
+        .objects
+        .iter()
+        .filter(|o| !o.is_static())
+        .map(|o| o.dynamics.name())
+        .collect();
+    backends.dedup();
+    let backend = match backends.as_slice() {
+        [] => "static".to_string(),
+        [one] => one.to_string(),
+        _ => "mixed".to_string(),
+    };
+    let bodies = world
+        .objects
+        .iter()
+        .map(|o| {
+            let m = o.phyxels.total_mass();
+            let p = o.phyxels.momentum();
+            let d = o.dynamics.diagnostics(&o.phyxels, &o.material);
+            BodySummary {
+                id: o.id,
+                name: o.name.clone(),
+                backend: o.dynamics.name().to_string(),
+                phyxels: o.phyxels.len(),
+                surfels: o.surfels.len(),
+                mass: m,
+                com: o.phyxels.centre_of_mass(),
+                velocity: if m > 0.0 { p.map(|c| c / m) } else { [0.0; 3] },
+                max_strain: d.max_strain,
+                elastic_energy: d.elastic_energy,
+            }
+        })
+        .collect();
+    RunSummary {
+        scene: scene.name.clone(),
+        backend,
+        steps,
+        dt: world.dt,
+        stable_dt: world.stable_dt().0,
+        objects: world.objects.len(),
+        surfels: world.objects.iter().map(|o| o.surfels.len()).sum(),
+        phyxels: world.objects.iter().map(|o| o.phyxels.len()).sum(),
+        wall_seconds: wall,
+        steps_per_second: if wall > 0.0 { steps as f64 / wall } else { 0.0 },
+        phase_seconds: Phase::ALL
+            .iter()
+            .map(|&p| (p.name().to_string(), world.times.seconds(p)))
+            .collect(),
+        finite: world.all_finite(),
+        momentum_initial,
+        momentum_final: world.momentum(),
+        kinetic_energy: world
+            .objects
+            .iter()
+            .map(|o| o.phyxels.kinetic_energy())
+            .sum(),
+        max_penetration: world.max_penetration,
+        frames_written: frames,
+        bodies,
+    }
+}

@@ -1,0 +1,85 @@
+//! Per-phase wall-clock timers of the step; phase names match the pipeline's
+//! function names so the timing table and a flamegraph line up.
+
+use std::time::{Duration, Instant};
+
+/// The phases of one step (paper section 8, `animate`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Phase {
+    Dynamics,
+    Advect,
+    BroadPhase,
+    SurfelGrid,
+    Detect,
+    ContactSurface,
+    Resample,
+    Forces,
+    Distribute,
+    Topology,
+}
+
+impl Phase {
+    pub const ALL: [Phase; 10] = [
+        Phase::Dynamics,
+        Phase::Advect,
+        Phase::BroadPhase,
+        Phase::SurfelGrid,
+        Phase::Detect,
+        Phase::ContactSurface,
+        Phase::Resample,
+        Phase::Forces,
+        Phase::Distribute,
+        Phase::Topology,
+    ];
+
+    /// The phase's name (the name of the function that runs it).
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Dynamics => "dynamics",
+            Phase::Advect => "advect",
+            Phase::BroadPhase => "broad_phase",
+            Phase::SurfelGrid => "surfel_grid",
+            Phase::Detect => "detect",
+            Phase::ContactSurface => "contact_surface",
+            Phase::Resample => "resample",
+            Phase::Forces => "forces",
+            Phase::Distribute => "distribute",
+            Phase::Topology => "topology",
+        }
+    }
+}
+
+/// Accumulated time and work items per phase.
+#[derive(Clone, Debug, Default)]
+pub struct PhaseTimes {
+    time: [Duration; 10],
+    /// Work items per phase (phyxels stepped, surfels advected, pairs tested, ...).
+    work: [u64; 10],
+}
+
+impl PhaseTimes {
+    /// Runs `f`, adding its wall time to `phase`.
+    #[inline]
+    pub fn time<R>(&mut self, phase: Phase, f: impl FnOnce() -> R) -> R {
+        let t = Instant::now();
+        let r = f();
+        self.time[phase as usize] += t.elapsed();
+        r
+    }
+
+    pub fn add_work(&mut self, phase: Phase, items: u64) {
+        self.work[phase as usize] += items;
+    }
+
+    pub fn seconds(&self, phase: Phase) -> f64 {
+        self.time[phase as usize].as_secs_f64()
+    }
+
+    pub fn work(&self, phase: Phase) -> u64 {
+        self.work[phase as usize]
+    }
+
+    pub fn total_seconds(&self) -> f64 {
+        self.time.iter().map(Duration::as_secs_f64).sum()
+    }
+}
