@@ -10,8 +10,14 @@ use crate::surfels::Surfels;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 
-/// Number of nearest phyxels a surfel binds to when none lies within its radius.
+/// Number of nearest phyxels a surfel binds to when too few lie within its reach.
 pub const MIN_BINDING: usize = 4;
+
+/// A surfel binds to the phyxels within `BINDING_FRACTION · h_i` of it at rest.
+/// The first-order term `∇u_i (s₀ − x₀ᵢ)` makes the field exact for affine motion with
+/// any neighbours, so a reach of about 1.5 phyxel spacings suffices and costs a tenth
+/// of the full influence radius (docs/ARCHITECTURE.md).
+pub const BINDING_FRACTION: f32 = 0.5;
 
 /// Fixed binding of each surfel to nearby phyxels, with normalised weights.
 #[derive(Clone, Debug, Default)]
@@ -24,8 +30,8 @@ pub struct SurfelBinding {
 }
 
 impl SurfelBinding {
-    /// Binds every surfel to the phyxels whose influence radius contains it at rest,
-    /// or to its [`MIN_BINDING`] nearest phyxels when none does.
+    /// Binds every surfel to the phyxels within [`BINDING_FRACTION`] of their influence
+    /// radius at rest, or to its [`MIN_BINDING`] nearest phyxels when fewer lie there.
     pub fn build(surfels: &Surfels, phyxels: &Phyxels) -> Self {
         let mut b = Self {
             offsets: vec![0],
@@ -36,19 +42,20 @@ impl SurfelBinding {
             return b;
         }
         let grid: Grid = phyxels.rest_grid();
-        let h_max = grid.cell();
+        let reach = grid.cell() * BINDING_FRACTION;
         let rows: Vec<Vec<(u32, f32, Vec3)>> = (0..surfels.len())
             .into_par_iter()
             .map(|s| {
                 let x = surfels.rest.get(s);
                 let mut row = Vec::new();
-                grid.for_each_within(x, h_max, |i, d2| {
-                    let w = poly6_shape(d2, phyxels.radius[i]);
+                grid.for_each_within(x, reach, |i, d2| {
+                    let w = poly6_shape(d2, phyxels.radius[i] * BINDING_FRACTION);
                     if w > 0.0 {
                         row.push((i as u32, w, x - phyxels.rest.get(i)));
                     }
                 });
-                if row.is_empty() {
+                if row.len() < MIN_BINDING {
+                    row.clear();
                     let mut knn = Vec::new();
                     grid.k_nearest(x, MIN_BINDING, &mut knn);
                     let h = knn.last().map_or(1.0, |e| e.1.sqrt()) * 1.5 + 1e-12;

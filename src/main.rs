@@ -2,6 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use phyxel::backends;
 use phyxel::scene::{BUILTIN, BuildOptions, DEFAULT_SCENE, Scene};
 use phyxel::summary::{RunOptions, RunSummary, run};
 use phyxel::timing::Phase;
@@ -113,6 +114,28 @@ fn scenes(show: Option<String>) -> ExitCode {
 }
 
 fn run_scene(arg: &str, opts: &RunOptions, json: bool) -> ExitCode {
+    // Command-line overrides are checked here so the error names the option, not the scene.
+    if let Some(dt) = opts.build.dt
+        && !(dt.is_finite() && dt > 0.0)
+    {
+        eprintln!("error: --dt {dt}: must be a finite number > 0");
+        return ExitCode::FAILURE;
+    }
+    if let Some(b) = &opts.build.backend
+        && !backends::NAMES.contains(&b.as_str())
+    {
+        eprintln!(
+            "error: --backend {b}: unknown backend (available: {})",
+            backends::NAMES.join(", ")
+        );
+        return ExitCode::FAILURE;
+    }
+    // Errors from building a scene file name the scene; prefix the file so they name it too.
+    let file_prefix = if Scene::builtin(arg).is_some() {
+        String::new()
+    } else {
+        format!("{arg}: ")
+    };
     let scene = match Scene::resolve(arg) {
         Ok(s) => s,
         Err(e) => {
@@ -144,7 +167,7 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool) -> ExitCode {
     let (_, summary) = match result {
         Ok(r) => r,
         Err(e) => {
-            eprintln!("error: {e}");
+            eprintln!("error: {file_prefix}{e}");
             return ExitCode::FAILURE;
         }
     };

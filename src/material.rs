@@ -41,6 +41,8 @@ pub struct Material {
     pub friction: f32,
     /// Strain measure of the MLS elasticity.
     pub strain: StrainForm,
+    /// Basis of the MLS gradient fit (a method option of the MLS backend).
+    pub gradient: crate::mls::GradientBasis,
 }
 
 impl Default for Material {
@@ -56,6 +58,7 @@ impl Default for Material {
             plastic_max: 0.0,
             friction: 0.0,
             strain: StrainForm::Calibrated,
+            gradient: crate::mls::GradientBasis::Quadratic,
         }
     }
 }

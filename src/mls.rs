@@ -16,6 +16,20 @@ use rayon::prelude::*;
 /// amplifying noise (coplanar or collinear neighbourhoods, too few neighbours).
 pub const MAX_CONDITION: f64 = 1.0e4;
 
+/// Polynomial basis of the MLS fit behind the gradient.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum GradientBasis {
+    /// Linear basis (Müller et al. 2004): exact for affine fields; near a free surface the
+    /// one-sided neighbourhood biases the gradient of curved fields (bending comes out soft).
+    Linear,
+    /// Linear plus quadratic terms: also exact for quadratic fields, so bending near a
+    /// surface is right. Same cost per step (only the rest stencil changes); falls back to
+    /// linear where the neighbourhood cannot support a quadratic fit.
+    #[default]
+    Quadratic,
+}
+
 /// Precomputed MLS stencil of a phyxel set (compressed rows, one per phyxel).
 #[derive(Clone, Debug, Default)]
 pub struct MlsStencil {
@@ -33,6 +47,11 @@ pub struct MlsStencil {
 impl MlsStencil {
     /// Builds the stencil from the rest positions and influence radii of `phyxels`.
     pub fn build(phyxels: &Phyxels) -> Self {
+        Self::build_with(phyxels, GradientBasis::Linear)
+    }
+
+    /// Builds the stencil with the given fit basis.
+    pub fn build_with(phyxels: &Phyxels, basis: GradientBasis) -> Self {
         let n = phyxels.len();
         let grid = phyxels.rest_grid();
         let rows: Vec<(Vec<u32>, Vec<Vec3>, Vec3, bool)> = (0..n)
@@ -54,15 +73,26 @@ impl MlsStencil {
                     a += outer(x, x * w);
                 }
                 let (a_inv, ill) = pseudo_inverse(a);
-                let mut d_self = Vec3::ZERO;
-                let mut ds = Vec::with_capacity(nb.len());
-                for &(j, d2) in &nb {
-                    let x = (phyxels.rest.get(j as usize) - xi).as_dvec3();
-                    let w = poly6(d2, h) as f64;
-                    let d = (a_inv * (x * w)).as_vec3();
-                    d_self -= d;
-                    ds.push(d);
-                }
+                let offsets: Vec<(DVec3, f64)> = nb
+                    .iter()
+                    .map(|&(j, d2)| {
+                        (
+                            (phyxels.rest.get(j as usize) - xi).as_dvec3(),
+                            poly6(d2, h) as f64,
+                        )
+                    })
+                    .collect();
+                let quadratic = match basis {
+                    GradientBasis::Quadratic if !ill => quadratic_weights(&offsets, h as f64),
+                    _ => None,
+                };
+                let ds: Vec<Vec3> = quadratic.unwrap_or_else(|| {
+                    offsets
+                        .iter()
+                        .map(|&(x, w)| (a_inv * (x * w)).as_vec3())
+                        .collect()
+                });
+                let d_self = -ds.iter().copied().sum::<Vec3>();
                 (nb.into_iter().map(|e| e.0).collect(), ds, d_self, ill)
             })
             .collect();
@@ -117,6 +147,114 @@ impl MlsStencil {
             *g = self.gradient_of(i, |j| pos.get(j) - rest.get(j));
         });
     }
+}
+
+/// Largest condition number accepted for the quadratic fit (in units scaled by h).
+const MAX_CONDITION_QUADRATIC: f64 = 1.0e7;
+
+/// Gradient weights `d_j` of the fit `u_j − u_i ≈ ∇u x_ij + ½ x_ijᵀ H x_ij` (9 unknowns
+/// per component), or `None` when the neighbourhood cannot support it.
+fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
+    if offsets.len() < 12 {
+        return None;
+    }
+    // Offsets scaled by h so linear and quadratic terms are of one size.
+    let basis = |x: DVec3| {
+        let q = x / h;
+        [
+            q.x,
+            q.y,
+            q.z,
+            q.x * q.x,
+            q.y * q.y,
+            q.z * q.z,
+            q.x * q.y,
+            q.y * q.z,
+            q.z * q.x,
+        ]
+    };
+    let mut m = [[0.0f64; 9]; 9];
+    for &(x, w) in offsets {
+        let p = basis(x);
+        for r in 0..9 {
+            for c in 0..9 {
+                m[r][c] += w * p[r] * p[c];
+            }
+        }
+    }
+    let (vals, vecs) = jacobi_eigen(m);
+    let lmax = vals.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
+    if !(lmax > 0.0) || vals.iter().any(|&v| v < lmax / MAX_CONDITION_QUADRATIC) {
+        return None;
+    }
+    // Rows 0..3 of M⁻¹ = V diag(1/λ) Vᵀ.
+    let mut inv3 = [[0.0f64; 9]; 3];
+    for r in 0..3 {
+        for c in 0..9 {
+            inv3[r][c] = (0..9).map(|k| vecs[r][k] * vecs[c][k] / vals[k]).sum();
+        }
+    }
+    Some(
+        offsets
+            .iter()
+            .map(|&(x, w)| {
+                let p = basis(x);
+                let d: [f64; 3] =
+                    std::array::from_fn(|r| (0..9).map(|c| inv3[r][c] * p[c]).sum::<f64>() * w / h);
+                Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)
+            })
+            .collect(),
+    )
+}
+
+/// Eigen-decomposition of a symmetric N×N matrix by cyclic Jacobi: eigenvalues and
+/// eigenvectors (`vecs[row][k]` is component `row` of eigenvector k).
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix formulas
+fn jacobi_eigen<const N: usize>(mut m: [[f64; N]; N]) -> ([f64; N], [[f64; N]; N]) {
+    let mut v = [[0.0f64; N]; N];
+    for (k, row) in v.iter_mut().enumerate() {
+        row[k] = 1.0;
+    }
+    for _sweep in 0..60 {
+        let mut off = 0.0;
+        let mut diag = 0.0;
+        for p in 0..N {
+            diag += m[p][p] * m[p][p];
+            for q in p + 1..N {
+                off += m[p][q] * m[p][q];
+            }
+        }
+        if off <= 1e-30 * diag.max(1e-300) {
+            break;
+        }
+        for p in 0..N {
+            for q in p + 1..N {
+                if m[p][q].abs() < 1e-300 {
+                    continue;
+                }
+                let theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+                let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+                let c = 1.0 / (t * t + 1.0).sqrt();
+                let s = t * c;
+                for k in 0..N {
+                    let (mkp, mkq) = (m[k][p], m[k][q]);
+                    m[k][p] = c * mkp - s * mkq;
+                    m[k][q] = s * mkp + c * mkq;
+                }
+                for k in 0..N {
+                    let (mpk, mqk) = (m[p][k], m[q][k]);
+                    m[p][k] = c * mpk - s * mqk;
+                    m[q][k] = s * mpk + c * mqk;
+                }
+                for row in v.iter_mut() {
+                    let (vp, vq) = (row[p], row[q]);
+                    row[p] = c * vp - s * vq;
+                    row[q] = s * vp + c * vq;
+                }
+            }
+        }
+    }
+    (std::array::from_fn(|k| m[k][k]), v)
 }
 
 #[inline]

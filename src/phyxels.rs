@@ -9,7 +9,7 @@ use glam::Vec3;
 pub const SPACING_NEIGHBOURS: usize = 10;
 
 /// Influence radius `h_i = SUPPORT_FACTOR · r_i` (Müller et al. 2004 use 3).
-pub const SUPPORT_FACTOR: f32 = 3.0;
+pub const SUPPORT_FACTOR: f32 = 2.0;
 
 /// SoA columns of an object's phyxels.
 ///

@@ -310,10 +310,13 @@ impl Scene {
                     )));
                 }
                 if dt > stable && !opts.allow_unstable {
+                    // Full precision: rounded to a few digits, dt and the bound can print equal.
+                    // The suggestion (the default dt) rounds to a value still below the bound.
+                    let suggest = 0.9 * stable;
                     return Err(SceneError(format!(
-                        "{origin}: dt = {dt:.3e} s exceeds the stable bound {stable:.3e} s of object '{limiter}' \
-                         (explicit integration would blow up); use --dt {stable:.3e} or smaller, \
-                         a coarser spacing or a softer material, or --allow-unstable"
+                        "{origin}: dt = {dt} s exceeds the stable bound {stable} s of object '{limiter}' \
+                         (explicit integration would blow up); use --dt {suggest:.3e} (90% of the bound, \
+                         the default) or smaller, a coarser spacing or a softer material, or --allow-unstable"
                     )));
                 }
                 dt

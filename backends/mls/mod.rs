@@ -42,7 +42,7 @@ impl MlsDynamics {
     /// Builds the rest stencil of `phyxels`.
     pub fn new(phyxels: &Phyxels, material: &Material) -> Self {
         let n = phyxels.len();
-        let stencil = MlsStencil::build(phyxels);
+        let stencil = MlsStencil::build_with(phyxels, material.gradient);
         let mut count = vec![0u32; n + 1];
         for &j in &stencil.neighbours {
             count[j as usize + 1] += 1;
@@ -153,6 +153,16 @@ impl MlsDynamics {
         for (j, f) in forces.into_iter().enumerate() {
             self.internal.set(j, f);
         }
+    }
+
+    /// Stress `σ = C(ε − ε_p)` of phyxel i at the last force evaluation (Pa).
+    pub fn stress(&self, material: &Material, i: usize) -> Mat3 {
+        let law = Law::new(material, 0.0);
+        let mut e = law.strain(Mat3::IDENTITY + self.grad[i]);
+        if let Some(ep) = self.plastic.get(i) {
+            e -= *ep;
+        }
+        law.hooke(e)
     }
 
     /// Internal forces of the last step (N).

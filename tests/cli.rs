@@ -1,0 +1,594 @@
+//! End-to-end tests of the `phyxel` command line: they run the built binary and check its
+//! output, exit status and error messages. Step counts are kept small so the suite is fast.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+const BUILTINS: [&str; 3] = ["cantilever", "falling-sphere", "two-spheres"];
+
+const PHASES: [&str; 10] = [
+    "dynamics",
+    "advect",
+    "broad_phase",
+    "surfel_grid",
+    "detect",
+    "contact_surface",
+    "resample",
+    "forces",
+    "distribute",
+    "topology",
+];
+
+/// A small valid object, for scene files that break one thing at a time.
+const SPHERE: &str = "[[objects]]\n\
+                      shape = { type = \"sphere\", radius = 0.1 }\n\
+                      spacing = 0.025\n";
+
+/// A path under the system temp directory, unique per process and call; removed on drop.
+struct TempPath(PathBuf);
+
+impl TempPath {
+    fn new(label: &str) -> Self {
+        static COUNTER: AtomicUsize = AtomicUsize::new(0);
+        let k = COUNTER.fetch_add(1, Ordering::Relaxed);
+        Self(std::env::temp_dir().join(format!("phyxel-cli-{}-{k}-{label}", std::process::id())))
+    }
+
+    /// A scene file `<unique>-label.toml` holding `text`.
+    fn scene(label: &str, text: &str) -> Self {
+        let p = Self::new(&format!("{label}.toml"));
+        std::fs::write(&p.0, text).unwrap_or_else(|e| panic!("writing {}: {e}", p.0.display()));
+        p
+    }
+
+    fn path(&self) -> &Path {
+        &self.0
+    }
+
+    fn arg(&self) -> &str {
+        self.0.to_str().expect("temp paths are UTF-8")
+    }
+}
+
+impl Drop for TempPath {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.0);
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn phyxel(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args(args)
+        .output()
+        .unwrap_or_else(|e| panic!("cannot start phyxel {args:?}: {e}"))
+}
+
+fn text(bytes: &[u8]) -> String {
+    String::from_utf8_lossy(bytes).into_owned()
+}
+
+/// Runs `phyxel args`, requires success, and returns stdout.
+fn stdout_of(args: &[&str]) -> String {
+    let out = phyxel(args);
+    assert!(
+        out.status.success(),
+        "phyxel {args:?} failed ({}):\nstderr:\n{}",
+        out.status,
+        text(&out.stderr)
+    );
+    text(&out.stdout)
+}
+
+/// Runs `phyxel args` (which must include --json), requires success, and parses stdout.
+fn run_json(args: &[&str]) -> Value {
+    let stdout = stdout_of(args);
+    serde_json::from_str(&stdout).unwrap_or_else(|e| {
+        panic!("phyxel {args:?}: stdout is not one JSON object ({e}):\n{stdout}")
+    })
+}
+
+/// Runs `phyxel args`, requires a non-zero exit without a panic and an error message on
+/// stderr containing every string in `needles`; returns stderr.
+fn expect_error(args: &[&str], needles: &[&str]) -> String {
+    let out = phyxel(args);
+    let stderr = text(&out.stderr);
+    assert!(
+        !out.status.success(),
+        "phyxel {args:?} should fail but exited with {}:\nstdout:\n{}\nstderr:\n{stderr}",
+        out.status,
+        text(&out.stdout)
+    );
+    assert!(
+        !stderr.contains("panicked"),
+        "phyxel {args:?} panicked instead of reporting an error:\n{stderr}"
+    );
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "phyxel {args:?}: expected exit code 1, stderr:\n{stderr}"
+    );
+    for needle in needles {
+        assert!(
+            stderr.contains(needle),
+            "phyxel {args:?}: error message lacks {needle:?}:\n{stderr}"
+        );
+    }
+    stderr
+}
+
+/// Writes `scene` to a temp file, runs it and expects an error naming the file and `needles`.
+fn expect_scene_error(label: &str, scene: &str, needles: &[&str]) -> String {
+    let file = TempPath::scene(label, scene);
+    let mut all = vec![file.arg()];
+    all.extend_from_slice(needles);
+    expect_error(&["run", file.arg(), "--steps", "5", "--json"], &all)
+}
+
+fn field<'a>(v: &'a Value, key: &str) -> &'a Value {
+    v.get(key)
+        .unwrap_or_else(|| panic!("summary lacks key {key:?}:\n{v:#}"))
+}
+
+/// The header (text up to and including `end_header`) of a PLY file.
+fn ply_header(path: &Path) -> String {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()));
+    let end = bytes
+        .windows(b"end_header\n".len())
+        .position(|w| w == b"end_header\n")
+        .unwrap_or_else(|| panic!("{}: no end_header line", path.display()));
+    text(&bytes[..end + b"end_header\n".len()])
+}
+
+/// The N of `element vertex N` in a PLY header.
+fn ply_vertex_count(path: &Path) -> u64 {
+    let header = ply_header(path);
+    assert!(
+        header.starts_with("ply\n"),
+        "{}: not a PLY file:\n{header}",
+        path.display()
+    );
+    header
+        .lines()
+        .find_map(|l| l.strip_prefix("element vertex "))
+        .unwrap_or_else(|| panic!("{}: no 'element vertex' line:\n{header}", path.display()))
+        .trim()
+        .parse()
+        .unwrap_or_else(|e| panic!("{}: bad vertex count ({e}):\n{header}", path.display()))
+}
+
+/// `phyxel scenes` lists every built-in scene, one per line with its description.
+#[test]
+fn scenes_lists_builtins() {
+    let out = stdout_of(&["scenes"]);
+    for name in BUILTINS {
+        assert!(
+            out.lines()
+                .any(|l| l.split_whitespace().next() == Some(name)),
+            "`phyxel scenes` does not list {name}:\n{out}"
+        );
+    }
+    assert_eq!(
+        out.lines().count(),
+        BUILTINS.len(),
+        "one line per scene:\n{out}"
+    );
+}
+
+/// `phyxel scenes --show NAME` prints TOML that, run from a file, reproduces the built-in
+/// bit for bit: same bodies (com, velocity, mass, counts), phyxels, surfels, dt and final
+/// momentum after 10 steps (the simulation is deterministic).
+#[test]
+fn shown_scenes_reproduce_builtins() {
+    for name in BUILTINS {
+        let toml = stdout_of(&["scenes", "--show", name]);
+        let file = TempPath::scene(name, &toml);
+        let from_file = run_json(&["run", file.arg(), "--steps", "10", "--json"]);
+        let builtin = run_json(&["run", name, "--steps", "10", "--json"]);
+        assert_eq!(
+            field(&from_file, "scene"),
+            field(&builtin, "scene"),
+            "{name}: scene"
+        );
+        for key in ["bodies", "phyxels", "surfels", "dt", "momentum_final"] {
+            // Compare the printed numbers: equal text means bitwise-equal values.
+            let a = serde_json::to_string_pretty(field(&from_file, key)).unwrap();
+            let b = serde_json::to_string_pretty(field(&builtin, key)).unwrap();
+            assert_eq!(
+                a,
+                b,
+                "{name}: `{key}` differs between `run {}` and `run {name}`",
+                file.arg()
+            );
+        }
+        assert!(
+            !field(&builtin, "bodies").as_array().unwrap().is_empty(),
+            "{name}: no bodies"
+        );
+    }
+}
+
+/// `phyxel scenes --show` with an unknown name fails and lists the built-in scenes.
+#[test]
+fn show_unknown_scene_fails() {
+    expect_error(&["scenes", "--show", "nope"], &["nope", "two-spheres"]);
+}
+
+/// `phyxel run --steps 5 --json` runs the default scene (two-spheres) and prints one JSON
+/// object with the documented keys and consistent counts.
+#[test]
+fn run_json_default_scene_has_all_keys() {
+    let v = run_json(&["run", "--steps", "5", "--json"]);
+    assert!(v.is_object(), "not a JSON object:\n{v:#}");
+    assert_eq!(field(&v, "scene"), "two-spheres", "default scene");
+    assert!(
+        field(&v, "backend").is_string(),
+        "backend: {}",
+        v["backend"]
+    );
+    assert_eq!(field(&v, "steps"), 5, "steps");
+    assert!(
+        field(&v, "dt").as_f64().is_some_and(|d| d > 0.0),
+        "dt: {}",
+        v["dt"]
+    );
+    for key in ["objects", "surfels", "phyxels"] {
+        assert!(
+            field(&v, key).as_u64().is_some_and(|n| n > 0),
+            "{key}: {}",
+            v[key]
+        );
+    }
+    for key in ["wall_seconds", "steps_per_second", "max_penetration"] {
+        assert!(
+            field(&v, key).as_f64().is_some(),
+            "{key} is not a number: {}",
+            v[key]
+        );
+    }
+    let phases = field(&v, "phase_seconds")
+        .as_object()
+        .unwrap_or_else(|| panic!("phase_seconds is not an object: {}", v["phase_seconds"]));
+    for p in PHASES {
+        assert!(
+            phases
+                .get(p)
+                .and_then(Value::as_f64)
+                .is_some_and(|t| t >= 0.0),
+            "phase_seconds.{p} missing or not a number >= 0: {phases:?}"
+        );
+    }
+    assert_eq!(field(&v, "finite"), true, "finite");
+    for key in ["momentum_initial", "momentum_final"] {
+        let m = field(&v, key).as_array();
+        assert!(
+            m.is_some_and(|m| m.len() == 3 && m.iter().all(Value::is_number)),
+            "{key} is not an array of 3 numbers: {}",
+            v[key]
+        );
+    }
+    let bodies = field(&v, "bodies")
+        .as_array()
+        .unwrap_or_else(|| panic!("bodies is not an array: {}", v["bodies"]));
+    assert_eq!(
+        bodies.len() as u64,
+        v["objects"].as_u64().unwrap(),
+        "one body per object"
+    );
+    for b in bodies {
+        for key in [
+            "id", "backend", "phyxels", "surfels", "mass", "com", "velocity",
+        ] {
+            assert!(b.get(key).is_some(), "body lacks {key:?}: {b:#}");
+        }
+        for key in ["com", "velocity"] {
+            assert!(
+                b[key].as_array().is_some_and(|a| a.len() == 3),
+                "body {key} is not an array of 3: {b:#}"
+            );
+        }
+    }
+    for key in ["surfels", "phyxels"] {
+        let sum: u64 = bodies.iter().map(|b| b[key].as_u64().unwrap()).sum();
+        assert_eq!(
+            sum,
+            v[key].as_u64().unwrap(),
+            "{key}: total != sum over bodies"
+        );
+    }
+}
+
+/// A scene file without `name` is reported under its file stem.
+#[test]
+fn scene_file_name_defaults_to_file_stem() {
+    let file = TempPath::scene("unnamed", SPHERE);
+    let v = run_json(&["run", file.arg(), "--steps", "5", "--json"]);
+    let stem = file.path().file_stem().unwrap().to_str().unwrap();
+    assert_eq!(field(&v, "scene"), stem, "scene name of {}", file.arg());
+}
+
+/// `phyxel run` without --json prints a timing table that names every phase.
+#[test]
+fn run_table_lists_every_phase() {
+    let out = stdout_of(&["run", "falling-sphere", "--steps", "5"]);
+    for p in PHASES {
+        assert!(
+            out.lines().any(|l| l.split_whitespace().next() == Some(p)),
+            "timing table lacks phase {p}:\n{out}"
+        );
+    }
+    assert!(out.contains("steps/s"), "table lacks the step rate:\n{out}");
+}
+
+/// `--out DIR` writes surfels_NNNNN.ply frames (frame 0 plus one per `output.every` steps)
+/// whose `element vertex` count equals the summary's surfel count; without --phyxels no
+/// phyxel frames are written.
+#[test]
+fn out_writes_surfel_ply_frames() {
+    let dir = TempPath::new("frames");
+    let v = run_json(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "20",
+        "--json",
+        "--out",
+        dir.arg(),
+    ]);
+    let surfels = field(&v, "surfels").as_u64().unwrap();
+    // falling-sphere writes every 10 steps: frames 0, 1, 2.
+    for k in 0..3 {
+        let f = dir.path().join(format!("surfels_{k:05}.ply"));
+        assert!(f.is_file(), "{} was not written", f.display());
+        assert_eq!(
+            ply_vertex_count(&f),
+            surfels,
+            "{}: vertex count",
+            f.display()
+        );
+    }
+    assert_eq!(field(&v, "frames_written"), 3, "frames_written");
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        !names.iter().any(|n| n.starts_with("phyxels_")),
+        "phyxel frames written without --phyxels: {names:?}"
+    );
+}
+
+/// `--out DIR --phyxels` also writes phyxels_NNNNN.ply with one vertex per phyxel.
+#[test]
+fn out_with_phyxels_writes_phyxel_frames() {
+    let dir = TempPath::new("frames-phyxels");
+    let v = run_json(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "10",
+        "--json",
+        "--out",
+        dir.arg(),
+        "--phyxels",
+    ]);
+    let surfels = field(&v, "surfels").as_u64().unwrap();
+    let phyxels = field(&v, "phyxels").as_u64().unwrap();
+    for k in 0..2 {
+        let s = dir.path().join(format!("surfels_{k:05}.ply"));
+        let p = dir.path().join(format!("phyxels_{k:05}.ply"));
+        assert_eq!(
+            ply_vertex_count(&s),
+            surfels,
+            "{}: vertex count",
+            s.display()
+        );
+        assert_eq!(
+            ply_vertex_count(&p),
+            phyxels,
+            "{}: vertex count",
+            p.display()
+        );
+    }
+}
+
+/// An unknown scene name that is not a file fails and lists the built-in scenes.
+#[test]
+fn error_unknown_scene_name() {
+    expect_error(
+        &["run", "no-such-scene", "--steps", "5"],
+        &[
+            "no-such-scene",
+            "two-spheres",
+            "falling-sphere",
+            "cantilever",
+        ],
+    );
+}
+
+/// A .toml path that does not exist fails and names the file.
+#[test]
+fn error_missing_scene_file() {
+    let file = TempPath::new("missing.toml");
+    expect_error(&["run", file.arg(), "--steps", "5"], &[file.arg()]);
+}
+
+/// A TOML syntax error names the file and the line.
+#[test]
+fn error_toml_syntax() {
+    expect_scene_error(
+        "syntax",
+        &format!("{SPHERE}position = [0.0, 1.0\n"),
+        &["line"],
+    );
+}
+
+/// Unknown keys are rejected (not silently ignored) at the top level, in an object and in
+/// a material; the message names the file and the key.
+#[test]
+fn error_unknown_keys() {
+    expect_scene_error(
+        "unknown-top",
+        &format!("gravityy = [0, 0, 0]\n{SPHERE}"),
+        &["gravityy"],
+    );
+    expect_scene_error(
+        "unknown-object",
+        &format!("{SPHERE}colour = 3\n"),
+        &["colour"],
+    );
+    expect_scene_error(
+        "unknown-material",
+        &format!("{SPHERE}material = {{ densty = 1000.0 }}\n"),
+        &["densty"],
+    );
+    expect_scene_error(
+        "unknown-shape",
+        "[[objects]]\nshape = { type = \"cone\", radius = 0.1 }\nspacing = 0.025\n",
+        &["cone"],
+    );
+}
+
+/// A negative sphere radius names the file, the object, the field and the value.
+#[test]
+fn error_negative_radius() {
+    expect_scene_error(
+        "radius",
+        "[[objects]]\nshape = { type = \"sphere\", radius = -1.0 }\nspacing = 0.025\n",
+        &["objects[0]", "radius", "-1"],
+    );
+}
+
+/// A Poisson ratio of 0.7 (outside (-1, 0.5)) names the object, the field and the value.
+#[test]
+fn error_poisson_out_of_range() {
+    expect_scene_error(
+        "poisson",
+        &format!("{SPHERE}material = {{ poisson = 0.7 }}\n"),
+        &["objects[0]", "poisson", "0.7"],
+    );
+}
+
+/// A zero phyxel spacing names the object, the field and the value.
+#[test]
+fn error_zero_spacing() {
+    expect_scene_error(
+        "spacing",
+        "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0\n",
+        &["objects[0]", "spacing = 0"],
+    );
+}
+
+/// A negative dt in the file names the file, the field and the value.
+#[test]
+fn error_negative_dt_in_file() {
+    expect_scene_error("dt", &format!("dt = -1\n{SPHERE}"), &["dt", "-1"]);
+}
+
+/// A non-positive --dt is rejected and the message names the option.
+#[test]
+fn error_non_positive_dt_option() {
+    expect_error(
+        &["run", "falling-sphere", "--steps", "5", "--dt=-1"],
+        &["--dt", "-1"],
+    );
+    expect_error(
+        &["run", "falling-sphere", "--steps", "5", "--dt", "0"],
+        &["--dt", "0"],
+    );
+}
+
+/// `--dt` above the stable bound is refused, for every built-in, with a message that
+/// mentions the stable bound and suggests a dt; running with the suggested dt (as printed,
+/// i.e. rounded) then succeeds.
+#[test]
+fn error_dt_above_stable_bound_suggests_dt() {
+    for name in BUILTINS {
+        let stderr = expect_error(
+            &["run", name, "--steps", "5", "--dt", "0.01"],
+            &["stable", "--dt ", "--allow-unstable"],
+        );
+        let suggested = stderr
+            .split("--dt ")
+            .nth(1)
+            .and_then(|rest| rest.split_whitespace().next())
+            .unwrap_or_else(|| panic!("{name}: no suggested dt after '--dt ':\n{stderr}"));
+        suggested.parse::<f32>().unwrap_or_else(|e| {
+            panic!("{name}: suggested dt {suggested:?} is not a number ({e}):\n{stderr}")
+        });
+        let v = run_json(&["run", name, "--steps", "5", "--dt", suggested, "--json"]);
+        assert_eq!(
+            field(&v, "finite"),
+            true,
+            "{name}: run at the suggested --dt {suggested}"
+        );
+    }
+}
+
+/// A dt in the file above the stable bound is refused too, naming the file.
+#[test]
+fn error_dt_in_file_above_stable_bound() {
+    expect_scene_error(
+        "dt-unstable",
+        &format!("dt = 1.0\n{SPHERE}"),
+        &["dt", "stable"],
+    );
+}
+
+/// `--allow-unstable` runs with a dt above the bound instead of refusing it.
+#[test]
+fn allow_unstable_runs_anyway() {
+    let out = phyxel(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "5",
+        "--dt",
+        "0.002",
+        "--allow-unstable",
+        "--json",
+    ]);
+    let stderr = text(&out.stderr);
+    assert!(!stderr.contains("panicked"), "panicked:\n{stderr}");
+    let v: Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("no JSON summary ({e}); stderr:\n{stderr}"));
+    // dt is an f32, printed as the shortest decimal that reads back as it.
+    assert_eq!(
+        field(&v, "dt").as_f64().map(|d| d as f32),
+        Some(0.002_f32),
+        "dt used"
+    );
+}
+
+/// An unknown backend in the file names the file, the object, the field and the value,
+/// and lists the available backends.
+#[test]
+fn error_unknown_backend_in_file() {
+    expect_scene_error(
+        "backend",
+        &format!("{SPHERE}backend = \"nope\"\n"),
+        &["objects[0]", "backend", "nope", "mls"],
+    );
+}
+
+/// `--backend nope` names the option and the value and lists the available backends.
+#[test]
+fn error_unknown_backend_option() {
+    expect_error(
+        &["run", "falling-sphere", "--steps", "5", "--backend", "nope"],
+        &["--backend", "nope", "mls"],
+    );
+}
+
+/// A scene without objects (an empty list, or no `objects` key) is refused, naming the file.
+#[test]
+fn error_scene_without_objects() {
+    expect_scene_error(
+        "no-objects",
+        "name = \"empty\"\nobjects = []\n",
+        &["objects"],
+    );
+    expect_scene_error("no-objects-key", "name = \"empty\"\n", &["objects"]);
+}

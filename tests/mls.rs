@@ -1,0 +1,233 @@
+//! MLS elasticity against independent references: affine consistency, rotation
+//! invariance, the isotropic Hooke law, the patch test and Newton's third law.
+
+use glam::{DMat3, DVec3, Mat3, Quat, Vec3};
+use phyxel::backends::mls::MlsDynamics;
+use phyxel::material::Material;
+use phyxel::phyxels::Phyxels;
+use phyxel::shape::Shape;
+
+/// A deterministic pseudo-random generator (xorshift), so failures reproduce.
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> f32 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 40) as f32 / (1u64 << 24) as f32 * 2.0 - 1.0
+    }
+    fn mat(&mut self, scale: f32) -> Mat3 {
+        Mat3::from_cols_array(&std::array::from_fn(|_| self.next() * scale))
+    }
+}
+
+/// A box of phyxels (0.2 × 0.1 × 0.15 m at 0.02 m spacing) and its MLS backend.
+fn block(material: &Material) -> (Phyxels, MlsDynamics) {
+    let v = Shape::Box {
+        size: [0.2, 0.1, 0.15],
+    }
+    .sample_volume(0.02);
+    let p = Phyxels::at_rest(&v.positions, v.cell_volume, material.density);
+    let m = MlsDynamics::new(&p, material);
+    (p, m)
+}
+
+/// Also a sphere, whose boundary neighbourhoods are irregular.
+fn ball(material: &Material) -> (Phyxels, MlsDynamics) {
+    let v = Shape::Sphere { radius: 0.1 }.sample_volume(0.02);
+    let p = Phyxels::at_rest(&v.positions, v.cell_volume, material.density);
+    let m = MlsDynamics::new(&p, material);
+    (p, m)
+}
+
+fn deform(p: &mut Phyxels, f: impl Fn(Vec3) -> Vec3) {
+    for i in 0..p.len() {
+        let x = f(p.rest.get(i));
+        p.pos.set(i, x);
+    }
+}
+
+fn max_abs(m: Mat3) -> f32 {
+    m.to_cols_array().iter().fold(0.0f32, |a, v| a.max(v.abs()))
+}
+
+/// MLS is first-order consistent (Müller et al. 2004, eq. 7): for a random affine
+/// displacement `u = B x + c`, the gradient equals B at every phyxel, boundary included.
+/// Tolerance: 1e-4 relative to |B| (f32 arithmetic).
+#[test]
+fn affine_fields_give_exact_gradient() {
+    let mat = Material::default();
+    let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
+    for (mut p, mut m) in [block(&mat), ball(&mat)] {
+        assert_eq!(
+            m.ill_conditioned(),
+            0,
+            "a solid lattice has no ill-conditioned phyxel"
+        );
+        for _ in 0..5 {
+            let b = rng.mat(0.05);
+            let c = Vec3::new(rng.next(), rng.next(), rng.next()) * 0.01;
+            deform(&mut p, |x| x + b * x + c);
+            m.compute_forces(&p, &mat, 1e-4);
+            let grad = phyxel::Dynamics::displacement_gradient(&m).unwrap();
+            for (i, g) in grad.iter().enumerate() {
+                let err = max_abs(*g - b) / max_abs(b);
+                assert!(err < 1e-4, "phyxel {i}: relative gradient error {err:e}");
+            }
+        }
+    }
+}
+
+/// A rigid rotation (40° about an oblique axis) plus translation must give zero strain
+/// (the Green strain is rotation invariant). Reference: forces of a deformation with the
+/// same largest displacement (a uniform 1-axis stretch); the ratio must stay below 1e-5.
+#[test]
+fn rigid_motion_gives_no_strain_or_force() {
+    let mat = Material::default();
+    let (mut p, mut m) = ball(&mat);
+    let q = Quat::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 40f32.to_radians());
+    let t = Vec3::new(0.03, -0.02, 0.01);
+    deform(&mut p, |x| q * x + t);
+    let u_max = (0..p.len())
+        .map(|i| (p.pos.get(i) - p.rest.get(i)).length())
+        .fold(0.0, f32::max);
+    m.compute_forces(&p, &mat, 1e-4);
+    let strain = m.diagnostics_strain();
+    let f_rot = max_force(&m);
+    let stretch = u_max / 0.1;
+    deform(&mut p, |x| Vec3::new(x.x * (1.0 + stretch), x.y, x.z));
+    m.compute_forces(&p, &mat, 1e-4);
+    let f_ref = max_force(&m);
+    assert!(
+        strain < 1e-5,
+        "largest strain under rigid rotation: {strain:e}"
+    );
+    assert!(
+        f_rot / f_ref < 1e-5,
+        "force ratio rotation/stretch {:e}",
+        f_rot / f_ref
+    );
+}
+
+fn max_force(m: &MlsDynamics) -> f32 {
+    m.internal_forces()
+        .iter()
+        .map(|f| f.length())
+        .fold(0.0, f32::max)
+}
+
+trait StrainDiag {
+    fn diagnostics_strain(&self) -> f32;
+}
+impl StrainDiag for MlsDynamics {
+    fn diagnostics_strain(&self) -> f32 {
+        let p = Phyxels::default();
+        phyxel::Dynamics::diagnostics(self, &p, &Material::default())
+            .max_strain
+            .unwrap()
+    }
+}
+
+/// A homogeneous deformation `x = F x₀` gives at every phyxel the stress of the isotropic
+/// Hooke law `σ = λ tr(ε) I + 2μ ε`, `ε = ½(FᵀF − I)`, computed here independently in f64.
+/// Tolerance: 1e-4 relative to |σ|.
+#[test]
+fn homogeneous_strain_gives_hooke_stress() {
+    let mat = Material {
+        young: 2.0e6,
+        poisson: 0.35,
+        ..Default::default()
+    };
+    let (mut p, mut m) = block(&mat);
+    let f = Mat3::from_cols_array(&[1.02, 0.005, -0.01, 0.0, 0.97, 0.015, 0.01, 0.0, 1.01]);
+    deform(&mut p, |x| f * x);
+    m.compute_forces(&p, &mat, 1e-4);
+    let fd = f.as_dmat3();
+    let eps = (fd.transpose() * fd - DMat3::IDENTITY) * 0.5;
+    let (e, nu) = (mat.young as f64, mat.poisson as f64);
+    let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let mu = e / (2.0 * (1.0 + nu));
+    let tr = eps.x_axis.x + eps.y_axis.y + eps.z_axis.z;
+    let sigma = DMat3::from_diagonal(DVec3::splat(lambda * tr)) + eps * (2.0 * mu);
+    let scale = sigma
+        .to_cols_array()
+        .iter()
+        .fold(0.0f64, |a, v| a.max(v.abs()));
+    for i in 0..p.len() {
+        let s = m.stress(&mat, i).as_dmat3();
+        let err = (s - sigma)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |a, v| a.max(v.abs()))
+            / scale;
+        assert!(err < 1e-4, "phyxel {i}: relative stress error {err:e}");
+    }
+}
+
+/// Patch test: under homogeneous stress the interior is in equilibrium, so phyxels whose
+/// neighbours' neighbourhoods are all complete (farther than 2 h from the boundary) feel
+/// (almost) no force.
+/// Reference: the largest boundary force; interior forces must stay below 1e-3 of it.
+#[test]
+fn homogeneous_strain_is_in_equilibrium_inside() {
+    let mat = Material::default();
+    let v = Shape::Box {
+        size: [0.4, 0.4, 0.4],
+    }
+    .sample_volume(0.02);
+    let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
+    let mut m = MlsDynamics::new(&p, &mat);
+    deform(&mut p, |x| Vec3::new(1.01 * x.x, x.y - 0.005 * x.z, x.z));
+    m.compute_forces(&p, &mat, 1e-4);
+    let h = p.radius[0];
+    let (mut inner, mut outer) = (0.0f32, 0.0f32);
+    for i in 0..p.len() {
+        let x = p.rest.get(i);
+        let f = m.internal_forces().get(i).length();
+        if x.abs().max_element() < 0.2 - 2.0 * h {
+            inner = inner.max(f);
+        } else {
+            outer = outer.max(f);
+        }
+    }
+    assert!(
+        outer > 0.0 && 0.2 - 2.0 * h > 0.02,
+        "the block must have an interior"
+    );
+    assert!(
+        inner < 1e-3 * outer,
+        "interior force {inner:e} vs boundary {outer:e}"
+    );
+}
+
+/// Newton's third law: for any deformation, internal forces sum to zero, because
+/// `d_i = −Σ_j d_j` (Müller et al. 2004, eq. 16). Tolerance: |Σf| < 1e-5 Σ|f|.
+#[test]
+fn internal_forces_sum_to_zero() {
+    let mat = Material {
+        damping: 0.001,
+        ..Default::default()
+    };
+    let (mut p, mut m) = ball(&mat);
+    let mut rng = Rng(42);
+    for i in 0..p.len() {
+        let x = p.rest.get(i);
+        p.pos
+            .set(i, x + Vec3::new(rng.next(), rng.next(), rng.next()) * 0.003);
+        p.vel
+            .set(i, Vec3::new(rng.next(), rng.next(), rng.next()) * 0.1);
+    }
+    m.compute_forces(&p, &mat, 1e-4);
+    let f = m.internal_forces();
+    let (mut sum, mut abs) = (DVec3::ZERO, 0.0f64);
+    for i in 0..p.len() {
+        sum += f.get(i).as_dvec3();
+        abs += f.get(i).length() as f64;
+    }
+    assert!(abs > 0.0);
+    assert!(
+        sum.length() < 1e-5 * abs,
+        "|Σf| = {:e}, Σ|f| = {abs:e}",
+        sum.length()
+    );
+}
