@@ -184,7 +184,7 @@ fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
     }
     let (vals, vecs) = jacobi_eigen(m);
     let lmax = vals.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
-    if !(lmax > 0.0) || vals.iter().any(|&v| v < lmax / MAX_CONDITION_QUADRATIC) {
+    if lmax.is_nan() || lmax <= 0.0 || vals.iter().any(|&v| v < lmax / MAX_CONDITION_QUADRATIC) {
         return None;
     }
     // Rows 0..3 of M⁻¹ = V diag(1/λ) Vᵀ.
