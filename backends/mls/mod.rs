@@ -18,9 +18,13 @@ use phyxel::mls::MlsStencil;
 use phyxel::phyxels::Phyxels;
 use rayon::prelude::*;
 
-/// Courant number of the stable step `dt = CFL · r_min / c` (c: P-wave speed).
-/// Chosen from the measured stability limit (docs/BACKENDS.md).
-pub const CFL: f32 = 0.5;
+/// Power iterations for the largest stencil frequency (converges to within a few
+/// percent from below; the stable step keeps a margin for that).
+const POWER_ITERATIONS: usize = 60;
+
+/// Fraction of the symplectic-Euler limit `2/ω_max` used as the stable bound: covers the
+/// power iteration's under-estimate and stiffening at finite strain.
+const STABILITY_MARGIN: f32 = 0.8;
 
 /// MLS elasticity for one object.
 pub struct MlsDynamics {
@@ -36,6 +40,11 @@ pub struct MlsDynamics {
     /// Plastic strain per phyxel; empty for elastic materials (no plasticity work).
     plastic: Vec<Mat3>,
     max_strain: f32,
+    /// Smallest phyxel spacing (m), for the default damping.
+    r_min: f32,
+    /// `ω²_max` (1/s²) of the rest stencil with the object's material;
+    /// see [`MlsDynamics::stable_dt`].
+    omega2_max: f32,
 }
 
 impl MlsDynamics {
@@ -72,6 +81,92 @@ impl MlsDynamics {
                 Vec::new()
             },
             max_strain: 0.0,
+            r_min: phyxels.spacing[..n]
+                .iter()
+                .fold(f32::INFINITY, |a, &b| a.min(b)),
+            omega2_max: 0.0,
+        }
+        .with_stiffness_rate(phyxels, material)
+    }
+
+    /// Largest squared angular frequency `ω²_max` (1/s²) of the small-strain
+    /// problem `K v = ω² M v`, by power iteration with the
+    /// Rayleigh quotient; fixed phyxels are held at zero.
+    fn with_stiffness_rate(mut self, phyxels: &Phyxels, material: &Material) -> Self {
+        let n = self.stencil.len();
+        let free = |j: usize| phyxels.fixed[j] == 0 && phyxels.mass[j] > 0.0;
+        // A deterministic, rough start vector excites the high modes.
+        let mut v: Vec<Vec3> = (0..n)
+            .map(|j| {
+                let h = (j as u32).wrapping_mul(2_654_435_761);
+                let c = |s: u32| ((h >> s) & 0xff) as f32 / 127.5 - 1.0;
+                if free(j) {
+                    Vec3::new(c(0), c(8), c(16))
+                } else {
+                    Vec3::ZERO
+                }
+            })
+            .collect();
+        let mut kv = vec![Vec3::ZERO; n];
+        let mut rate = 0.0f32;
+        for _ in 0..POWER_ITERATIONS {
+            self.apply_stiffness(phyxels, material, &v, &mut kv);
+            let (mut vkv, mut vmv) = (0.0f64, 0.0f64);
+            for j in 0..n {
+                vkv += v[j].dot(kv[j]) as f64;
+                vmv += (phyxels.mass[j] * v[j].length_squared()) as f64;
+            }
+            if vmv <= 0.0 {
+                break;
+            }
+            rate = rate.max((vkv / vmv) as f32);
+            let mut norm = 0.0f32;
+            for j in 0..n {
+                v[j] = if free(j) {
+                    kv[j] / phyxels.mass[j]
+                } else {
+                    Vec3::ZERO
+                };
+                norm = norm.max(v[j].abs().max_element());
+            }
+            if norm <= 0.0 {
+                break;
+            }
+            v.iter_mut().for_each(|x| *x /= norm);
+        }
+        self.omega2_max = rate;
+        self
+    }
+
+    /// `K v`: the stiffness of the material's law linearised about the rest state
+    /// (`σ = s(λ tr ε I + 2μ ε) + k_v tr ε I`, s = 4 for the paper's strain form).
+    fn apply_stiffness(
+        &self,
+        phyxels: &Phyxels,
+        material: &Material,
+        v: &[Vec3],
+        out: &mut [Vec3],
+    ) {
+        let st = &self.stencil;
+        let (lambda, mu) = material.lame();
+        let s = if material.strain == StrainForm::Paper {
+            4.0
+        } else {
+            1.0
+        };
+        let kv = material.k_volume();
+        out.iter_mut().for_each(|x| *x = Vec3::ZERO);
+        for i in 0..st.len() {
+            let g = st.gradient_of(i, |j| v[j]);
+            let e = (g + g.transpose()) * 0.5;
+            let tr = e.x_axis.x + e.y_axis.y + e.z_axis.z;
+            let sigma =
+                Mat3::from_diagonal(Vec3::splat(s * lambda * tr + kv * tr)) + e * (2.0 * s * mu);
+            let p = sigma * phyxels.volume[i];
+            out[i] += p * st.d_self[i];
+            for k in st.row(i) {
+                out[st.neighbours[k] as usize] += p * st.d[k];
+            }
         }
     }
 
@@ -95,7 +190,7 @@ impl MlsDynamics {
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let st = &self.stencil;
         st.displacement_gradients(&phyxels.pos, &phyxels.rest, &mut self.grad);
-        let law = Law::new(material, dt);
+        let law = Law::new(material, dt, self.tau(material));
         let grad = &self.grad;
         let vel = &phyxels.vel;
         let volume = &phyxels.volume;
@@ -157,12 +252,28 @@ impl MlsDynamics {
 
     /// Stress `σ = C(ε − ε_p)` of phyxel i at the last force evaluation (Pa).
     pub fn stress(&self, material: &Material, i: usize) -> Mat3 {
-        let law = Law::new(material, 0.0);
+        let law = Law::new(material, 0.0, 0.0);
         let mut e = law.strain(Mat3::IDENTITY + self.grad[i]);
         if let Some(ep) = self.plastic.get(i) {
             e -= *ep;
         }
         law.hooke(e)
+    }
+
+    /// Wave speed (m/s) of the material in this backend's strain form.
+    fn wave_speed(material: &Material) -> f32 {
+        let stiff = if material.strain == StrainForm::Paper {
+            4.0
+        } else {
+            1.0
+        };
+        let (lambda, mu) = material.lame();
+        ((stiff * (lambda + 2.0 * mu) + material.k_volume()) / material.density).sqrt()
+    }
+
+    /// Kelvin–Voigt time τ (s) in effect.
+    pub fn tau(&self, material: &Material) -> f32 {
+        material.damping_time(self.r_min, Self::wave_speed(material))
     }
 
     /// Internal forces of the last step (N).
@@ -185,13 +296,13 @@ struct Law {
 }
 
 impl Law {
-    fn new(m: &Material, dt: f32) -> Self {
+    fn new(m: &Material, dt: f32, tau: f32) -> Self {
         let (lambda, mu) = m.lame();
         Self {
             lambda,
             mu,
             kv: m.k_volume(),
-            tau: m.damping,
+            tau,
             paper: m.strain == StrainForm::Paper,
             plastic_yield: m.plastic_yield,
             plastic_creep_dt: m.plastic_creep * dt,
@@ -286,22 +397,16 @@ impl Dynamics for MlsDynamics {
         integrate_symplectic(phyxels, &self.internal, ctx);
     }
 
-    fn stable_dt(&self, phyxels: &Phyxels, m: &Material) -> f32 {
-        let (lambda, mu) = m.lame();
-        let stiff = if m.strain == StrainForm::Paper {
-            4.0
-        } else {
-            1.0
-        };
-        let modulus = stiff * (lambda + 2.0 * mu) + m.k_volume();
-        let c = (modulus / m.density).sqrt();
-        let r_min = phyxels.spacing[..phyxels.len()]
-            .iter()
-            .fold(f32::INFINITY, |a, &b| a.min(b));
-        // Kelvin–Voigt damping of the fastest mode (ω ≈ 2c/r) shrinks the bound by
-        // √(1 + ζ²) − ζ with ζ = τω/2.
-        let zeta = m.damping * c / r_min;
-        CFL * r_min / c * ((1.0 + zeta * zeta).sqrt() - zeta)
+    /// `margin · 2/ω_max · (√(1 + ζ²) − ζ)`: the symplectic-Euler limit of the fastest
+    /// mode with Kelvin–Voigt damping ratio `ζ = τ ω_max / 2`, `ω_max` measured on the
+    /// rest stencil by power iteration.
+    fn stable_dt(&self, _phyxels: &Phyxels, m: &Material) -> f32 {
+        let omega = self.omega2_max.sqrt();
+        if omega <= 0.0 {
+            return f32::INFINITY;
+        }
+        let zeta = 0.5 * self.tau(m) * omega;
+        STABILITY_MARGIN * 2.0 / omega * ((1.0 + zeta * zeta).sqrt() - zeta)
     }
 
     fn displacement_gradient(&self) -> Option<&[Mat3]> {
@@ -309,7 +414,7 @@ impl Dynamics for MlsDynamics {
     }
 
     fn diagnostics(&self, phyxels: &Phyxels, material: &Material) -> Diagnostics {
-        let law = Law::new(material, 0.0);
+        let law = Law::new(material, 0.0, 0.0);
         let energy = (0..phyxels.len())
             .map(|i| {
                 law.energy_density(self.grad[i], self.plastic.get(i)) as f64
