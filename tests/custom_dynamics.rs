@@ -30,7 +30,12 @@ impl Springs {
                 }
             });
         }
-        Self { pairs, stiffness, damping, force: Vec3s::zeros(p.len()) }
+        Self {
+            pairs,
+            stiffness,
+            damping,
+            force: Vec3s::zeros(p.len()),
+        }
     }
 }
 
@@ -55,7 +60,9 @@ impl Dynamics for Springs {
     }
 
     fn stable_dt(&self, p: &Phyxels, _m: &Material) -> f32 {
-        let m = p.mass[..p.len()].iter().fold(f32::INFINITY, |a, &b| a.min(b));
+        let m = p.mass[..p.len()]
+            .iter()
+            .fold(f32::INFINITY, |a, &b| a.min(b));
         0.2 * (m / self.stiffness).sqrt()
     }
 }
@@ -97,15 +104,24 @@ fn user_backend_drives_the_pipeline() {
     let p1 = world.momentum();
     let scale = p0.iter().map(|c| c.abs()).sum::<f64>();
     for k in 0..3 {
-        assert!((p1[k] - p0[k]).abs() < 1e-5 * scale, "momentum {p0:?} -> {p1:?}");
+        assert!(
+            (p1[k] - p0[k]).abs() < 1e-5 * scale,
+            "momentum {p0:?} -> {p1:?}"
+        );
     }
     for o in &world.objects {
         assert_eq!(o.dynamics.name(), "springs");
         let c = o.phyxels.centre_of_mass();
         let s: Vec3 = o.surfels.pos.iter().sum::<Vec3>() / o.surfels.len() as f32;
         let off = (s - Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32)).length();
-        assert!(off < 0.01 * 0.1, "surfel centroid {s} is {off} m from the centre of mass");
+        assert!(
+            off < 0.01 * 0.1,
+            "surfel centroid {s} is {off} m from the centre of mass"
+        );
         let moved = (s - o.surfels.rest.iter().sum::<Vec3>() / o.surfels.len() as f32).length();
-        assert!(moved > 0.05, "surfels did not follow the phyxels (moved {moved} m)");
+        assert!(
+            moved > 0.05,
+            "surfels did not follow the phyxels (moved {moved} m)"
+        );
     }
 }

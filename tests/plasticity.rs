@@ -47,7 +47,11 @@ fn pull(force: f32, plastic_yield: f32) -> (f64, f64) {
         }
         world.step();
         let p = &world.objects[0].phyxels;
-        let u: f64 = end.iter().map(|&i| (p.pos.x[i] - p.rest.x[i]) as f64).sum::<f64>() / end.len() as f64;
+        let u: f64 = end
+            .iter()
+            .map(|&i| (p.pos.x[i] - p.rest.x[i]) as f64)
+            .sum::<f64>()
+            / end.len() as f64;
         if (0.4..0.5).contains(&t) {
             loaded += u;
             n_loaded += 1;
@@ -62,15 +66,21 @@ fn pull(force: f32, plastic_yield: f32) -> (f64, f64) {
 }
 
 /// Elastic reference: the loaded elongation is about `F L / (E A)` (0.4% strain here,
-/// checked to 25% since the clamp and Poisson effects shift it); yield 0.01 is never
+/// checked to 5%: the clamp and Poisson contraction shift it slightly); yield 0.01 is never
 /// reached, so after release the bar returns to within 5% of the loaded elongation.
 #[test]
 fn below_yield_returns_to_rest() {
     let (loaded, after) = pull(4.0, 0.01);
     let hooke = 4.0 * 0.35 / (1.0e5 * 0.01);
     println!("below yield: loaded {loaded:.3e} m (Hooke {hooke:.3e}), after release {after:.3e} m");
-    assert!((loaded / hooke - 1.0).abs() < 0.25, "loaded {loaded} vs {hooke}");
-    assert!(after.abs() < 0.05 * loaded, "residual {after} of loaded {loaded}");
+    assert!(
+        (loaded / hooke - 1.0).abs() < 0.05,
+        "loaded {loaded} vs {hooke}"
+    );
+    assert!(
+        after.abs() < 0.05 * loaded,
+        "residual {after} of loaded {loaded}"
+    );
 }
 
 /// Past yield (5% strain against yield 0.01) the plastic strain flows, and after
