@@ -23,9 +23,12 @@
 extern crate self as phyxel;
 
 pub mod advect;
+pub mod broad_phase;
 pub mod columns;
+pub mod detect;
 pub mod dynamics;
 pub mod grid;
+pub mod implicit;
 pub mod kernel;
 pub mod material;
 pub mod mls;

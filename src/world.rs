@@ -1,6 +1,10 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
+use crate::broad_phase::{Aabb, Pair, overlapping_pairs};
+use crate::detect::{PairDetection, colliding_surfels};
 use crate::dynamics::StepContext;
+use crate::grid::Grid;
+use crate::implicit::{ImplicitSurface, grid_cell};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use glam::Vec3;
@@ -19,6 +23,14 @@ pub struct World {
     pub times: PhaseTimes,
     /// Largest signed penetration depth of a colliding surfel over the run (m).
     pub max_penetration: f32,
+    /// Surfel bounding box per object (static objects: computed once).
+    boxes: Vec<Aabb>,
+    /// Overlapping pairs of this step, in a fixed order.
+    pub pairs: Vec<Pair>,
+    /// Surfel grid per object; rebuilt only for moving objects that are in a pair.
+    grids: Vec<Option<Grid>>,
+    /// Colliding surfels of every overlapping pair of this step.
+    pub detections: Vec<PairDetection>,
 }
 
 impl World {
@@ -30,6 +42,10 @@ impl World {
             steps: 0,
             times: PhaseTimes::default(),
             max_penetration: 0.0,
+            boxes: Vec::new(),
+            pairs: Vec::new(),
+            grids: Vec::new(),
+            detections: Vec::new(),
         }
     }
 
@@ -50,8 +66,11 @@ impl World {
         t.add_work(Phase::Dynamics, self.moving_phyxels());
         t.time(Phase::Advect, || self.advect());
         t.time(Phase::BroadPhase, || self.broad_phase());
-        t.time(Phase::SurfelGrid, || self.surfel_grid());
-        t.time(Phase::Detect, || self.detect());
+        t.add_work(Phase::BroadPhase, self.pairs.len() as u64);
+        let gridded = t.time(Phase::SurfelGrid, || self.surfel_grid());
+        t.add_work(Phase::SurfelGrid, gridded);
+        let tested = t.time(Phase::Detect, || self.detect());
+        t.add_work(Phase::Detect, tested);
         t.time(Phase::ContactSurface, || self.contact_surface());
         t.time(Phase::Resample, || self.resample());
         t.time(Phase::Forces, || self.forces());
@@ -89,14 +108,79 @@ impl World {
             .for_each(|o| o.advect_surfels());
     }
 
-    /// Overlapping surfel bounding boxes. Lands with the collision-detection issue.
-    fn broad_phase(&mut self) {}
+    /// Overlapping surfel bounding boxes and their intersection boxes.
+    fn broad_phase(&mut self) {
+        let n = self.objects.len();
+        let first = self.boxes.len() != n;
+        self.boxes.resize(n, Aabb::EMPTY);
+        for (o, b) in self.objects.iter().zip(&mut self.boxes) {
+            if first || !o.is_static() {
+                *b = Aabb::of(&o.surfels.pos);
+            }
+        }
+        let is_static: Vec<bool> = self.objects.iter().map(|o| o.is_static()).collect();
+        overlapping_pairs(&self.boxes, &is_static, &mut self.pairs);
+    }
 
-    /// Per-object surfel grids. Lands with the collision-detection issue.
-    fn surfel_grid(&mut self) {}
+    /// Surfel grids of the objects in an overlapping pair (Teschner et al. 2003);
+    /// static objects keep theirs, objects in no pair get none.
+    fn surfel_grid(&mut self) -> u64 {
+        let n = self.objects.len();
+        self.grids.resize_with(n, || None);
+        let mut needed = vec![false; n];
+        for p in &self.pairs {
+            needed[p.a] = true;
+            needed[p.b] = true;
+        }
+        let objects = &self.objects;
+        let mut built = 0;
+        for (k, g) in self.grids.iter_mut().enumerate() {
+            let o = &objects[k];
+            if needed[k] && (g.is_none() || !o.is_static()) {
+                let r_max = o.surfels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
+                *g = Some(Grid::build(
+                    o.surfels.pos.iter(),
+                    grid_cell(r_max).max(1e-6),
+                ));
+                built += o.surfels.len() as u64;
+            }
+        }
+        built
+    }
 
-    /// Colliding surfels. Lands with the collision-detection issue.
-    fn detect(&mut self) {}
+    /// Colliding surfels of every pair: surfels in the intersection box that are inside
+    /// the other object (eq. 2).
+    fn detect(&mut self) -> u64 {
+        let mut candidates = Vec::new();
+        let mut tested = 0;
+        self.detections.clear();
+        for pair in &self.pairs {
+            let (oa, ob) = (&self.objects[pair.a], &self.objects[pair.b]);
+            let (ga, gb) = (
+                self.grids[pair.a].as_ref().expect("grid built for pairs"),
+                self.grids[pair.b].as_ref().expect("grid built for pairs"),
+            );
+            let sa =
+                ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga);
+            let sb =
+                ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb);
+            let a_in_b = colliding_surfels(&oa.surfels, &sb, pair, &mut candidates);
+            let mut count = candidates.len();
+            let b_in_a = colliding_surfels(&ob.surfels, &sa, pair, &mut candidates);
+            count += candidates.len();
+            tested += count as u64;
+            let d = PairDetection {
+                a: pair.a,
+                b: pair.b,
+                a_in_b,
+                b_in_a,
+                candidates: count,
+            };
+            self.max_penetration = self.max_penetration.max(d.max_depth());
+            self.detections.push(d);
+        }
+        tested
+    }
 
     /// Colliding surfels moved onto the contact surface. Lands with the contact issue.
     fn contact_surface(&mut self) {}

@@ -1,0 +1,119 @@
+//! Broad phase (Keiser et al. 2004, §5): one axis-aligned box per object around its
+//! surfels; pairs whose boxes overlap, with their intersection box B. Only surfels in B
+//! are collision candidates.
+
+use crate::columns::{LANES, Vec3s, load8};
+use glam::Vec3;
+use wide::f32x8;
+
+/// An axis-aligned box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The empty box (contains nothing, overlaps nothing).
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    /// Bounding box of the first `len` points of the columns (SIMD over lanes).
+    pub fn of(points: &Vec3s) -> Aabb {
+        let n = points.len();
+        if n == 0 {
+            return Aabb::EMPTY;
+        }
+        let full = n / LANES * LANES;
+        let mut lo = [f32x8::splat(f32::INFINITY); 3];
+        let mut hi = [f32x8::splat(f32::NEG_INFINITY); 3];
+        let cols = [&points.x, &points.y, &points.z];
+        for at in (0..full).step_by(LANES) {
+            for c in 0..3 {
+                let v = load8(cols[c], at);
+                lo[c] = lo[c].min(v);
+                hi[c] = hi[c].max(v);
+            }
+        }
+        let reduce =
+            |v: f32x8, f: fn(f32, f32) -> f32, init: f32| v.to_array().into_iter().fold(init, f);
+        let mut min = Vec3::new(
+            reduce(lo[0], f32::min, f32::INFINITY),
+            reduce(lo[1], f32::min, f32::INFINITY),
+            reduce(lo[2], f32::min, f32::INFINITY),
+        );
+        let mut max = Vec3::new(
+            reduce(hi[0], f32::max, f32::NEG_INFINITY),
+            reduce(hi[1], f32::max, f32::NEG_INFINITY),
+            reduce(hi[2], f32::max, f32::NEG_INFINITY),
+        );
+        for i in full..n {
+            min = min.min(points.get(i));
+            max = max.max(points.get(i));
+        }
+        Aabb { min, max }
+    }
+
+    /// The intersection box, or `None` when the boxes do not overlap.
+    pub fn intersection(&self, other: &Aabb) -> Option<Aabb> {
+        let min = self.min.max(other.min);
+        let max = self.max.min(other.max);
+        (min.cmple(max).all()).then_some(Aabb { min, max })
+    }
+
+    /// Is `p` inside (boundary included)?
+    pub fn contains(&self, p: Vec3) -> bool {
+        p.cmpge(self.min).all() && p.cmple(self.max).all()
+    }
+}
+
+/// Two objects whose surfel boxes overlap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pair {
+    /// Object indices, `a < b`.
+    pub a: usize,
+    pub b: usize,
+    /// The intersection box B.
+    pub bounds: Aabb,
+}
+
+/// All overlapping pairs in a fixed order (by `a`, then `b`); pairs of two static
+/// objects are skipped (they never move, so they never need a response).
+pub fn overlapping_pairs(boxes: &[Aabb], is_static: &[bool], out: &mut Vec<Pair>) {
+    out.clear();
+    for a in 0..boxes.len() {
+        for b in a + 1..boxes.len() {
+            if is_static[a] && is_static[b] {
+                continue;
+            }
+            if let Some(bounds) = boxes[a].intersection(&boxes[b]) {
+                out.push(Pair { a, b, bounds });
+            }
+        }
+    }
+}
+
+/// Indices of the points inside `bounds` (SIMD compare over lanes), appended to `out`.
+pub fn points_in_box(points: &Vec3s, bounds: &Aabb, out: &mut Vec<u32>) {
+    let n = points.len();
+    let lo = bounds.min.to_array().map(f32x8::splat);
+    let hi = bounds.max.to_array().map(f32x8::splat);
+    let cols = [&points.x, &points.y, &points.z];
+    for at in (0..n).step_by(LANES) {
+        let mut inside = f32x8::splat(f32::from_bits(u32::MAX));
+        for c in 0..3 {
+            let v = load8(cols[c], at);
+            inside &= v.simd_ge(lo[c]) & v.simd_le(hi[c]);
+        }
+        let mut bits = inside.to_bitmask();
+        while bits != 0 {
+            let l = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if at + l < n {
+                out.push((at + l) as u32);
+            }
+        }
+    }
+}

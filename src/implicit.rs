@@ -1,0 +1,144 @@
+//! Implicit surface of a surfel set (Keiser et al. 2004, eq. 1, after Alexa et al.):
+//! `a(x) = Σθ_k s_k / Σθ_k`, `n(x) = normalize(Σθ_k n_k)`, `f(x) = n(x)·(x − a(x))`,
+//! with truncated Gaussian weights `θ_k = exp(−|x − s_k|²/σ_k²)` for `|x − s_k| < 2.5 σ_k`,
+//! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
+//! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
+
+use crate::columns::Vec3s;
+use crate::grid::Grid;
+use glam::Vec3;
+
+/// Kernel width σ_k in units of the surfel's disk radius.
+pub const SIGMA_PER_RADIUS: f32 = 1.0;
+/// Truncation of the Gaussian in units of σ.
+pub const CUTOFF_SIGMAS: f32 = 2.5;
+/// Surfels used when none lies within the cutoff (points far from the surface).
+pub const FAR_NEIGHBOURS: usize = 8;
+/// Iteration limit of the orthogonal projection.
+pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
+/// Convergence tolerance of the projection, in units of the smallest σ.
+pub const PROJECTION_TOLERANCE: f32 = 1.0e-4;
+
+/// The implicit surface of one object's surfels, backed by its surfel grid.
+#[derive(Clone, Copy)]
+pub struct ImplicitSurface<'a> {
+    pos: &'a Vec3s,
+    normal: &'a Vec3s,
+    radius: &'a [f32],
+    grid: &'a Grid,
+    /// Largest query radius: the widest kernel's cutoff.
+    reach: f32,
+    tolerance: f32,
+}
+
+/// The surface near a point: `f(x)`, `n(x)` and `a(x)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceSample {
+    pub f: f32,
+    pub normal: Vec3,
+    pub average: Vec3,
+}
+
+/// Result of projecting a point onto the surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Projection {
+    /// The projected point `x_proj` on the surface.
+    pub point: Vec3,
+    /// `n(x_proj)`.
+    pub normal: Vec3,
+    /// `(x − x_proj)·n(x_proj)`: negative inside (m).
+    pub signed_distance: f32,
+    pub iterations: u32,
+    pub converged: bool,
+}
+
+/// Grid cell size that lets one 27-cell query cover every kernel of surfels of
+/// disk radius up to `max_radius`.
+pub fn grid_cell(max_radius: f32) -> f32 {
+    CUTOFF_SIGMAS * SIGMA_PER_RADIUS * max_radius
+}
+
+impl<'a> ImplicitSurface<'a> {
+    /// The surface of surfels (`pos`, `normal`, disk `radius`) indexed by `grid`
+    /// (built over `pos`).
+    pub fn new(pos: &'a Vec3s, normal: &'a Vec3s, radius: &'a [f32], grid: &'a Grid) -> Self {
+        let n = pos.len();
+        let (r_min, r_max) = radius[..n]
+            .iter()
+            .fold((f32::INFINITY, 0.0f32), |(lo, hi), &r| {
+                (lo.min(r), hi.max(r))
+            });
+        Self {
+            pos,
+            normal,
+            radius,
+            grid,
+            reach: grid_cell(r_max),
+            tolerance: PROJECTION_TOLERANCE * SIGMA_PER_RADIUS * r_min.min(r_max),
+        }
+    }
+
+    /// `f`, `n`, `a` at `x`; `None` only when the surface has no surfels.
+    pub fn sample(&self, x: Vec3) -> Option<SurfaceSample> {
+        let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+        self.grid.for_each_within(x, self.reach, |k, d2| {
+            let sigma = SIGMA_PER_RADIUS * self.radius[k];
+            let q = d2 / (sigma * sigma);
+            if q < CUTOFF_SIGMAS * CUTOFF_SIGMAS {
+                let w = (-q).exp();
+                w_sum += w;
+                ws += w * self.pos.get(k);
+                wn += w * self.normal.get(k);
+            }
+        });
+        if w_sum <= 1.0e-30 {
+            // Far from every kernel: weight the nearest surfels on their own scale.
+            let mut near = Vec::with_capacity(FAR_NEIGHBOURS);
+            self.grid.k_nearest(x, FAR_NEIGHBOURS, &mut near);
+            let (_, d2_far) = *near.last()?;
+            let (_, d2_near) = near[0];
+            let s2 = d2_far.max(1e-30);
+            for &(k, d2) in &near {
+                let w = (-(d2 - d2_near) / s2).exp();
+                w_sum += w;
+                ws += w * self.pos.get(k);
+                wn += w * self.normal.get(k);
+            }
+        }
+        let average = ws / w_sum;
+        let normal = wn.try_normalize()?;
+        Some(SurfaceSample {
+            f: normal.dot(x - average),
+            normal,
+            average,
+        })
+    }
+
+    /// Orthogonal projection onto the surface: `x ← x − f(x) n(x)` until
+    /// `|f| < tolerance` or [`MAX_PROJECTION_ITERATIONS`].
+    pub fn project(&self, x: Vec3) -> Option<Projection> {
+        let mut p = x;
+        let mut s = self.sample(p)?;
+        let mut iterations = 0;
+        let mut converged = s.f.abs() < self.tolerance;
+        while !converged && iterations < MAX_PROJECTION_ITERATIONS {
+            p -= s.f * s.normal;
+            s = self.sample(p)?;
+            iterations += 1;
+            converged = s.f.abs() < self.tolerance;
+        }
+        Some(Projection {
+            point: p,
+            normal: s.normal,
+            signed_distance: (x - p).dot(s.normal),
+            iterations,
+            converged,
+        })
+    }
+
+    /// Eq. (2): is `x` inside the surface? Also returns the projection.
+    pub fn inside(&self, x: Vec3) -> Option<(bool, Projection)> {
+        let p = self.project(x)?;
+        Some((p.signed_distance < 0.0, p))
+    }
+}
