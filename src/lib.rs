@@ -23,8 +23,10 @@
 extern crate self as phyxel;
 
 pub mod advect;
+pub mod brent;
 pub mod broad_phase;
 pub mod columns;
+pub mod contact;
 pub mod detect;
 pub mod dynamics;
 pub mod grid;

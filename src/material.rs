@@ -40,8 +40,14 @@ pub struct Material {
     pub plastic_creep: f32,
     /// Largest Frobenius norm of the plastic strain.
     pub plastic_max: f32,
-    /// Coulomb friction coefficient μ.
+    /// Coulomb friction coefficient μ (a pair uses the geometric mean of its two).
     pub friction: f32,
+    /// Penalty spring stiffness per contact area in units of `E*/h` (E*: the pair's
+    /// Hertz modulus, h: phyxel spacing); a pair uses the mean of its two.
+    pub contact_stiffness: f32,
+    /// Penalty damping as a fraction of the critical damping of a surface layer one
+    /// phyxel spacing thick; a pair uses the mean of its two.
+    pub contact_damping: f32,
     /// Strain measure of the MLS elasticity.
     pub strain: StrainForm,
     /// Basis of the MLS gradient fit (a method option of the MLS backend).
@@ -60,6 +66,8 @@ impl Default for Material {
             plastic_creep: 0.0,
             plastic_max: 0.0,
             friction: 0.0,
+            contact_stiffness: 1.0,
+            contact_damping: 0.2,
             strain: StrainForm::Calibrated,
             gradient: crate::mls::GradientBasis::Quadratic,
         }
@@ -153,6 +161,8 @@ impl Material {
         non_negative("plastic_creep", self.plastic_creep)?;
         non_negative("plastic_max", self.plastic_max)?;
         non_negative("friction", self.friction)?;
+        positive("contact_stiffness", self.contact_stiffness)?;
+        non_negative("contact_damping", self.contact_damping)?;
         Ok(())
     }
 }

@@ -20,6 +20,12 @@ pub struct Object {
     pub(crate) binding: SurfelBinding,
     /// Core MLS gradient estimate for backends that provide none (built on first use).
     pub(crate) estimate: Option<(MlsStencil, Vec<Mat3>)>,
+    /// Mean surfel spacing at rest (m): `√(π/2)` × mean disk radius.
+    pub surfel_spacing: f32,
+    /// Mean phyxel spacing `r_i` at rest (m).
+    pub phyxel_spacing: f32,
+    /// Largest phyxel influence radius (m).
+    pub max_influence: f32,
 }
 
 impl Object {
@@ -33,6 +39,17 @@ impl Object {
         dynamics: Box<dyn Dynamics>,
     ) -> Self {
         let binding = SurfelBinding::build(&surfels, &phyxels);
+        let mean = |v: &[f32]| {
+            if v.is_empty() {
+                0.0
+            } else {
+                v.iter().sum::<f32>() / v.len() as f32
+            }
+        };
+        let surfel_spacing =
+            mean(&surfels.radius[..surfels.len()]) * std::f32::consts::FRAC_PI_2.sqrt();
+        let phyxel_spacing = mean(&phyxels.spacing[..phyxels.len()]);
+        let max_influence = phyxels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
         Self {
             id,
             name: name.into(),
@@ -42,6 +59,9 @@ impl Object {
             dynamics,
             binding,
             estimate: None,
+            surfel_spacing,
+            phyxel_spacing,
+            max_influence,
         }
     }
 

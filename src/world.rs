@@ -1,6 +1,7 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
 use crate::broad_phase::{Aabb, Pair, overlapping_pairs};
+use crate::contact::{self, ContactParams, ContactPatch, PairSurfaces};
 use crate::detect::{PairDetection, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::Grid;
@@ -31,6 +32,41 @@ pub struct World {
     grids: Vec<Option<Grid>>,
     /// Colliding surfels of every overlapping pair of this step.
     pub detections: Vec<PairDetection>,
+    /// Contact surfaces and forces of this step.
+    pub patches: Vec<ContactPatch>,
+    /// Phyxel grids (current positions) of moving objects in contact.
+    phyxel_grids: Vec<Option<Grid>>,
+}
+
+/// Contact constants of a pair from the two materials (docs/ARCHITECTURE.md).
+pub fn contact_params(a: &Object, b: &Object) -> ContactParams {
+    let (ma, mb) = (&a.material, &b.material);
+    let e_star = 1.0
+        / ((1.0 - ma.poisson * ma.poisson) / ma.young + (1.0 - mb.poisson * mb.poisson) / mb.young);
+    let dynamic: Vec<&Object> = [a, b].into_iter().filter(|o| !o.is_static()).collect();
+    let pick = if dynamic.is_empty() {
+        vec![a, b]
+    } else {
+        dynamic
+    };
+    let h = pick
+        .iter()
+        .map(|o| o.phyxel_spacing)
+        .fold(f32::INFINITY, f32::min);
+    let rho = pick
+        .iter()
+        .map(|o| o.material.density)
+        .fold(f32::INFINITY, f32::min);
+    let stiffness = 0.5 * (ma.contact_stiffness + mb.contact_stiffness) * e_star / h;
+    let zeta = 0.5 * (ma.contact_damping + mb.contact_damping);
+    ContactParams {
+        lambda_a: ma.young / (ma.young + mb.young),
+        lambda_b: mb.young / (ma.young + mb.young),
+        stiffness,
+        damping: 2.0 * zeta * (stiffness * rho * h).sqrt(),
+        friction: (ma.friction * mb.friction).sqrt(),
+        spacing: a.surfel_spacing.min(b.surfel_spacing),
+    }
 }
 
 impl World {
@@ -46,6 +82,23 @@ impl World {
             pairs: Vec::new(),
             grids: Vec::new(),
             detections: Vec::new(),
+            patches: Vec::new(),
+            phyxel_grids: Vec::new(),
+        }
+    }
+
+    /// The implicit surfaces and surfels of a pair (their surfel grids must exist).
+    fn pair_surfaces(&self, a: usize, b: usize) -> PairSurfaces<'_> {
+        let (oa, ob) = (&self.objects[a], &self.objects[b]);
+        let ga = self.grids[a].as_ref().expect("grid built for pairs");
+        let gb = self.grids[b].as_ref().expect("grid built for pairs");
+        PairSurfaces {
+            a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga),
+            b: ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb),
+            surfels_a: &oa.surfels,
+            surfels_b: &ob.surfels,
+            grid_a: ga,
+            grid_b: gb,
         }
     }
 
@@ -71,9 +124,11 @@ impl World {
         t.add_work(Phase::SurfelGrid, gridded);
         let tested = t.time(Phase::Detect, || self.detect());
         t.add_work(Phase::Detect, tested);
-        t.time(Phase::ContactSurface, || self.contact_surface());
+        let contacts = t.time(Phase::ContactSurface, || self.contact_surface());
+        t.add_work(Phase::ContactSurface, contacts);
         t.time(Phase::Resample, || self.resample());
-        t.time(Phase::Forces, || self.forces());
+        let forced = t.time(Phase::Forces, || self.forces());
+        t.add_work(Phase::Forces, forced);
         t.time(Phase::Distribute, || self.distribute());
         t.time(Phase::Topology, || self.topology());
         self.times = t;
@@ -182,17 +237,70 @@ impl World {
         tested
     }
 
-    /// Colliding surfels moved onto the contact surface. Lands with the contact issue.
-    fn contact_surface(&mut self) {}
+    /// Colliding surfels moved onto the contact surface Φ (paper §6).
+    fn contact_surface(&mut self) -> u64 {
+        let patches: Vec<ContactPatch> = self
+            .detections
+            .iter()
+            .filter(|d| !d.a_in_b.is_empty() || !d.b_in_a.is_empty())
+            .map(|d| {
+                let s = self.pair_surfaces(d.a, d.b);
+                let p = contact_params(&self.objects[d.a], &self.objects[d.b]);
+                contact::contact_surface(d, &s, &p)
+            })
+            .collect();
+        self.patches = patches;
+        self.patches.iter().map(|p| p.surfels.len() as u64).sum()
+    }
 
-    /// Even resampling of the contact surface. Lands with the contact issue.
-    fn resample(&mut self) {}
+    /// Even, hole-free resampling of each contact surface.
+    fn resample(&mut self) {
+        let mut patches = std::mem::take(&mut self.patches);
+        for patch in &mut patches {
+            let s = self.pair_surfaces(patch.a, patch.b);
+            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b]);
+            contact::resample(patch, &s, &p);
+        }
+        self.patches = patches;
+    }
 
-    /// Penalty and friction forces on contact surfels. Lands with the contact issue.
-    fn forces(&mut self) {}
+    /// Penalty and friction forces on the contact surfels (paper §7).
+    fn forces(&mut self) -> u64 {
+        let mut patches = std::mem::take(&mut self.patches);
+        for patch in &mut patches {
+            let s = self.pair_surfaces(patch.a, patch.b);
+            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b]);
+            contact::forces(patch, &s, &p);
+        }
+        self.patches = patches;
+        self.patches.iter().map(|p| p.surfels.len() as u64).sum()
+    }
 
-    /// Contact forces spread onto phyxels. Lands with the contact issue.
-    fn distribute(&mut self) {}
+    /// Contact forces spread onto the phyxels of moving objects; they act at the next step.
+    fn distribute(&mut self) {
+        let n = self.objects.len();
+        self.phyxel_grids.resize_with(n, || None);
+        let mut needed = vec![false; n];
+        for p in &self.patches {
+            needed[p.a] = !self.objects[p.a].is_static();
+            needed[p.b] = !self.objects[p.b].is_static();
+        }
+        for (k, g) in self.phyxel_grids.iter_mut().enumerate() {
+            if needed[k] {
+                let o = &self.objects[k];
+                *g = Some(Grid::build(o.phyxels.pos.iter(), 2.0 * o.max_influence));
+            }
+        }
+        for patch in &self.patches {
+            for (k, sign) in [(patch.a, 1.0f32), (patch.b, -1.0)] {
+                if let Some(grid) = self.phyxel_grids[k].as_ref().filter(|_| needed[k]) {
+                    let o = &mut self.objects[k];
+                    let h = 2.0 * o.max_influence;
+                    contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h);
+                }
+            }
+        }
+    }
 
     /// Fracture and self-collision. Lands with the topology issue.
     fn topology(&mut self) {}

@@ -1,0 +1,393 @@
+//! Contact handling (Keiser et al. 2004, §6–7): the contact surface Φ between two
+//! intersecting objects, its resampling, penalty and friction forces on the contact
+//! surfels, and their distribution to the phyxels.
+
+use crate::brent::brent;
+use crate::detect::PairDetection;
+use crate::grid::Grid;
+use crate::implicit::ImplicitSurface;
+use crate::kernel::poly6;
+use crate::mls::sym_eigen;
+use crate::phyxels::Phyxels;
+use crate::surfels::Surfels;
+use glam::{DMat3, Vec3};
+use rayon::prelude::*;
+
+/// Phyxels a contact force spreads over at least (paper §7.3: k = 6).
+pub const MIN_DISTRIBUTION_PHYXELS: usize = 6;
+/// Friction regularisation speed (m/s): below it Coulomb friction is viscous, so a
+/// sticking contact neither chatters nor creeps faster than this times F_t/(μ F_n).
+pub const FRICTION_SLIP_SPEED: f32 = 1.0e-3;
+
+/// A surfel on the contact surface Φ.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactSurfel {
+    pub pos: Vec3,
+    /// Unit normal of Φ, pointing from object a into object b.
+    pub normal: Vec3,
+    /// The object whose colliding surfel it came from (`a` or `b`); inserted surfels
+    /// belong to `a`.
+    pub object: usize,
+    /// Area of Φ it stands for (m²).
+    pub area: f32,
+    /// Contact force on object a (N); object b receives the opposite.
+    pub force: Vec3,
+}
+
+/// The contact surface of one pair and its forces.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContactPatch {
+    pub a: usize,
+    pub b: usize,
+    pub surfels: Vec<ContactSurfel>,
+    /// Colliding surfels dropped because the root left the intersection volume.
+    pub dropped: usize,
+}
+
+/// Contact-response constants of one pair, from the two materials.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// Surface weights λ = Young's modulus (paper §6), normalised to sum 1.
+    pub lambda_a: f32,
+    pub lambda_b: f32,
+    /// Penalty spring stiffness per area (N/m³).
+    pub stiffness: f32,
+    /// Penalty damping per area (N·s/m³).
+    pub damping: f32,
+    /// Coulomb friction coefficient.
+    pub friction: f32,
+    /// Target spacing of contact surfels (m).
+    pub spacing: f32,
+}
+
+/// The two implicit surfaces and the surfels of a pair.
+#[derive(Clone, Copy)]
+pub struct PairSurfaces<'a> {
+    pub a: ImplicitSurface<'a>,
+    pub b: ImplicitSurface<'a>,
+    pub surfels_a: &'a Surfels,
+    pub surfels_b: &'a Surfels,
+    pub grid_a: &'a Grid,
+    pub grid_b: &'a Grid,
+}
+
+impl PairSurfaces<'_> {
+    /// `F(x) = λ_a f_a(x) − λ_b f_b(x)` (paper eq. 3).
+    fn contact_function(&self, p: &ContactParams, x: Vec3) -> Option<f32> {
+        Some(p.lambda_a * self.a.sample(x)?.f - p.lambda_b * self.b.sample(x)?.f)
+    }
+
+    /// Is `x` in the intersection volume (inside both, to `tol`)?
+    fn in_volume(&self, x: Vec3, tol: f32) -> bool {
+        matches!((self.a.sample(x), self.b.sample(x)), (Some(sa), Some(sb)) if sa.f <= tol && sb.f <= tol)
+    }
+
+    /// Contact normal at `x`: from a into b, `normalize(n_a − n_b)`.
+    fn normal(&self, x: Vec3) -> Option<Vec3> {
+        (self.a.sample(x)?.normal - self.b.sample(x)?.normal).try_normalize()
+    }
+}
+
+/// Moves every colliding surfel onto Φ: the root of F on the segment from the surfel to
+/// its projection onto the other surface, by Brent's method; surfels whose root leaves
+/// the intersection volume are dropped (paper §6).
+pub fn contact_surface(
+    det: &PairDetection,
+    s: &PairSurfaces<'_>,
+    p: &ContactParams,
+) -> ContactPatch {
+    let tol = 0.05 * p.spacing;
+    let place = |start: Vec3, end: Vec3, object: usize| -> Option<ContactSurfel> {
+        let seg = end - start;
+        let len = seg.length();
+        let x = if len < 1e-4 * p.spacing {
+            start
+        } else {
+            let t = brent(
+                |t| s.contact_function(p, start + t * seg),
+                0.0,
+                1.0,
+                1e-3 * p.spacing / len,
+                40,
+            )?;
+            start + t * seg
+        };
+        if !s.in_volume(x, tol) {
+            return None;
+        }
+        Some(ContactSurfel {
+            pos: x,
+            normal: s.normal(x)?,
+            object,
+            area: 0.0,
+            force: Vec3::ZERO,
+        })
+    };
+    let from_a = det
+        .a_in_b
+        .par_iter()
+        .map(|c| place(s.surfels_a.pos.get(c.surfel as usize), c.projection, det.a));
+    let from_b = det
+        .b_in_a
+        .par_iter()
+        .map(|c| place(s.surfels_b.pos.get(c.surfel as usize), c.projection, det.b));
+    let placed: Vec<Option<ContactSurfel>> = from_a.chain(from_b).collect();
+    let dropped = placed.iter().filter(|c| c.is_none()).count();
+    ContactPatch {
+        a: det.a,
+        b: det.b,
+        surfels: placed.into_iter().flatten().collect(),
+        dropped,
+    }
+}
+
+/// Even, hole-free sampling of Φ (after Witkin–Heckbert, as in the paper's §6):
+/// deletion of surfels closer than half the spacing, insertion where a tangent
+/// neighbourhood is empty, one relaxation pass with reprojection onto Φ, and normals
+/// by PCA of the local neighbourhood (smallest eigenvector).
+pub fn resample(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
+    if patch.surfels.is_empty() {
+        return;
+    }
+    let h = p.spacing;
+    thin(&mut patch.surfels, 0.5 * h);
+    fill_holes(patch, s, p);
+    relax(&mut patch.surfels, s, p);
+    pca_normals(&mut patch.surfels, 2.0 * h);
+}
+
+fn grid_of(surfels: &[ContactSurfel], cell: f32) -> Grid {
+    Grid::build(surfels.iter().map(|c| c.pos), cell)
+}
+
+/// Deletes surfels with an earlier kept surfel within `r` (deterministic Poisson-disk).
+fn thin(surfels: &mut Vec<ContactSurfel>, r: f32) {
+    let grid = grid_of(surfels, r);
+    let mut keep = vec![true; surfels.len()];
+    for i in 0..surfels.len() {
+        let mut crowded = false;
+        grid.for_each_within(surfels[i].pos, r, |j, _| crowded |= j < i && keep[j]);
+        keep[i] = !crowded;
+    }
+    let mut k = 0;
+    surfels.retain(|_| {
+        k += 1;
+        keep[k - 1]
+    });
+}
+
+/// Inserts a surfel on Φ where one of six tangent directions of an existing surfel
+/// has no surfel within 0.6 spacing, if that point lies in the intersection volume.
+fn fill_holes(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
+    let h = p.spacing;
+    let grid = grid_of(&patch.surfels, h);
+    let mut added: Vec<ContactSurfel> = Vec::new();
+    for c in &patch.surfels {
+        let t1 = c.normal.any_orthonormal_vector();
+        let t2 = c.normal.cross(t1);
+        for k in 0..6 {
+            let ang = k as f32 * std::f32::consts::FRAC_PI_3;
+            let guess = c.pos + h * (ang.cos() * t1 + ang.sin() * t2);
+            let mut empty = true;
+            grid.for_each_within(guess, 0.6 * h, |_, _| empty = false);
+            if !empty || added.iter().any(|a| a.pos.distance(guess) < 0.6 * h) {
+                continue;
+            }
+            if let Some(x) = reproject(guess, c.normal, s, p)
+                && s.in_volume(x, 0.05 * h)
+                && let Some(n) = s.normal(x)
+            {
+                added.push(ContactSurfel {
+                    pos: x,
+                    normal: n,
+                    object: patch.a,
+                    area: 0.0,
+                    force: Vec3::ZERO,
+                });
+            }
+        }
+    }
+    patch.surfels.extend(added);
+}
+
+/// The root of F along `x + t n`, |t| ≤ one spacing.
+fn reproject(x: Vec3, n: Vec3, s: &PairSurfaces<'_>, p: &ContactParams) -> Option<Vec3> {
+    let h = p.spacing;
+    let t = brent(|t| s.contact_function(p, x + t * n), -h, h, 1e-3 * h, 40)?;
+    Some(x + t * n)
+}
+
+/// One relaxation pass: tangential repulsion from neighbours closer than the spacing,
+/// then reprojection onto Φ (kept in place where reprojection fails).
+fn relax(surfels: &mut [ContactSurfel], s: &PairSurfaces<'_>, p: &ContactParams) {
+    let h = p.spacing;
+    let grid = grid_of(surfels, h);
+    let moved: Vec<Vec3> = surfels
+        .par_iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let mut push = Vec3::ZERO;
+            grid.for_each_within(c.pos, h, |j, d2| {
+                if j != i {
+                    let d = c.pos - surfels[j].pos;
+                    let r = d2.sqrt().max(1e-9);
+                    push += d / r * (h - r);
+                }
+            });
+            let tangential = push - push.dot(c.normal) * c.normal;
+            let guess = c.pos + 0.25 * tangential;
+            match reproject(guess, c.normal, s, p) {
+                Some(x) if s.in_volume(x, 0.05 * h) => x,
+                _ => c.pos,
+            }
+        })
+        .collect();
+    for (c, x) in surfels.iter_mut().zip(moved) {
+        c.pos = x;
+    }
+}
+
+/// Normals by PCA of the neighbourhood within `r`, oriented like the current normal.
+fn pca_normals(surfels: &mut [ContactSurfel], r: f32) {
+    let grid = grid_of(surfels, r);
+    let normals: Vec<Vec3> = surfels
+        .par_iter()
+        .map(|c| {
+            let (mut sum, mut n) = (Vec3::ZERO, 0);
+            let mut pts = Vec::new();
+            grid.for_each_within(c.pos, r, |j, _| {
+                sum += surfels[j].pos;
+                n += 1;
+                pts.push(surfels[j].pos);
+            });
+            if n < 3 {
+                return c.normal;
+            }
+            let mean = sum / n as f32;
+            let mut cov = DMat3::ZERO;
+            for q in pts {
+                let d = (q - mean).as_dvec3();
+                cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+            }
+            let (vals, vecs) = sym_eigen(cov);
+            let k = (0..3)
+                .min_by(|&x, &y| vals[x].total_cmp(&vals[y]))
+                .unwrap_or(0);
+            let e = vecs.col(k).as_vec3();
+            // A flat, well-spread neighbourhood defines the plane; otherwise keep Φ's normal.
+            if vals[k] > 0.1 * vals[(k + 1) % 3].min(vals[(k + 2) % 3]) {
+                return c.normal;
+            }
+            if e.dot(c.normal) < 0.0 { -e } else { e }
+        })
+        .collect();
+    for (c, n) in surfels.iter_mut().zip(normals) {
+        c.normal = n;
+    }
+}
+
+/// Area each contact surfel stands for: `1 / Σ_j W(|x_i − x_j|)` with the normalised
+/// 2-D poly6 kernel of support 2 spacings (a kernel density estimate of surfels per m²,
+/// exact for any uniform sampling, unlike a k-nearest radius).
+pub fn areas(surfels: &mut [ContactSurfel], spacing: f32) {
+    let hh = 2.0 * spacing;
+    let norm = 4.0 / (std::f32::consts::PI * hh.powi(8));
+    let grid = grid_of(surfels, hh);
+    let density: Vec<f32> = surfels
+        .par_iter()
+        .map(|c| {
+            let mut rho = 0.0;
+            grid.for_each_within(c.pos, hh, |_, d2| {
+                let q = hh * hh - d2;
+                rho += norm * q * q * q;
+            });
+            rho
+        })
+        .collect();
+    for (c, rho) in surfels.iter_mut().zip(density) {
+        c.area = 1.0 / rho;
+    }
+}
+
+/// Penalty and friction force on each contact surfel (paper eqs. 3–7), with Newton's
+/// third law and the factor ½, times the surfel's area.
+///
+/// `d₁ = s₁ − s_c` runs from Φ to the original surface of object a, with `s₁` the
+/// orthogonal projection of `s_c` onto that surface (more accurate than the paper's
+/// closest surfel when the penetration is below a surfel spacing); `d₂` likewise for b.
+pub fn forces(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
+    areas(&mut patch.surfels, p.spacing);
+    let side = |own: &ImplicitSurface<'_>, x: Vec3| -> Option<(Vec3, Vec3)> {
+        let proj = own.project(x)?;
+        // Φ outside this object: its surface is not displaced here.
+        (proj.signed_distance <= 0.0).then_some((proj.point - x, proj.point))
+    };
+    let velocity = |surfels: &Surfels, grid: &Grid, x: Vec3| {
+        let mut near = Vec::with_capacity(1);
+        grid.k_nearest(x, 1, &mut near);
+        near.first()
+            .map_or(Vec3::ZERO, |&(k, _)| surfels.vel.get(k))
+    };
+    let one_side = |d: Vec3, v_rel: Vec3| -> Vec3 {
+        let len = d.length();
+        if len <= 0.0 {
+            return Vec3::ZERO;
+        }
+        let dn = d / len;
+        let approach = v_rel.dot(dn);
+        let pen = -(p.stiffness * d + p.damping * approach * dn);
+        if p.friction > 0.0 {
+            let vt = v_rel - approach * dn;
+            let speed = vt.length();
+            let scale = p.friction * pen.length() / speed.max(FRICTION_SLIP_SPEED);
+            pen - scale * vt
+        } else {
+            pen
+        }
+    };
+    patch.surfels.par_iter_mut().for_each(|c| {
+        let (da, pa) = side(&s.a, c.pos).unwrap_or((Vec3::ZERO, c.pos));
+        let (db, pb) = side(&s.b, c.pos).unwrap_or((Vec3::ZERO, c.pos));
+        let va = velocity(s.surfels_a, s.grid_a, pa);
+        let vb = velocity(s.surfels_b, s.grid_b, pb);
+        let fa = one_side(da, va - vb);
+        let fb = one_side(db, vb - va);
+        c.force = 0.5 * (fa - fb) * c.area;
+    });
+}
+
+/// Spreads each contact surfel's force over the phyxels of one object with the poly6
+/// kernel of support `h` (twice the influence radius), widened to the
+/// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within `h`, normalised so the
+/// phyxel forces sum exactly to the surfel force (paper eqs. 8–9). `sign` is +1 for
+/// object a, −1 for b. The forces act at the next step.
+pub fn distribute(
+    surfels: &[ContactSurfel],
+    sign: f32,
+    phyxels: &mut Phyxels,
+    grid: &Grid,
+    h: f32,
+) {
+    let mut near: Vec<(usize, f32)> = Vec::new();
+    let mut knn = Vec::new();
+    for c in surfels {
+        near.clear();
+        grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
+        let mut support = h;
+        if near.len() < MIN_DISTRIBUTION_PHYXELS {
+            grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, &mut knn);
+            support = knn.last().map_or(h, |e| e.1.sqrt() * 1.001 + 1e-9);
+            near.clear();
+            near.extend_from_slice(&knn);
+        }
+        near.sort_unstable_by_key(|e| e.0);
+        let total: f32 = near.iter().map(|&(_, d2)| poly6(d2, support)).sum();
+        if total <= 0.0 {
+            continue;
+        }
+        let f = sign * c.force;
+        for &(i, d2) in &near {
+            phyxels.force.add(i, f * (poly6(d2, support) / total));
+        }
+    }
+}
