@@ -39,7 +39,10 @@ pub struct ContactSurfel {
 pub struct ContactPatch {
     pub a: usize,
     pub b: usize,
+    /// The colliding surfels of both objects moved onto Φ: they carry the forces.
     pub surfels: Vec<ContactSurfel>,
+    /// Φ resampled evenly for the render surface (empty unless frames are written).
+    pub render: Vec<ContactSurfel>,
     /// Colliding surfels dropped because the root left the intersection volume.
     pub dropped: usize,
 }
@@ -137,23 +140,32 @@ pub fn contact_surface(
         a: det.a,
         b: det.b,
         surfels: placed.into_iter().flatten().collect(),
+        render: Vec::new(),
         dropped,
     }
 }
 
-/// Even, hole-free sampling of Φ (after Witkin–Heckbert, as in the paper's §6):
-/// deletion of surfels closer than half the spacing, insertion where a tangent
-/// neighbourhood is empty, one relaxation pass with reprojection onto Φ, and normals
-/// by PCA of the local neighbourhood (smallest eigenvector).
+/// Even, hole-free sampling of Φ for the render surface (after Witkin–Heckbert, as in
+/// the paper's §6): deletion of surfels closer than half the spacing, insertion where a
+/// tangent neighbourhood is empty, one relaxation pass with reprojection onto Φ, and
+/// normals by PCA of the local neighbourhood (smallest eigenvector).
+///
+/// The forces stay on the unresampled contact surfels: which surfels deletion and
+/// insertion keep changes discontinuously from step to step, and forces on them would
+/// make a resting contact jitter, while a colliding surfel enters and leaves the
+/// contact with zero penetration, so forces on those are continuous in time.
 pub fn resample(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
+    patch.render.clear();
     if patch.surfels.is_empty() {
         return;
     }
     let h = p.spacing;
-    thin(&mut patch.surfels, 0.5 * h);
-    fill_holes(patch, s, p);
-    relax(&mut patch.surfels, s, p);
-    pca_normals(&mut patch.surfels, 2.0 * h);
+    let mut render = patch.surfels.clone();
+    thin(&mut render, 0.5 * h);
+    fill_holes(&mut render, patch.a, s, p);
+    relax(&mut render, s, p);
+    pca_normals(&mut render, 2.0 * h);
+    patch.render = render;
 }
 
 fn grid_of(surfels: &[ContactSurfel], cell: f32) -> Grid {
@@ -178,11 +190,16 @@ fn thin(surfels: &mut Vec<ContactSurfel>, r: f32) {
 
 /// Inserts a surfel on Φ where one of six tangent directions of an existing surfel
 /// has no surfel within 0.6 spacing, if that point lies in the intersection volume.
-fn fill_holes(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
+fn fill_holes(
+    surfels: &mut Vec<ContactSurfel>,
+    object: usize,
+    s: &PairSurfaces<'_>,
+    p: &ContactParams,
+) {
     let h = p.spacing;
-    let grid = grid_of(&patch.surfels, h);
+    let grid = grid_of(surfels, h);
     let mut added: Vec<ContactSurfel> = Vec::new();
-    for c in &patch.surfels {
+    for c in surfels.iter() {
         let t1 = c.normal.any_orthonormal_vector();
         let t2 = c.normal.cross(t1);
         for k in 0..6 {
@@ -200,14 +217,14 @@ fn fill_holes(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams)
                 added.push(ContactSurfel {
                     pos: x,
                     normal: n,
-                    object: patch.a,
+                    object,
                     area: 0.0,
                     force: Vec3::ZERO,
                 });
             }
         }
     }
-    patch.surfels.extend(added);
+    surfels.extend(added);
 }
 
 /// The root of F along `x + t n`, |t| ≤ one spacing.
@@ -315,6 +332,10 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32) {
 /// `d₁ = s₁ − s_c` runs from Φ to the original surface of object a, with `s₁` the
 /// orthogonal projection of `s_c` onto that surface (more accurate than the paper's
 /// closest surfel when the penetration is below a surfel spacing); `d₂` likewise for b.
+/// Only the component of `d` along Φ's normal is kept: a frictionless contact must push
+/// along the contact normal, and the tangential part of `d` is sampling noise (rim
+/// surfels of a curved body) that would make a resting body drift; friction alone acts
+/// tangentially.
 pub fn forces(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
     areas(&mut patch.surfels, p.spacing);
     let side = |own: &ImplicitSurface<'_>, x: Vec3| -> Option<(Vec3, Vec3)> {
@@ -328,7 +349,8 @@ pub fn forces(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams)
         near.first()
             .map_or(Vec3::ZERO, |&(k, _)| surfels.vel.get(k))
     };
-    let one_side = |d: Vec3, v_rel: Vec3| -> Vec3 {
+    let one_side = |d: Vec3, n: Vec3, v_rel: Vec3| -> Vec3 {
+        let d = d.dot(n) * n;
         let len = d.length();
         if len <= 0.0 {
             return Vec3::ZERO;
@@ -350,8 +372,8 @@ pub fn forces(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams)
         let (db, pb) = side(&s.b, c.pos).unwrap_or((Vec3::ZERO, c.pos));
         let va = velocity(s.surfels_a, s.grid_a, pa);
         let vb = velocity(s.surfels_b, s.grid_b, pb);
-        let fa = one_side(da, va - vb);
-        let fb = one_side(db, vb - va);
+        let fa = one_side(da, c.normal, va - vb);
+        let fb = one_side(db, c.normal, vb - va);
         c.force = 0.5 * (fa - fb) * c.area;
     });
 }

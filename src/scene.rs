@@ -16,6 +16,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("two-spheres", include_str!("scenes/two-spheres.toml")),
     ("falling-sphere", include_str!("scenes/falling-sphere.toml")),
     ("cantilever", include_str!("scenes/cantilever.toml")),
+    (
+        "sphere-on-plane",
+        include_str!("scenes/sphere-on-plane.toml"),
+    ),
 ];
 
 /// The scene `phyxel run` uses without an argument.

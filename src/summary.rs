@@ -59,6 +59,9 @@ pub struct RunSummary {
     pub steps_per_second: f64,
     /// Phase name → seconds summed over the run.
     pub phase_seconds: BTreeMap<String, f64>,
+    /// Phase name → work items summed over the run (phyxels stepped, pairs found,
+    /// surfels gridded, candidates tested, contact surfels placed and forced).
+    pub phase_work: BTreeMap<String, u64>,
     /// All state finite at the end.
     pub finite: bool,
     /// kg·m/s
@@ -164,6 +167,10 @@ pub fn summarize(
         phase_seconds: Phase::ALL
             .iter()
             .map(|&p| (p.name().to_string(), world.times.seconds(p)))
+            .collect(),
+        phase_work: Phase::ALL
+            .iter()
+            .map(|&p| (p.name().to_string(), world.times.work(p)))
             .collect(),
         finite: world.all_finite(),
         momentum_initial,

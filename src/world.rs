@@ -36,7 +36,16 @@ pub struct World {
     pub patches: Vec<ContactPatch>,
     /// Phyxel grids (current positions) of moving objects in contact.
     phyxel_grids: Vec<Option<Grid>>,
+    /// Resample the contact surfaces into render surfaces (only needed for output).
+    pub render_contacts: bool,
 }
+
+/// Support of the contact-force distribution kernel in influence radii. The paper uses
+/// two of Müller's radii (3 r each, so 6 phyxel spacings); that spreads a contact force
+/// over most of a small body, which then decelerates almost rigidly while the surfaces
+/// overlap. One of our radii (2 r) keeps the force at the surface, where the elastic
+/// response should start, and still reaches about 30 phyxels (docs/ARCHITECTURE.md).
+pub const DISTRIBUTION_SUPPORT: f32 = 1.0;
 
 /// Contact constants of a pair from the two materials (docs/ARCHITECTURE.md).
 pub fn contact_params(a: &Object, b: &Object) -> ContactParams {
@@ -84,6 +93,7 @@ impl World {
             detections: Vec::new(),
             patches: Vec::new(),
             phyxel_grids: Vec::new(),
+            render_contacts: false,
         }
     }
 
@@ -253,8 +263,12 @@ impl World {
         self.patches.iter().map(|p| p.surfels.len() as u64).sum()
     }
 
-    /// Even, hole-free resampling of each contact surface.
+    /// Even, hole-free resampling of each contact surface for the render surface;
+    /// skipped when nothing is rendered.
     fn resample(&mut self) {
+        if !self.render_contacts {
+            return;
+        }
         let mut patches = std::mem::take(&mut self.patches);
         for patch in &mut patches {
             let s = self.pair_surfaces(patch.a, patch.b);
@@ -288,14 +302,17 @@ impl World {
         for (k, g) in self.phyxel_grids.iter_mut().enumerate() {
             if needed[k] {
                 let o = &self.objects[k];
-                *g = Some(Grid::build(o.phyxels.pos.iter(), 2.0 * o.max_influence));
+                *g = Some(Grid::build(
+                    o.phyxels.pos.iter(),
+                    DISTRIBUTION_SUPPORT * o.max_influence,
+                ));
             }
         }
         for patch in &self.patches {
             for (k, sign) in [(patch.a, 1.0f32), (patch.b, -1.0)] {
                 if let Some(grid) = self.phyxel_grids[k].as_ref().filter(|_| needed[k]) {
                     let o = &mut self.objects[k];
-                    let h = 2.0 * o.max_influence;
+                    let h = DISTRIBUTION_SUPPORT * o.max_influence;
                     contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h);
                 }
             }
