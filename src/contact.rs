@@ -357,7 +357,9 @@ pub fn forces(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams)
         }
         let dn = d / len;
         let approach = v_rel.dot(dn);
-        let pen = -(p.stiffness * d + p.damping * approach * dn);
+        // Spring plus dashpot, clamped to push only: a separating contact must not
+        // stick through its damping term.
+        let pen = -(p.stiffness * len + p.damping * approach).max(0.0) * dn;
         if p.friction > 0.0 {
             let vt = v_rel - approach * dn;
             let speed = vt.length();

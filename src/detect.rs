@@ -2,6 +2,7 @@
 //! in the pair's intersection box and inside the other object's implicit surface.
 
 use crate::broad_phase::{Pair, points_in_box};
+use crate::grid::Grid;
 use crate::implicit::ImplicitSurface;
 use crate::surfels::Surfels;
 use glam::Vec3;
@@ -46,11 +47,34 @@ impl PairDetection {
 /// Candidates per rayon task.
 const CHUNK: usize = 256;
 
+/// The other object's volume, for candidates far from its surface: a point farther than
+/// the kernels reach from every surfel is inside exactly when a phyxel lies within
+/// `reach` of it (phyxels sit at least half a spacing inside the surface, and every
+/// interior point is within `√3/2` lattice spacings of one).
+#[derive(Clone, Copy)]
+pub struct Volume<'a> {
+    pub phyxels: &'a Grid,
+    /// Mean phyxel spacing (m).
+    pub reach: f32,
+}
+
+impl Volume<'_> {
+    fn contains(&self, x: Vec3) -> bool {
+        let mut found = false;
+        self.phyxels
+            .for_each_within(x, self.reach, |_, _| found = true);
+        found
+    }
+}
+
 /// The surfels of `surfels` in `pair.bounds` that are inside `other`, in surfel order.
-/// `candidates` is scratch for the candidate indices.
+/// `candidates` is scratch for the candidate indices. Candidates far from `other`'s
+/// surface are classified by `volume` alone (one grid query) and projected only when
+/// inside (deep penetration).
 pub fn colliding_surfels(
     surfels: &Surfels,
     other: &ImplicitSurface<'_>,
+    volume: &Volume<'_>,
     pair: &Pair,
     candidates: &mut Vec<u32>,
 ) -> Vec<Colliding> {
@@ -61,6 +85,9 @@ pub fn colliding_surfels(
         .flat_map_iter(|chunk| {
             chunk.iter().filter_map(|&s| {
                 let x = surfels.pos.get(s as usize);
+                if other.sample_near(x).is_none() && !volume.contains(x) {
+                    return None;
+                }
                 let (inside, p) = other.inside(x)?;
                 inside.then_some(Colliding {
                     surfel: s,

@@ -1,85 +1,291 @@
 //! Uniform spatial hash grid (Teschner et al. 2003), sorted by cell.
 //!
 //! Points are binned into cubic cells of edge `cell`; cells are hashed into a table of
-//! about twice the point count, and a counting sort makes each bucket's points
+//! at least twice the point count, and a counting sort makes each bucket's points
 //! contiguous, so building is linear and a range query touches only a few short runs.
+//!
+//! Differences from the paper, for speed:
+//! - the hash is *additive* in the cell's x index, `h(x, y, z) = x + p₂·y + p₃·z mod T`,
+//!   so the cells of one x-row of a query box are consecutive buckets and their points
+//!   one contiguous run of the sorted arrays: with `cell = r` a query reads 3 × 3 runs
+//!   instead of 27 cells;
+//! - the sorted coordinates are stored as separate `x`, `y`, `z` arrays and tested
+//!   8 at a time (`wide::f32x8`); the hits go through a small on-stack buffer without
+//!   data-dependent branches before being reported;
+//! - distinct cells that share a bucket: since the hash is linear, whether two rows of a
+//!   query box share buckets depends only on the box's shape, which is checked against a
+//!   small table made at build time. When they may, a point is reported only from the
+//!   row of its own cell (recomputed per hit), so no query allocates or dedups buckets.
+//!
+//! [`Grid::rebuild`] reuses every allocation; with the point count not growing it does
+//! not touch the heap, and neither do [`Grid::for_each_within`] and (given a reused
+//! output vector) [`Grid::k_nearest`].
+//!
+//! Points with a NaN coordinate are skipped when building: they are never reported
+//! (and [`Grid::indexed`] does not count them). Points with infinite coordinates are
+//! kept and reported exactly when the test below holds (e.g. for an infinite radius).
+//!
+//! Reporting rule, shared by all queries: with `d = p − x` computed per coordinate in
+//! f32, point `p` is within `r` of `x` iff `d.x*d.x + d.y*d.y + d.z*d.z <= r*r`
+//! (evaluated in that order, in f32, no fused multiply–add). The grid reports exactly
+//! those points, whatever the cell size, round-off at the boundary included: the cells
+//! searched cover `r` plus a margin larger than that round-off.
 
 use glam::Vec3;
+use wide::f32x8;
+
+/// SIMD width of the distance tests.
+const LANES: usize = 8;
+const _: () = assert!(LANES == 8, "push_lanes expands two nibbles");
+
+/// Lanes `at..at + LANES` of a padded coordinate array.
+#[inline(always)]
+fn load8(s: &[f32], at: usize) -> f32x8 {
+    let a: [f32; LANES] = s[at..at + LANES].try_into().expect("padded coordinates");
+    f32x8::from(a)
+}
 
 /// Spatial hash of a point set, rebuilt in linear time.
 #[derive(Clone, Debug, Default)]
 pub struct Grid {
     cell: f32,
     inv_cell: f32,
+    /// Table size minus one (the table size is a power of two).
     mask: usize,
-    /// `start[b]..start[b + 1]` indexes `sorted` for bucket `b`.
+    /// Number of points given to the last build (indices are below this).
+    n_input: usize,
+    /// `start[b]..start[b + 1]` indexes the sorted arrays for bucket `b`
+    /// (`mask + 3` entries; the last one is scratch of the counting sort).
     start: Vec<u32>,
-    /// Point indices sorted by bucket.
+    /// Point indices sorted by bucket (NaN points left out).
     sorted: Vec<u32>,
-    /// Copies of the points in sorted order (cache-friendly distance tests).
+    /// Copies of the points in sorted order (cache-friendly distance tests), followed by
+    /// `LANES - 1` padding entries.
     px: Vec<f32>,
     py: Vec<f32>,
     pz: Vec<f32>,
+    /// Query boxes with `ny × nz` rows and at most `row_sep[ny − 1][nz − 1]` cells per row
+    /// have no two rows sharing a bucket (see [`row_separation`]).
+    row_sep: [[u32; SEP]; SEP],
+    /// Build scratch: the bucket of every input point ([`SKIPPED`] for NaN points).
+    bucket_of: Vec<u32>,
 }
 
-#[inline]
+/// Capacity of the per-query hit buffer (a power of two, at least 2 × LANES).
+const HITS: usize = 128;
+
+/// `NIBBLE_LANES[m]`: the set bits of the 4-bit mask `m`, in increasing order (the
+/// entries past its popcount are don't-cares).
+const NIBBLE_LANES: [[u32; 4]; 16] = {
+    let mut t = [[0u32; 4]; 16];
+    let mut m = 0;
+    while m < 16 {
+        let (mut c, mut l) = (0, 0);
+        while l < 4 {
+            if (m >> l) & 1 == 1 {
+                t[m][c] = l as u32;
+                c += 1;
+            }
+            l += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// Sorted positions that passed the distance test, awaiting report (on the stack).
+struct Hits {
+    pos: [u32; HITS],
+    len: usize,
+}
+
+impl Hits {
+    #[inline(always)]
+    fn new() -> Self {
+        Self {
+            pos: [0; HITS],
+            len: 0,
+        }
+    }
+
+    /// Appends `base + l` for every set bit `l` of the `LANES`-bit `mask`, without
+    /// branches: each half of the mask is expanded by a table lookup and stored whole,
+    /// and the length advances by its popcount. Needs `len ≤ HITS − LANES`.
+    #[inline(always)]
+    fn push_lanes(&mut self, base: u32, mask: u32) {
+        debug_assert!(self.len <= HITS - LANES);
+        let lo = (mask & 15) as usize;
+        let hi = ((mask >> 4) & 15) as usize;
+        // The clamps are no-ops given the precondition; they drop the bounds checks.
+        let at = self.len.min(HITS - LANES);
+        for (w, &l) in self.pos[at..at + 4].iter_mut().zip(&NIBBLE_LANES[lo]) {
+            *w = base + l;
+        }
+        let at = (at + lo.count_ones() as usize).min(HITS - 4);
+        for (w, &l) in self.pos[at..at + 4].iter_mut().zip(&NIBBLE_LANES[hi]) {
+            *w = base + 4 + l;
+        }
+        self.len = at + hi.count_ones() as usize;
+    }
+}
+
+/// Largest query box, in rows per axis, covered by [`Grid::row_sep`].
+const SEP: usize = 8;
+
+/// Hash multipliers of the y and z cell indices (Teschner et al.'s primes).
+const P2: u32 = 19_349_663;
+const P3: u32 = 83_492_791;
+
+/// Bucket marker of a point left out of the grid (a NaN coordinate).
+const SKIPPED: u32 = u32::MAX;
+
+/// `floor(v)` as an `i32`, saturating at the `i32` range, 0 for NaN. Monotone in `v`.
+///
+/// Written out because without SSE4.1 (the default x86-64 target) `f32::floor` is a
+/// libm call; the grid uses this one function for building and querying alike, so
+/// cell assignment is consistent by construction.
+#[inline(always)]
+fn floor_i32(v: f32) -> i32 {
+    let t = v as i32; // truncates toward zero, saturates, NaN → 0
+    if (t as f32) > v {
+        t.saturating_sub(1)
+    } else {
+        t
+    }
+}
+
+#[inline(always)]
 fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
     [
-        (p.x * inv_cell).floor() as i32,
-        (p.y * inv_cell).floor() as i32,
-        (p.z * inv_cell).floor() as i32,
+        floor_i32(p.x * inv_cell),
+        floor_i32(p.y * inv_cell),
+        floor_i32(p.z * inv_cell),
     ]
 }
 
-#[inline]
+/// Additive spatial hash: consecutive x cells map to consecutive buckets (mod table).
+/// It is linear modulo the table size, so whether two cells collide depends only on
+/// their offset (see [`row_separation`]).
+#[inline(always)]
 fn hash(c: [i32; 3], mask: usize) -> usize {
-    let h = (c[0] as u32).wrapping_mul(73_856_093)
-        ^ (c[1] as u32).wrapping_mul(19_349_663)
-        ^ (c[2] as u32).wrapping_mul(83_492_791);
+    let h = (c[0] as u32)
+        .wrapping_add((c[1] as u32).wrapping_mul(P2))
+        .wrapping_add((c[2] as u32).wrapping_mul(P3));
     h as usize & mask
+}
+
+/// `sep[a][b]`: the smallest circular distance, modulo the table size `mask + 1`,
+/// between the first buckets of two distinct rows of an `(a + 1) × (b + 1)`-row query
+/// box. Rows of `nx` cells occupy the buckets `b₀..b₀ + nx`, so no two rows of such a box
+/// share a bucket iff `nx ≤ sep[a][b]`. Since the hash is linear, the distance for the
+/// row offset `(dy, dz)` is that of `P2·dy + P3·dz`, whatever the box's position.
+fn row_separation(mask: usize) -> [[u32; SEP]; SEP] {
+    let table = mask as u64 + 1;
+    let dist = |dy: i32, dz: i32| -> u32 {
+        let v = (dy as u32)
+            .wrapping_mul(P2)
+            .wrapping_add((dz as u32).wrapping_mul(P3)) as usize
+            & mask;
+        (v as u64).min(table - v as u64).min(u32::MAX as u64) as u32
+    };
+    // m[dy][|dz|]: offsets (dy, ±dz) up to sign, i.e. dy > 0, or dy = 0 and dz > 0.
+    let mut sep = [[u32::MAX; SEP]; SEP];
+    for dy in 0..SEP {
+        for dz in 0..SEP {
+            let (a, b) = (dy as i32, dz as i32);
+            let mut d = if dy > 0 {
+                dist(a, b).min(dist(a, -b))
+            } else if dz > 0 {
+                dist(0, b)
+            } else {
+                u32::MAX
+            };
+            // Prefix minimum: every offset with |dy'| ≤ dy and |dz'| ≤ dz.
+            if dy > 0 {
+                d = d.min(sep[dy - 1][dz]);
+            }
+            if dz > 0 {
+                d = d.min(sep[dy][dz - 1]);
+            }
+            sep[dy][dz] = d;
+        }
+    }
+    sep
 }
 
 impl Grid {
     /// Builds the grid of `points` with cell edge `cell` (> 0, finite).
+    ///
+    /// Equivalent to [`Grid::default`] followed by [`Grid::rebuild`].
     pub fn build(points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) -> Self {
+        let mut g = Self::default();
+        g.rebuild(points, cell);
+        g
+    }
+
+    /// Rebuilds the grid in place over `points` with cell edge `cell` (> 0, finite),
+    /// in linear time, reusing the existing buffers: no heap allocation unless the
+    /// point count exceeds every earlier build's.
+    ///
+    /// `points` is iterated twice. Points with a NaN coordinate are skipped (never
+    /// reported); indices reported by queries are positions in `points`.
+    ///
+    /// For fixed-radius queries of radius `r`, `cell = r` is a good choice (a query
+    /// reads 3 × 3 runs of 3 cells each).
+    pub fn rebuild(&mut self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) {
         assert!(cell.is_finite() && cell > 0.0, "grid cell size must be > 0");
         let n = points.len();
+        assert!(n < u32::MAX as usize, "too many points for a grid");
         let table = (2 * n).next_power_of_two().max(16);
         let mask = table - 1;
         let inv_cell = 1.0 / cell;
-        let mut count = vec![0u32; table + 1];
-        let buckets: Vec<u32> = points
-            .clone()
-            .map(|p| hash(cell_of(p, inv_cell), mask) as u32)
-            .collect();
-        for &b in &buckets {
-            count[b as usize + 1] += 1;
+        self.cell = cell;
+        self.inv_cell = inv_cell;
+        if self.mask != mask || self.start.is_empty() {
+            self.row_sep = row_separation(mask);
         }
-        for b in 0..table {
-            count[b + 1] += count[b];
+        self.mask = mask;
+        self.n_input = n;
+
+        // Counting sort by bucket: `start[b + 2]` counts bucket `b` ...
+        self.start.clear();
+        self.start.resize(table + 2, 0);
+        self.bucket_of.clear();
+        self.bucket_of.reserve(n);
+        let start = &mut self.start[..];
+        for p in points.clone() {
+            if p.is_nan() {
+                self.bucket_of.push(SKIPPED);
+                continue;
+            }
+            let b = hash(cell_of(p, inv_cell), mask);
+            self.bucket_of.push(b as u32);
+            start[b + 2] += 1;
         }
-        let start = count.clone();
-        let mut fill = count;
-        let mut sorted = vec![0u32; n];
-        for (i, &b) in buckets.iter().enumerate() {
-            let slot = &mut fill[b as usize];
-            sorted[*slot as usize] = i as u32;
+        // ... so that after the prefix sum `start[b + 1]` is where bucket `b` begins ...
+        for b in 2..table + 2 {
+            start[b] += start[b - 1];
+        }
+        let m = start[table + 1] as usize;
+        self.sorted.resize(m, 0);
+        // Padded so that SIMD loads of a run's last lanes stay in bounds.
+        self.px.resize(m + LANES - 1, 0.0);
+        self.py.resize(m + LANES - 1, 0.0);
+        self.pz.resize(m + LANES - 1, 0.0);
+        // ... and after the scatter `start[b]` is where bucket `b` begins.
+        for ((i, p), &b) in points.enumerate().zip(&self.bucket_of) {
+            if b == SKIPPED {
+                continue;
+            }
+            let slot = &mut start[b as usize + 1];
+            let s = *slot as usize;
             *slot += 1;
+            self.sorted[s] = i as u32;
+            self.px[s] = p.x;
+            self.py[s] = p.y;
+            self.pz[s] = p.z;
         }
-        let pts: Vec<Vec3> = points.collect();
-        let px = sorted.iter().map(|&i| pts[i as usize].x).collect();
-        let py = sorted.iter().map(|&i| pts[i as usize].y).collect();
-        let pz = sorted.iter().map(|&i| pts[i as usize].z).collect();
-        Self {
-            cell,
-            inv_cell,
-            mask,
-            start,
-            sorted,
-            px,
-            py,
-            pz,
-        }
+        debug_assert_eq!(start[table] as usize, m);
     }
 
     /// Cell edge length.
@@ -87,76 +293,172 @@ impl Grid {
         self.cell
     }
 
-    /// Number of points in the grid.
+    /// Number of points given to the last build (including skipped NaN points):
+    /// reported indices are below this.
     pub fn len(&self) -> usize {
+        self.n_input
+    }
+
+    /// True when the last build was given no points.
+    pub fn is_empty(&self) -> bool {
+        self.n_input == 0
+    }
+
+    /// Number of points actually indexed: [`Grid::len`] minus those with a NaN coordinate.
+    pub fn indexed(&self) -> usize {
         self.sorted.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.sorted.is_empty()
-    }
-
     /// Calls `f(index, squared_distance)` once for every point within `r` of `x`
-    /// (`|p − x| ≤ r`), in no particular order.
+    /// (`|p − x|² ≤ r²` evaluated in f32 as described in the module docs), in no
+    /// particular order. Nothing is reported for a NaN `x`, a NaN or negative `r`, or a
+    /// NaN point. Does not allocate.
+    #[inline]
     pub fn for_each_within(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, f32)) {
-        if self.sorted.is_empty() || r.is_nan() || r < 0.0 {
+        let m = self.sorted.len();
+        if m == 0 || r.is_nan() || r < 0.0 || x.is_nan() {
             return;
         }
         let r2 = r * r;
-        let span = (2.0 * r * self.inv_cell + 2.0).min(1.0e6);
-        if span * span * span > self.sorted.len() as f32 {
+        // The box searched is widened past `r` by more than the f32 round-off of the
+        // distance test (relative 2⁻²² plus underflow), so it holds every point the test
+        // accepts; the rounding of `x ± reach` itself only widens the box.
+        let reach = r * (1.0 + 1.0e-6) + 1.0e-20;
+        let lo = cell_of(x - Vec3::splat(reach), self.inv_cell);
+        let hi = cell_of(x + Vec3::splat(reach), self.inv_cell);
+        let nx = hi[0] as i64 - lo[0] as i64 + 1;
+        let ny = hi[1] as i64 - lo[1] as i64 + 1;
+        let nz = hi[2] as i64 - lo[2] as i64 + 1;
+        let cells = nx.saturating_mul(ny).saturating_mul(nz);
+        if r2 == f32::INFINITY || cells > m as i64 {
             // The query box covers more cells than there are points: a scan is cheaper.
+            // (An infinite `r²` accepts points at any distance, so the box is no bound.)
             self.scan(x, r2, &mut f);
             return;
         }
-        let lo = cell_of(x - Vec3::splat(r), self.inv_cell);
-        let hi = cell_of(x + Vec3::splat(r), self.inv_cell);
-        // Distinct cells can share a bucket; visit each bucket once.
-        let mut seen_small = [usize::MAX; 64];
-        let mut seen_big: Vec<usize> = Vec::new();
-        let cells = (hi[0] - lo[0] + 1) as usize
-            * (hi[1] - lo[1] + 1) as usize
-            * (hi[2] - lo[2] + 1) as usize;
-        let mut n_seen = 0;
-        for cz in lo[2]..=hi[2] {
-            for cy in lo[1]..=hi[1] {
-                for cx in lo[0]..=hi[0] {
-                    let b = hash([cx, cy, cz], self.mask);
-                    let dup = if cells <= seen_small.len() {
-                        let d = seen_small[..n_seen].contains(&b);
-                        if !d {
-                            seen_small[n_seen] = b;
-                            n_seen += 1;
-                        }
-                        d
-                    } else {
-                        let d = seen_big.contains(&b);
-                        if !d {
-                            seen_big.push(b);
-                        }
-                        d
-                    };
-                    if dup {
-                        continue;
-                    }
-                    let (s, e) = (self.start[b] as usize, self.start[b + 1] as usize);
-                    for k in s..e {
-                        let dx = self.px[k] - x.x;
-                        let dy = self.py[k] - x.y;
-                        let dz = self.pz[k] - x.z;
-                        let d2 = dx * dx + dy * dy + dz * dz;
-                        if d2 <= r2 {
-                            f(self.sorted[k] as usize, d2);
-                        }
-                    }
+        // Here nx ≤ cells ≤ m < table size, so one row never reaches a bucket twice.
+        let nx = nx as usize;
+        let mut hits = Hits::new();
+        let (ny, nz) = (ny as usize, nz as usize);
+        if ny <= SEP && nz <= SEP && nx <= self.row_sep[ny - 1][nz - 1] as usize {
+            // No two rows of this box share a bucket: every point is met at most once.
+            for cz in lo[2]..=hi[2] {
+                for cy in lo[1]..=hi[1] {
+                    self.row::<false>(lo[0], nx, cy, cz, x, r2, &mut hits, &mut f);
+                }
+            }
+            self.flush::<false>(&mut hits, x, 0, 0, &mut f);
+        } else {
+            // Rows may share buckets: report a point only from the row of its own cell.
+            for cz in lo[2]..=hi[2] {
+                for cy in lo[1]..=hi[1] {
+                    self.row::<true>(lo[0], nx, cy, cz, x, r2, &mut hits, &mut f);
+                    self.flush::<true>(&mut hits, x, cy, cz, &mut f);
                 }
             }
         }
     }
 
+    /// Collects the points of row `(cy, cz)`, cells `x0..x0 + nx`, that pass the distance
+    /// test into `hits`, flushing it when full. The row's cells are the consecutive
+    /// buckets `b0..b0 + nx` (mod table size), so their points are one or two runs.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn row<const FILTER: bool>(
+        &self,
+        x0: i32,
+        nx: usize,
+        cy: i32,
+        cz: i32,
+        x: Vec3,
+        r2: f32,
+        hits: &mut Hits,
+        f: &mut impl FnMut(usize, f32),
+    ) {
+        let table = self.mask + 1;
+        let b0 = hash([x0, cy, cz], self.mask);
+        let b1 = b0 + nx;
+        if b1 <= table {
+            let (s, e) = (self.start[b0], self.start[b1]);
+            self.run::<FILTER>(s, e, cy, cz, x, r2, hits, f);
+        } else {
+            let (s, e) = (self.start[b0], self.start[table]);
+            self.run::<FILTER>(s, e, cy, cz, x, r2, hits, f);
+            let (s, e) = (self.start[0], self.start[b1 - table]);
+            self.run::<FILTER>(s, e, cy, cz, x, r2, hits, f);
+        }
+    }
+
+    /// Collects the sorted positions `s..e` that pass the distance test into `hits`
+    /// (branch-free: the hits of a lane group are appended whatever their number).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn run<const FILTER: bool>(
+        &self,
+        s: u32,
+        e: u32,
+        cy: i32,
+        cz: i32,
+        x: Vec3,
+        r2: f32,
+        hits: &mut Hits,
+        f: &mut impl FnMut(usize, f32),
+    ) {
+        let (s, e) = (s as usize, e as usize);
+        let (xs, ys, zs) = (f32x8::splat(x.x), f32x8::splat(x.y), f32x8::splat(x.z));
+        let r2s = f32x8::splat(r2);
+        let mut k = s;
+        while k < e {
+            // The coordinate arrays are padded by LANES - 1, so lanes past `e` exist; they
+            // are masked off below.
+            let dx = load8(&self.px, k) - xs;
+            let dy = load8(&self.py, k) - ys;
+            let dz = load8(&self.pz, k) - zs;
+            let d2 = dx * dx + dy * dy + dz * dz;
+            let mut mask = d2.simd_le(r2s).to_bitmask();
+            if e - k < LANES {
+                mask &= (1u32 << (e - k)) - 1;
+            }
+            if hits.len > HITS - LANES {
+                self.flush::<FILTER>(hits, x, cy, cz, f);
+            }
+            hits.push_lanes(k as u32, mask);
+            k += LANES;
+        }
+    }
+
+    /// Reports the collected hits and empties `hits`. With `FILTER`, only points of
+    /// row `(cy, cz)` are reported.
+    #[inline(always)]
+    fn flush<const FILTER: bool>(
+        &self,
+        hits: &mut Hits,
+        x: Vec3,
+        cy: i32,
+        cz: i32,
+        f: &mut impl FnMut(usize, f32),
+    ) {
+        for &j in &hits.pos[..hits.len] {
+            let j = j as usize;
+            let (qx, qy, qz) = (self.px[j], self.py[j], self.pz[j]);
+            if FILTER
+                && (floor_i32(qy * self.inv_cell) != cy || floor_i32(qz * self.inv_cell) != cz)
+            {
+                continue;
+            }
+            // The same f32 operations as the lanes of `run`, hence the same value.
+            let (dx, dy, dz) = (qx - x.x, qy - x.y, qz - x.z);
+            f(self.sorted[j] as usize, dx * dx + dy * dy + dz * dz);
+        }
+        hits.len = 0;
+    }
+
     fn scan(&self, x: Vec3, r2: f32, f: &mut impl FnMut(usize, f32)) {
         for k in 0..self.sorted.len() {
-            let d2 = Vec3::new(self.px[k], self.py[k], self.pz[k]).distance_squared(x);
+            let dx = self.px[k] - x.x;
+            let dy = self.py[k] - x.y;
+            let dz = self.pz[k] - x.z;
+            let d2 = dx * dx + dy * dy + dz * dz;
             if d2 <= r2 {
                 f(self.sorted[k] as usize, d2);
             }
@@ -164,22 +466,30 @@ impl Grid {
     }
 
     /// The `k` nearest points to `x` as `(index, squared_distance)`, nearest first
-    /// (ties broken by index). Fewer than `k` only when the grid holds fewer points.
+    /// (ties broken by index). Fewer than `k` only when the grid indexes fewer points.
+    /// Empty for a non-finite `x`. Allocates only if `out` must grow.
     pub fn k_nearest(&self, x: Vec3, k: usize, out: &mut Vec<(usize, f32)>) {
         out.clear();
-        let n = self.sorted.len();
-        if n == 0 || k == 0 || !x.is_finite() {
+        let m = self.sorted.len();
+        if m == 0 || k == 0 || !x.is_finite() {
             return;
         }
-        let k = k.min(n);
+        let k = k.min(m);
+        // Squared distances here are ≥ +0 and not NaN, so their bits order like their
+        // values; indices are < 2³², so this key orders by (distance, index).
+        let key = |e: &(usize, f32)| ((e.1.to_bits() as u64) << 32) | e.0 as u64;
         let mut r = self.cell;
         loop {
             out.clear();
             self.for_each_within(x, r, |i, d2| out.push((i, d2)));
-            // Every point within r is found, so the k nearest are final once k lie within r.
-            if out.len() >= k || out.len() == n {
-                out.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
-                out.truncate(k);
+            // Every point within r is found, so the k nearest are final once k lie within
+            // r. An infinite r finds every indexed point (x is finite, none is NaN).
+            if out.len() >= k || r == f32::INFINITY {
+                if out.len() > k {
+                    out.select_nth_unstable_by_key(k - 1, key);
+                    out.truncate(k);
+                }
+                out.sort_unstable_by_key(key);
                 return;
             }
             r *= 2.0;

@@ -78,8 +78,23 @@ impl<'a> ImplicitSurface<'a> {
         }
     }
 
-    /// `f`, `n`, `a` at `x`; `None` only when the surface has no surfels.
-    pub fn sample(&self, x: Vec3) -> Option<SurfaceSample> {
+    /// `f`, `n`, `a` at `x` from the surfels within their kernels' reach; `None` when
+    /// `x` is farther than that from every surfel (cheap: one grid query).
+    pub fn sample_near(&self, x: Vec3) -> Option<SurfaceSample> {
+        let (w_sum, ws, wn) = self.accumulate(x);
+        if w_sum <= 1.0e-30 {
+            return None;
+        }
+        let average = ws / w_sum;
+        let normal = wn.try_normalize()?;
+        Some(SurfaceSample {
+            f: normal.dot(x - average),
+            normal,
+            average,
+        })
+    }
+
+    fn accumulate(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         self.grid.for_each_within(x, self.reach, |k, d2| {
             let sigma = SIGMA_PER_RADIUS * self.radius[k];
@@ -91,19 +106,26 @@ impl<'a> ImplicitSurface<'a> {
                 wn += w * self.normal.get(k);
             }
         });
-        if w_sum <= 1.0e-30 {
-            // Far from every kernel: weight the nearest surfels on their own scale.
-            let mut near = Vec::with_capacity(FAR_NEIGHBOURS);
-            self.grid.k_nearest(x, FAR_NEIGHBOURS, &mut near);
-            let (_, d2_far) = *near.last()?;
-            let (_, d2_near) = near[0];
-            let s2 = d2_far.max(1e-30);
-            for &(k, d2) in &near {
-                let w = (-(d2 - d2_near) / s2).exp();
-                w_sum += w;
-                ws += w * self.pos.get(k);
-                wn += w * self.normal.get(k);
-            }
+        (w_sum, ws, wn)
+    }
+
+    /// `f`, `n`, `a` at `x`; `None` only when the surface has no surfels.
+    pub fn sample(&self, x: Vec3) -> Option<SurfaceSample> {
+        if let Some(s) = self.sample_near(x) {
+            return Some(s);
+        }
+        // Far from every kernel: weight the nearest surfels on their own scale.
+        let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+        let mut near = Vec::with_capacity(FAR_NEIGHBOURS);
+        self.grid.k_nearest(x, FAR_NEIGHBOURS, &mut near);
+        let (_, d2_far) = *near.last()?;
+        let (_, d2_near) = near[0];
+        let s2 = d2_far.max(1e-30);
+        for &(k, d2) in &near {
+            let w = (-(d2 - d2_near) / s2).exp();
+            w_sum += w;
+            ws += w * self.pos.get(k);
+            wn += w * self.normal.get(k);
         }
         let average = ws / w_sum;
         let normal = wn.try_normalize()?;

@@ -66,7 +66,7 @@ impl Default for Material {
             plastic_creep: 0.0,
             plastic_max: 0.0,
             friction: 0.0,
-            contact_stiffness: 1.0,
+            contact_stiffness: 4.0,
             contact_damping: 0.2,
             strain: StrainForm::Calibrated,
             gradient: crate::mls::GradientBasis::Quadratic,

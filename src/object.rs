@@ -26,6 +26,10 @@ pub struct Object {
     pub phyxel_spacing: f32,
     /// Largest phyxel influence radius (m).
     pub max_influence: f32,
+    /// External load (N) spread over the free phyxels by mass; see [`Object::apply_load`].
+    pub load: glam::Vec3,
+    /// Ramp time of the load (s).
+    pub load_ramp: f32,
 }
 
 impl Object {
@@ -62,6 +66,36 @@ impl Object {
             surfel_spacing,
             phyxel_spacing,
             max_influence,
+            load: glam::Vec3::ZERO,
+            load_ramp: 0.0,
+        }
+    }
+
+    /// Adds the external load at time `t` (s) to the phyxel forces of the next step,
+    /// split over the free phyxels in proportion to their mass.
+    pub fn apply_load(&mut self, t: f32) {
+        if self.load == glam::Vec3::ZERO {
+            return;
+        }
+        let ramp = if self.load_ramp > 0.0 {
+            (t / self.load_ramp).min(1.0)
+        } else {
+            1.0
+        };
+        let p = &mut self.phyxels;
+        let free_mass: f32 = (0..p.len())
+            .filter(|&i| p.fixed[i] == 0)
+            .map(|i| p.mass[i])
+            .sum();
+        if free_mass <= 0.0 {
+            return;
+        }
+        let per_kg = self.load * (ramp / free_mass);
+        for i in 0..p.len() {
+            if p.fixed[i] == 0 {
+                let m = p.mass[i];
+                p.force.add(i, per_kg * m);
+            }
         }
     }
 

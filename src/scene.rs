@@ -20,6 +20,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "sphere-on-plane",
         include_str!("scenes/sphere-on-plane.toml"),
     ),
+    ("soft-on-plane", include_str!("scenes/soft-on-plane.toml")),
+    ("pile", include_str!("scenes/pile.toml")),
+    ("newtons-cradle", include_str!("scenes/newtons-cradle.toml")),
+    ("incline", include_str!("scenes/incline.toml")),
+    ("hertz", include_str!("scenes/hertz.toml")),
 ];
 
 /// The scene `phyxel run` uses without an argument.
@@ -105,6 +110,13 @@ pub struct ObjectSpec {
     /// Anchored phyxel regions: boxes in object-local coordinates (before rotation).
     #[serde(default)]
     pub fixed: Vec<Region>,
+    /// Constant external force on the object (N), spread over its free phyxels in
+    /// proportion to their mass (like gravity).
+    #[serde(default)]
+    pub load: [f32; 3],
+    /// Seconds over which `load` ramps up linearly from zero (0: applied at once).
+    #[serde(default)]
+    pub load_ramp: f32,
 }
 
 fn default_backend() -> String {
@@ -238,10 +250,17 @@ impl Scene {
                     format!("surfel_spacing = {s}: must be a finite number > 0"),
                 ));
             }
+            if !(o.load_ramp.is_finite() && o.load_ramp >= 0.0) {
+                return Err(err(
+                    &format!("{at}.load_ramp"),
+                    format!("load_ramp = {}: must be a finite number >= 0", o.load_ramp),
+                ));
+            }
             let vecs = [
                 ("position", o.position),
                 ("rotation", o.rotation),
                 ("velocity", o.velocity),
+                ("load", o.load),
             ];
             for (name, v) in vecs {
                 if v.iter().any(|c| !c.is_finite()) {
@@ -378,13 +397,9 @@ impl ObjectSpec {
         } else {
             self.name.clone()
         };
-        Ok(Object::new(
-            id,
-            name,
-            surfels,
-            phyxels,
-            self.material.clone(),
-            dynamics,
-        ))
+        let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
+        object.load = Vec3::from(self.load);
+        object.load_ramp = self.load_ramp;
+        Ok(object)
     }
 }

@@ -2,7 +2,7 @@
 
 use crate::broad_phase::{Aabb, Pair, overlapping_pairs};
 use crate::contact::{self, ContactParams, ContactPatch, PairSurfaces};
-use crate::detect::{PairDetection, colliding_surfels};
+use crate::detect::{PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::Grid;
 use crate::implicit::{ImplicitSurface, grid_cell};
@@ -153,13 +153,16 @@ impl World {
             .sum()
     }
 
-    /// Each non-static object's backend advances its phyxels.
+    /// Each non-static object's backend advances its phyxels (under gravity, the
+    /// contact forces of the previous step and the object's external load).
     fn dynamics(&mut self) {
         let (dt, gravity) = (self.dt, self.gravity);
+        let t = self.steps as f32 * dt;
         self.objects
             .par_iter_mut()
             .filter(|o| !o.is_static())
             .for_each(|o| {
+                o.apply_load(t);
                 let ctx = StepContext::new(dt, gravity, &o.material);
                 o.dynamics.step(&mut o.phyxels, &ctx);
             });
@@ -187,11 +190,12 @@ impl World {
         overlapping_pairs(&self.boxes, &is_static, &mut self.pairs);
     }
 
-    /// Surfel grids of the objects in an overlapping pair (Teschner et al. 2003);
-    /// static objects keep theirs, objects in no pair get none.
+    /// Surfel and phyxel grids of the objects in an overlapping pair (Teschner et al.
+    /// 2003); static objects keep theirs, objects in no pair get none.
     fn surfel_grid(&mut self) -> u64 {
         let n = self.objects.len();
         self.grids.resize_with(n, || None);
+        self.phyxel_grids.resize_with(n, || None);
         let mut needed = vec![false; n];
         for p in &self.pairs {
             needed[p.a] = true;
@@ -199,7 +203,12 @@ impl World {
         }
         let objects = &self.objects;
         let mut built = 0;
-        for (k, g) in self.grids.iter_mut().enumerate() {
+        for (k, (g, pg)) in self
+            .grids
+            .iter_mut()
+            .zip(&mut self.phyxel_grids)
+            .enumerate()
+        {
             let o = &objects[k];
             if needed[k] && (g.is_none() || !o.is_static()) {
                 let r_max = o.surfels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
@@ -207,7 +216,9 @@ impl World {
                     o.surfels.pos.iter(),
                     grid_cell(r_max).max(1e-6),
                 ));
-                built += o.surfels.len() as u64;
+                let cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
+                *pg = Some(Grid::build(o.phyxels.pos.iter(), cell));
+                built += (o.surfels.len() + o.phyxels.len()) as u64;
             }
         }
         built
@@ -229,9 +240,21 @@ impl World {
                 ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga);
             let sb =
                 ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb);
-            let a_in_b = colliding_surfels(&oa.surfels, &sb, pair, &mut candidates);
+            let va = Volume {
+                phyxels: self.phyxel_grids[pair.a]
+                    .as_ref()
+                    .expect("grid built for pairs"),
+                reach: oa.phyxel_spacing,
+            };
+            let vb = Volume {
+                phyxels: self.phyxel_grids[pair.b]
+                    .as_ref()
+                    .expect("grid built for pairs"),
+                reach: ob.phyxel_spacing,
+            };
+            let a_in_b = colliding_surfels(&oa.surfels, &sb, &vb, pair, &mut candidates);
             let mut count = candidates.len();
-            let b_in_a = colliding_surfels(&ob.surfels, &sa, pair, &mut candidates);
+            let b_in_a = colliding_surfels(&ob.surfels, &sa, &va, pair, &mut candidates);
             count += candidates.len();
             tested += count as u64;
             let d = PairDetection {
@@ -290,31 +313,18 @@ impl World {
         self.patches.iter().map(|p| p.surfels.len() as u64).sum()
     }
 
-    /// Contact forces spread onto the phyxels of moving objects; they act at the next step.
+    /// Contact forces spread onto the phyxels of moving objects (their grids were built
+    /// this step with the surfel grids); they act at the next step.
     fn distribute(&mut self) {
-        let n = self.objects.len();
-        self.phyxel_grids.resize_with(n, || None);
-        let mut needed = vec![false; n];
-        for p in &self.patches {
-            needed[p.a] = !self.objects[p.a].is_static();
-            needed[p.b] = !self.objects[p.b].is_static();
-        }
-        for (k, g) in self.phyxel_grids.iter_mut().enumerate() {
-            if needed[k] {
-                let o = &self.objects[k];
-                *g = Some(Grid::build(
-                    o.phyxels.pos.iter(),
-                    DISTRIBUTION_SUPPORT * o.max_influence,
-                ));
-            }
-        }
         for patch in &self.patches {
             for (k, sign) in [(patch.a, 1.0f32), (patch.b, -1.0)] {
-                if let Some(grid) = self.phyxel_grids[k].as_ref().filter(|_| needed[k]) {
-                    let o = &mut self.objects[k];
-                    let h = DISTRIBUTION_SUPPORT * o.max_influence;
-                    contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h);
+                let o = &mut self.objects[k];
+                if o.is_static() {
+                    continue;
                 }
+                let grid = self.phyxel_grids[k].as_ref().expect("grid built for pairs");
+                let h = DISTRIBUTION_SUPPORT * o.max_influence;
+                contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h);
             }
         }
     }

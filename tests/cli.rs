@@ -6,7 +6,17 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BUILTINS: [&str; 3] = ["cantilever", "falling-sphere", "two-spheres"];
+const BUILTINS: [&str; 9] = [
+    "cantilever",
+    "falling-sphere",
+    "two-spheres",
+    "sphere-on-plane",
+    "soft-on-plane",
+    "pile",
+    "newtons-cradle",
+    "incline",
+    "hertz",
+];
 
 const PHASES: [&str; 10] = [
     "dynamics",

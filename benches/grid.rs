@@ -1,0 +1,162 @@
+//! Spatial hash grid vs the `kiddo` k-d tree on a 100,000-point jittered cubic lattice
+//! (spacing 1, jitter ±0.25 per coordinate, fixed seed), single thread.
+//!
+//! - `build`: grid rebuild in place (the per-step case) and a fresh grid;
+//! - `range`: build + a fixed-radius query (~30 neighbours) at every point;
+//! - `knn16`: build + the 16 nearest points of every point.
+//!
+//! Run: `cargo bench --bench grid -- --warm-up-time 1 --measurement-time 3`.
+//! Throughput is in points, so µs per point = 1 / (Melem/s); numbers go to
+//! docs/PERFORMANCE.md.
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use glam::Vec3;
+use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use phyxel::grid::Grid;
+use std::hint::black_box;
+use std::num::NonZeroUsize;
+
+/// Lattice dimensions: 50 × 50 × 40 = 100,000 points.
+const DIMS: [usize; 3] = [50, 50, 40];
+/// Query radius; with the lattice's boundary, the mean neighbour count (self
+/// included) is printed once at start-up (≈ 30).
+const RADIUS: f32 = 2.0;
+/// Neighbours per k-nearest query.
+const K: usize = 16;
+
+/// SplitMix64: a small deterministic generator (no extra dependency).
+struct SplitMix(u64);
+
+impl SplitMix {
+    fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [-1, 1).
+    fn symmetric(&mut self) -> f32 {
+        ((self.next_u64() >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+    }
+}
+
+fn lattice() -> Vec<Vec3> {
+    let mut rng = SplitMix(0x5EED);
+    let mut pts = Vec::with_capacity(DIMS.iter().product());
+    for z in 0..DIMS[2] {
+        for y in 0..DIMS[1] {
+            for x in 0..DIMS[0] {
+                let jitter = Vec3::new(rng.symmetric(), rng.symmetric(), rng.symmetric()) * 0.25;
+                pts.push(Vec3::new(x as f32, y as f32, z as f32) + jitter);
+            }
+        }
+    }
+    pts
+}
+
+fn grid_range(grid: &mut Grid, pts: &[Vec3]) -> usize {
+    grid.rebuild(pts.iter().copied(), RADIUS);
+    let mut acc = 0usize;
+    for &p in pts {
+        grid.for_each_within(p, RADIUS, |j, _d2| acc = acc.wrapping_add(j));
+    }
+    acc
+}
+
+fn kiddo_range(arr: &[[f32; 3]]) -> usize {
+    let tree: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice(arr).unwrap();
+    let mut acc = 0usize;
+    for p in arr {
+        tree.query(p)
+            .within::<SquaredEuclidean<f32>>(RADIUS * RADIUS)
+            .unsorted()
+            .visit(|q| acc = acc.wrapping_add(q.item as usize));
+    }
+    acc
+}
+
+fn grid_knn(grid: &mut Grid, pts: &[Vec3], out: &mut Vec<(usize, f32)>) -> usize {
+    grid.rebuild(pts.iter().copied(), RADIUS);
+    let mut acc = 0usize;
+    for &p in pts {
+        grid.k_nearest(p, K, out);
+        acc = acc.wrapping_add(out[K - 1].0);
+    }
+    acc
+}
+
+fn kiddo_knn(arr: &[[f32; 3]]) -> usize {
+    let tree: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice(arr).unwrap();
+    let k = NonZeroUsize::new(K).unwrap();
+    let mut acc = 0usize;
+    for p in arr {
+        let nn = tree
+            .query(p)
+            .nearest_n::<SquaredEuclidean<f32>>(k)
+            .execute();
+        acc = acc.wrapping_add(nn[K - 1].item as usize);
+    }
+    acc
+}
+
+fn grid_vs_kiddo(c: &mut Criterion) {
+    let pts = lattice();
+    let arr: Vec<[f32; 3]> = pts.iter().map(|p| p.to_array()).collect();
+    let n = pts.len();
+
+    // Sanity: same neighbourhoods from both structures.
+    let mut grid = Grid::build(pts.iter().copied(), RADIUS);
+    let mut count = 0usize;
+    for &p in &pts {
+        grid.for_each_within(p, RADIUS, |_, _| count += 1);
+    }
+    let tree: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice(&arr).unwrap();
+    let mut kcount = 0usize;
+    for p in &arr {
+        tree.query(p)
+            .within::<SquaredEuclidean<f32>>(RADIUS * RADIUS)
+            .unsorted()
+            .visit(|_| kcount += 1);
+    }
+    assert_eq!(
+        count, kcount,
+        "grid and kiddo disagree on the range queries"
+    );
+    let mut out = Vec::new();
+    assert_eq!(
+        grid_knn(&mut grid, &pts, &mut out),
+        kiddo_knn(&arr),
+        "grid and kiddo disagree on the 16th neighbours"
+    );
+    eprintln!(
+        "grid bench: {n} points, radius {RADIUS}, mean neighbours (self included) {:.1}",
+        count as f64 / n as f64
+    );
+
+    let mut g = c.benchmark_group("grid");
+    g.throughput(Throughput::Elements(n as u64));
+    g.sample_size(20);
+    g.bench_function("build/rebuild", |b| {
+        b.iter(|| grid.rebuild(black_box(&pts).iter().copied(), RADIUS))
+    });
+    g.bench_function("build/fresh", |b| {
+        b.iter(|| Grid::build(black_box(&pts).iter().copied(), RADIUS))
+    });
+    g.bench_function("build/kiddo", |b| {
+        b.iter(|| ImmutableKdTree::<f32, 3>::new_from_slice(black_box(&arr)).unwrap())
+    });
+    g.bench_function("range/grid", |b| {
+        b.iter(|| grid_range(&mut grid, black_box(&pts)))
+    });
+    g.bench_function("range/kiddo", |b| b.iter(|| kiddo_range(black_box(&arr))));
+    g.bench_function("knn16/grid", |b| {
+        b.iter(|| grid_knn(&mut grid, black_box(&pts), &mut out))
+    });
+    g.bench_function("knn16/kiddo", |b| b.iter(|| kiddo_knn(black_box(&arr))));
+    g.finish();
+}
+
+criterion_group!(benches, grid_vs_kiddo);
+criterion_main!(benches);
