@@ -17,7 +17,7 @@ use rayon::prelude::*;
 pub const MIN_DISTRIBUTION_PHYXELS: usize = 6;
 /// Friction regularisation speed (m/s): below it Coulomb friction is viscous, so a
 /// sticking contact neither chatters nor creeps faster than this times F_t/(μ F_n).
-pub const FRICTION_SLIP_SPEED: f32 = 1.0e-3;
+pub const FRICTION_SLIP_SPEED: f32 = 1.0e-4;
 
 /// A surfel on the contact surface Φ.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -85,9 +85,11 @@ impl PairSurfaces<'_> {
         matches!((self.a.sample(x), self.b.sample(x)), (Some(sa), Some(sb)) if sa.f <= tol && sb.f <= tol)
     }
 
-    /// Contact normal at `x`: from a into b, `normalize(n_a − n_b)`.
-    fn normal(&self, x: Vec3) -> Option<Vec3> {
-        (self.a.sample(x)?.normal - self.b.sample(x)?.normal).try_normalize()
+    /// Normal of Φ at `x`, from a into b: the gradient of F, `λ_a n_a − λ_b n_b`
+    /// normalised (so Φ against a much stiffer body takes that body's normal).
+    fn normal(&self, x: Vec3, p: &ContactParams) -> Option<Vec3> {
+        (p.lambda_a * self.a.sample(x)?.normal - p.lambda_b * self.b.sample(x)?.normal)
+            .try_normalize()
     }
 }
 
@@ -120,7 +122,7 @@ pub fn contact_surface(
         }
         Some(ContactSurfel {
             pos: x,
-            normal: s.normal(x)?,
+            normal: s.normal(x, p)?,
             object,
             area: 0.0,
             force: Vec3::ZERO,
@@ -212,7 +214,7 @@ fn fill_holes(
             }
             if let Some(x) = reproject(guess, c.normal, s, p)
                 && s.in_volume(x, 0.05 * h)
-                && let Some(n) = s.normal(x)
+                && let Some(n) = s.normal(x, p)
             {
                 added.push(ContactSurfel {
                     pos: x,

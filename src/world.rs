@@ -48,7 +48,7 @@ pub struct World {
 pub const DISTRIBUTION_SUPPORT: f32 = 1.0;
 
 /// Contact constants of a pair from the two materials (docs/ARCHITECTURE.md).
-pub fn contact_params(a: &Object, b: &Object) -> ContactParams {
+pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
     let (ma, mb) = (&a.material, &b.material);
     let e_star = 1.0
         / ((1.0 - ma.poisson * ma.poisson) / ma.young + (1.0 - mb.poisson * mb.poisson) / mb.young);
@@ -72,7 +72,9 @@ pub fn contact_params(a: &Object, b: &Object) -> ContactParams {
         lambda_a: ma.young / (ma.young + mb.young),
         lambda_b: mb.young / (ma.young + mb.young),
         stiffness,
-        damping: 2.0 * zeta * (stiffness * rho * h).sqrt(),
+        // Explicit integration damps stably only while c·dt < 2 m for the surface layer
+        // (mass ρh per area) that takes the force: cap at 1.6 ρh/dt.
+        damping: (2.0 * zeta * (stiffness * rho * h).sqrt()).min(1.6 * rho * h / dt),
         friction: (ma.friction * mb.friction).sqrt(),
         spacing: a.surfel_spacing.min(b.surfel_spacing),
     }
@@ -278,7 +280,7 @@ impl World {
             .filter(|d| !d.a_in_b.is_empty() || !d.b_in_a.is_empty())
             .map(|d| {
                 let s = self.pair_surfaces(d.a, d.b);
-                let p = contact_params(&self.objects[d.a], &self.objects[d.b]);
+                let p = contact_params(&self.objects[d.a], &self.objects[d.b], self.dt);
                 contact::contact_surface(d, &s, &p)
             })
             .collect();
@@ -295,7 +297,7 @@ impl World {
         let mut patches = std::mem::take(&mut self.patches);
         for patch in &mut patches {
             let s = self.pair_surfaces(patch.a, patch.b);
-            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b]);
+            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
             contact::resample(patch, &s, &p);
         }
         self.patches = patches;
@@ -306,7 +308,7 @@ impl World {
         let mut patches = std::mem::take(&mut self.patches);
         for patch in &mut patches {
             let s = self.pair_surfaces(patch.a, patch.b);
-            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b]);
+            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
             contact::forces(patch, &s, &p);
         }
         self.patches = patches;
