@@ -210,10 +210,9 @@ fn incline(angle: f32, mu: f32, time: f32) -> (f32, f32) {
 }
 
 /// Coulomb friction, stick: with tan θ < μ (20°, μ = 0.5) the block stays, sliding less
-/// than 1% of its 0.1 m size over 1 s. Known gap: it creeps 1.2 mm/s (1.2% per second)
-/// independently of the friction regularisation speed; see docs/ACCURACY.md.
+/// than 1% of its 0.1 m size over 1 s (at the scene's dt of 0.1 ms; explicit Coulomb
+/// friction creeps in proportion to dt, see docs/ACCURACY.md).
 #[test]
-#[ignore = "known gap: the block creeps 1.2 mm in 1 s (limit 1 mm), docs/ACCURACY.md"]
 fn incline_sticks_below_friction_angle() {
     let (disp, _) = incline(20.0, 0.5, 1.0);
     println!("incline 20°, μ 0.5 (tan θ = 0.36): slid {disp:.2e} m in 1 s");
@@ -222,12 +221,9 @@ fn incline_sticks_below_friction_angle() {
 
 /// Coulomb friction, slide: with tan θ > μ (30°, μ = 0.3) the block slides with
 /// acceleration `g (sin θ − μ cos θ)` to 10% (fitted over 0.5 s of sliding, well inside
-/// the 2.4 m slope), and stays put within 5% of its size over 1 s at 20°, μ = 0.5.
+/// the 2.4 m slope).
 #[test]
 fn incline_slides_by_coulomb() {
-    let (disp, _) = incline(20.0, 0.5, 1.0);
-    println!("incline 20°, μ 0.5 (tan θ = 0.36): slid {disp:.2e} m in 1 s");
-    assert!(disp.abs() < 0.005, "block slid {disp} m although tan θ < μ");
     let (angle, mu) = (30.0f32, 0.3f32);
     let (disp, acc) = incline(angle, mu, 0.5);
     let th = angle.to_radians();
