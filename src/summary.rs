@@ -82,6 +82,8 @@ pub fn run(
     mut progress: impl FnMut(u64),
 ) -> Result<(World, RunSummary), SceneError> {
     let mut world = scene.build(&opts.build)?;
+    // The render surface is only resampled when frames are written.
+    world.render_contacts = opts.out.is_some();
     let steps = opts.steps.unwrap_or(scene.steps);
     let momentum_initial = world.momentum();
     let write_frames = opts.out.clone();

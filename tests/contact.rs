@@ -257,3 +257,57 @@ fn newtons_cradle_passes_momentum() {
         "momentum {total} vs {p_in}"
     );
 }
+
+/// Hertz at three resolutions (phyxel spacing 25, 20 and 16.7 mm, F = 5 N): the
+/// indentation stays within 20% of Hertz at each (the error table of docs/ACCURACY.md).
+#[test]
+fn hertz_at_three_resolutions() {
+    for spacing in [0.025f32, 0.02, 1.0 / 60.0] {
+        let (d, h) = hertz_indentation(5.0, spacing);
+        println!(
+            "hertz: spacing {spacing:.4} m: δ = {d:.4e} m vs Hertz {h:.4e} m ({:+.1}%)",
+            100.0 * (d / h - 1.0)
+        );
+        assert!(
+            (d / h - 1.0).abs() < 0.2,
+            "spacing {spacing}: δ {d} vs Hertz {h}"
+        );
+    }
+}
+
+/// `pile`: four bodies fall onto each other and a plane. Every object stays finite and
+/// above the ground plane, no surfel ever gets deeper into another object than the
+/// thinnest body part (the torus tube radius, 3 cm: nothing passes through), and the
+/// kinetic energy decays: after 1.5 s it is below 5% of its peak.
+#[test]
+fn pile_comes_to_rest_without_passing_through() {
+    let scene = Scene::builtin("pile").unwrap();
+    let mut w = build(&scene);
+    let (mut peak, mut last) = (0.0f64, 0.0f64);
+    for _ in 0..(1.5 / w.dt) as usize {
+        w.step();
+        last = kinetic(&w);
+        peak = peak.max(last);
+    }
+    println!(
+        "pile: KE peak {peak:.3} J, at 1.5 s {last:.4} J, max penetration {:.4} m",
+        w.max_penetration
+    );
+    assert!(w.all_finite());
+    for k in 1..w.objects.len() {
+        assert!(
+            com(&w, k).y > 0.0,
+            "object {k} fell through the ground: {}",
+            com(&w, k)
+        );
+    }
+    assert!(
+        w.max_penetration < 0.03,
+        "penetration {} m: something passed through",
+        w.max_penetration
+    );
+    assert!(
+        last < 0.05 * peak,
+        "kinetic energy {last} J after 1.5 s, peak {peak} J"
+    );
+}
