@@ -1,0 +1,321 @@
+//! Collision detection at scale: two spheres of radius R = 0.1 m whose surfaces overlap
+//! by 1 cm (centres 0.19 m apart, at rest, no gravity), sampled with 10k, 100k and 1M
+//! surfels each (surfel spacing `√(4πR²/N)`) and phyxels at a fixed 0.02 m spacing.
+//!
+//! Every measured step starts from the same state: before each step the phyxels and
+//! surfels are restored from a copy taken after building (outside the timed region), so
+//! the overlap stays 1 cm and every step tests the same candidates. Per size:
+//!
+//! - `detect_<size>/step`: a whole `world.step()` (dynamics, advection, broad phase,
+//!   surfel grids, detection, contact surface, forces, distribution);
+//! - `detect_<size>/phases`: the detection phases alone, `broad_phase + surfel_grid +
+//!   detect`, as timed by the step's own phase timers (`world.times`); the World's phase
+//!   functions are private, so each iteration still runs a whole step, but only these
+//!   three phases count. Throughput is in candidate surfels (surfels of either sphere in
+//!   the broad phase's intersection box): µs per candidate = 1000 / (Kelem/s).
+//!
+//! After each size a table of per-phase medians over every step criterion ran (warm-up
+//! included) is printed to stderr, with the candidate and colliding counts, followed by
+//! a single-thread split of the candidates by path through detection (`paths`: near the
+//! other surface, far inside it, far outside) with the time per candidate of each.
+//!
+//! 1M surfels per sphere is not a criterion bench: one step takes seconds (tens of
+//! seconds at the time of writing) and criterion needs at least 10 samples after a
+//! warm-up. After the criterion benches, `detect_1m` times a few steps one-shot from the
+//! same start state and prints each step and the per-phase medians
+//! (`PHYXEL_BENCH_1M_STEPS`, default 3; 0 skips it). The criterion filter does not
+//! apply to it.
+//!
+//! Run: `cargo bench --bench detect -- --warm-up-time 1 --measurement-time 5`
+//! (one criterion size: append `detect_100k`). Numbers go to docs/PERFORMANCE.md.
+
+use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, measurement::WallTime};
+use glam::Vec3;
+use phyxel::broad_phase::{Aabb, points_in_box};
+use phyxel::grid::Grid;
+use phyxel::implicit::{FAR_NEIGHBOURS, ImplicitSurface, grid_cell};
+use phyxel::scene::{BuildOptions, Scene};
+use phyxel::timing::{Phase, PhaseTimes};
+use phyxel::{Phyxels, Surfels, World};
+use std::f32::consts::PI;
+use std::time::{Duration, Instant};
+
+/// Sphere radius (m).
+const R: f32 = 0.1;
+/// Overlap of the two surfaces (m): centres are `2R − OVERLAP` apart.
+const OVERLAP: f32 = 0.01;
+/// Phyxel spacing (m), the same at every size.
+const PHYXEL_SPACING: f32 = 0.02;
+
+/// The detection phases measured by the `phases` benches.
+const DETECTION: [Phase; 3] = [Phase::BroadPhase, Phase::SurfelGrid, Phase::Detect];
+
+/// Surfel spacing that samples a sphere of radius `R` with about `n` surfels.
+fn surfel_spacing(n: usize) -> f32 {
+    (4.0 * PI * R * R / n as f32).sqrt()
+}
+
+fn scene_toml(n: usize) -> String {
+    let x = 0.5 * (2.0 * R - OVERLAP);
+    let s = surfel_spacing(n);
+    let sphere = |name: &str, x: f32| {
+        format!(
+            "[[objects]]\nname = \"{name}\"\nshape = {{ type = \"sphere\", radius = {R} }}\n\
+             spacing = {PHYXEL_SPACING}\nsurfel_spacing = {s:e}\nposition = [{x}, 0.0, 0.0]\n\
+             velocity = [0.0, 0.0, 0.0]\n\
+             material = {{ density = 1000.0, young = 1.0e5, poisson = 0.3 }}\n"
+        )
+    };
+    format!(
+        "name = \"detect-bench\"\ngravity = [0.0, 0.0, 0.0]\n\n{}\n{}",
+        sphere("left", -x),
+        sphere("right", x)
+    )
+}
+
+/// One measured step: seconds per phase (in `Phase::ALL` order), candidates tested,
+/// colliding surfels found.
+type Record = ([f64; 10], u64, usize);
+
+/// A world and the state every measured step starts from.
+struct Bench {
+    world: World,
+    start: Vec<(Phyxels, Surfels)>,
+    /// Every measured step.
+    records: Vec<Record>,
+}
+
+impl Bench {
+    fn new(n: usize) -> Self {
+        let t = Instant::now();
+        let scene = Scene::parse(&scene_toml(n), "detect bench").expect("bench scene parses");
+        let world = scene
+            .build(&BuildOptions::default())
+            .expect("bench scene builds");
+        let start = world
+            .objects
+            .iter()
+            .map(|o| (o.phyxels.clone(), o.surfels.clone()))
+            .collect();
+        let o = &world.objects[0];
+        eprintln!(
+            "detect bench n = {n}: {} surfels and {} phyxels per sphere, surfel spacing {:.3e} m, \
+             dt {:.3e} s, built in {:.1} s",
+            o.surfels.len(),
+            o.phyxels.len(),
+            surfel_spacing(n),
+            world.dt,
+            t.elapsed().as_secs_f64()
+        );
+        Self {
+            world,
+            start,
+            records: Vec::new(),
+        }
+    }
+
+    /// Restores the start state (not timed), runs one step and records its phase times.
+    /// Returns the step's whole wall time and that of the detection phases.
+    fn step(&mut self) -> (Duration, Duration) {
+        for (o, (p, s)) in self.world.objects.iter_mut().zip(&self.start) {
+            o.phyxels.clone_from(p);
+            o.surfels.clone_from(s);
+        }
+        let before: PhaseTimes = self.world.times.clone();
+        let t = Instant::now();
+        self.world.step();
+        let whole = t.elapsed();
+        let after = &self.world.times;
+        let secs = Phase::ALL.map(|p| after.seconds(p) - before.seconds(p));
+        let tested = after.work(Phase::Detect) - before.work(Phase::Detect);
+        let colliding = self
+            .world
+            .detections
+            .iter()
+            .map(|d| d.a_in_b.len() + d.b_in_a.len())
+            .sum();
+        self.records.push((secs, tested, colliding));
+        let detection = DETECTION.iter().map(|&p| secs[p as usize]).sum::<f64>();
+        (whole, Duration::from_secs_f64(detection))
+    }
+
+    /// Prints per-phase medians over the recorded steps.
+    fn report(&self, label: &str, source: &str) {
+        let n = self.records.len();
+        if n == 0 {
+            return;
+        }
+        let median = |f: &dyn Fn(&Record) -> f64| {
+            let mut v: Vec<f64> = self.records.iter().map(f).collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let ms = |x: f64| x * 1.0e3;
+        let candidates = self.records[0].1;
+        let colliding = self.records[0].2;
+        let stable = self
+            .records
+            .iter()
+            .all(|r| r.1 == candidates && r.2 == colliding);
+        eprintln!("{label}: medians over {n} steps ({source})");
+        for p in Phase::ALL {
+            eprintln!(
+                "  {:<16} {:>10.3} ms/step",
+                p.name(),
+                ms(median(&|r| r.0[p as usize]))
+            );
+        }
+        let det = median(&|r| DETECTION.iter().map(|&p| r.0[p as usize]).sum());
+        let whole = median(&|r| r.0.iter().sum());
+        eprintln!(
+            "  whole step (sum) {:>10.3} ms/step\n  detection phases {:>10.3} ms/step \
+             (broad_phase + surfel_grid + detect)",
+            ms(whole),
+            ms(det)
+        );
+        eprintln!(
+            "  candidates/step {candidates}, colliding/step {colliding}{}; \
+             detection {:.3} µs/candidate, detect alone {:.3} µs/candidate",
+            if stable { "" } else { " (NOT constant!)" },
+            det * 1.0e6 / candidates.max(1) as f64,
+            median(&|r| r.0[Phase::Detect as usize]) * 1.0e6 / candidates.max(1) as f64,
+        );
+    }
+
+    /// Where detection's time goes, single thread, on the start state: the candidates of
+    /// the left sphere against the right sphere's implicit surface, split like
+    /// `colliding_surfels` splits them. *Near*: within the kernels' reach of the other
+    /// surface, projected from there. *Far inside* (analytically inside the other
+    /// sphere): projected starting with the far-field sample, whose `k_nearest` of
+    /// `FAR_NEIGHBOURS` surfels is timed alone too. *Far outside*: rejected by the
+    /// phyxel-volume query (not timed here).
+    fn paths(&self) {
+        let (sa, sb) = (&self.start[0].1, &self.start[1].1);
+        let r_max = sb.radius[..sb.len()].iter().fold(0.0f32, |a, &b| a.max(b));
+        let grid = Grid::build(sb.pos.iter(), grid_cell(r_max));
+        let surface = ImplicitSurface::new(&sb.pos, &sb.normal, &sb.radius, &grid);
+        let bounds = Aabb::of(&sa.pos)
+            .intersection(&Aabb::of(&sb.pos))
+            .expect("the spheres overlap");
+        let mut candidates = Vec::new();
+        points_in_box(&sa.pos, &bounds, &mut candidates);
+        let centre_b = Vec3::new(0.5 * (2.0 * R - OVERLAP), 0.0, 0.0);
+        // Per-call wall times (s); medians, since a preempted call would skew a mean.
+        let (mut sample, mut near, mut far, mut knn_far) = (vec![], vec![], vec![], vec![]);
+        let mut far_out = 0usize;
+        let mut knn = Vec::with_capacity(FAR_NEIGHBOURS);
+        let mut depth_far = 0.0f64;
+        for &c in &candidates {
+            let x = sa.pos.get(c as usize);
+            let t = Instant::now();
+            let s = std::hint::black_box(surface.sample_near(x));
+            sample.push(t.elapsed().as_secs_f64());
+            let depth = R - (x - centre_b).length();
+            if s.is_none() && depth <= 0.0 {
+                far_out += 1;
+                continue;
+            }
+            let t = Instant::now();
+            std::hint::black_box(surface.project(x));
+            let dt = t.elapsed().as_secs_f64();
+            if s.is_some() {
+                near.push(dt);
+            } else {
+                far.push(dt);
+                depth_far += depth as f64;
+                let t = Instant::now();
+                grid.k_nearest(x, FAR_NEIGHBOURS, &mut knn);
+                knn_far.push(t.elapsed().as_secs_f64());
+            }
+        }
+        // "median (mean)" in µs: the mean also counts preempted calls, but it is what
+        // adds up to the phase's time when the cost depends on depth.
+        let us = |v: &mut Vec<f64>| {
+            if v.is_empty() {
+                return "-".to_string();
+            }
+            v.sort_by(f64::total_cmp);
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            format!("{:.3} ({:.3})", v[v.len() / 2] * 1.0e6, mean * 1.0e6)
+        };
+        let spacing = sb.len() as f64;
+        let spacing = (4.0 * std::f64::consts::PI * (R as f64).powi(2) / spacing).sqrt();
+        eprintln!(
+            "  paths (left sphere's {} candidates, one thread, µs per call: median (mean)): \
+             kernel reach {:.3} mm, overlap {:.1} surfel spacings\n  sample_near {}; near {}: \
+             project {}; far inside {} (mean depth {:.2} mm): project {}, \
+             k_nearest({FAR_NEIGHBOURS}) alone {}; far outside {far_out}",
+            candidates.len(),
+            grid_cell(r_max) * 1.0e3,
+            OVERLAP as f64 / spacing,
+            us(&mut sample),
+            near.len(),
+            us(&mut near),
+            far.len(),
+            depth_far * 1.0e3 / far.len().max(1) as f64,
+            us(&mut far),
+            us(&mut knn_far),
+        );
+    }
+}
+
+fn bench_size(g: &mut BenchmarkGroup<'_, WallTime>, b: &mut Bench) {
+    g.bench_function("step", |bn| {
+        bn.iter_custom(|iters| (0..iters).map(|_| b.step().0).sum())
+    });
+    // Criterion's per-element rate for the phases: candidates per step (fixed).
+    let candidates = b.records.last().map_or(1, |r| r.1);
+    g.throughput(Throughput::Elements(candidates));
+    g.bench_function("phases", |bn| {
+        bn.iter_custom(|iters| (0..iters).map(|_| b.step().1).sum())
+    });
+}
+
+fn detect(c: &mut Criterion) {
+    for (label, n) in [("detect_10k", 10_000), ("detect_100k", 100_000)] {
+        let mut g = c.benchmark_group(label);
+        let mut b = Bench::new(n);
+        bench_size(&mut g, &mut b);
+        g.finish();
+        b.report(label, "criterion warm-up and samples");
+        b.paths();
+    }
+}
+
+/// Steps of the one-shot 1M-surfel timing: `PHYXEL_BENCH_1M_STEPS` (default 3; 0 skips).
+fn steps_1m() -> usize {
+    std::env::var("PHYXEL_BENCH_1M_STEPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3)
+}
+
+/// 1M surfels per sphere: a step takes seconds, so instead of criterion (at least 10
+/// samples after a warm-up) a one-shot timing of a few steps from the start state,
+/// printed to stderr (each step's wall time, then per-phase medians).
+fn detect_1m() {
+    let steps = steps_1m();
+    if steps == 0 {
+        return;
+    }
+    let mut b = Bench::new(1_000_000);
+    for k in 0..steps {
+        let (whole, det) = b.step();
+        eprintln!(
+            "detect_1m one-shot step {}: {:.3} s, detection phases {:.3} s",
+            k + 1,
+            whole.as_secs_f64(),
+            det.as_secs_f64()
+        );
+    }
+    b.report("detect_1m", "one-shot");
+    b.paths();
+}
+
+criterion_group!(benches, detect);
+
+fn main() {
+    benches();
+    Criterion::default().configure_from_args().final_summary();
+    detect_1m();
+}
