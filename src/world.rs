@@ -229,54 +229,43 @@ impl World {
     /// Colliding surfels of every pair: surfels in the intersection box that are inside
     /// the other object (eq. 2).
     fn detect(&mut self) -> u64 {
-        let mut candidates = Vec::new();
-        let mut tested = 0;
-        self.detections.clear();
-        for pair in &self.pairs {
-            let (oa, ob) = (&self.objects[pair.a], &self.objects[pair.b]);
-            let (ga, gb) = (
-                self.grids[pair.a].as_ref().expect("grid built for pairs"),
-                self.grids[pair.b].as_ref().expect("grid built for pairs"),
-            );
-            let sa =
-                ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga);
-            let sb =
-                ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb);
-            let va = Volume {
-                phyxels: self.phyxel_grids[pair.a]
-                    .as_ref()
-                    .expect("grid built for pairs"),
-                reach: oa.phyxel_spacing,
-            };
-            let vb = Volume {
-                phyxels: self.phyxel_grids[pair.b]
-                    .as_ref()
-                    .expect("grid built for pairs"),
-                reach: ob.phyxel_spacing,
-            };
-            let a_in_b = colliding_surfels(&oa.surfels, &sb, &vb, pair, &mut candidates);
-            let mut count = candidates.len();
-            let b_in_a = colliding_surfels(&ob.surfels, &sa, &va, pair, &mut candidates);
-            count += candidates.len();
-            tested += count as u64;
-            let d = PairDetection {
-                a: pair.a,
-                b: pair.b,
-                a_in_b,
-                b_in_a,
-                candidates: count,
-            };
+        let volume = |k: usize| Volume {
+            phyxels: self.phyxel_grids[k].as_ref().expect("grid built for pairs"),
+            reach: self.objects[k].phyxel_spacing,
+        };
+        let detections: Vec<PairDetection> = self
+            .pairs
+            .par_iter()
+            .map(|pair| {
+                let s = self.pair_surfaces(pair.a, pair.b);
+                let mut candidates = Vec::new();
+                let a_in_b =
+                    colliding_surfels(s.surfels_a, &s.b, &volume(pair.b), pair, &mut candidates);
+                let mut count = candidates.len();
+                let b_in_a =
+                    colliding_surfels(s.surfels_b, &s.a, &volume(pair.a), pair, &mut candidates);
+                count += candidates.len();
+                PairDetection {
+                    a: pair.a,
+                    b: pair.b,
+                    a_in_b,
+                    b_in_a,
+                    candidates: count,
+                }
+            })
+            .collect();
+        for d in &detections {
             self.max_penetration = self.max_penetration.max(d.max_depth());
-            self.detections.push(d);
         }
-        tested
+        self.detections = detections;
+        self.detections.iter().map(|d| d.candidates as u64).sum()
     }
 
     /// Colliding surfels moved onto the contact surface Φ (paper §6).
     fn contact_surface(&mut self) -> u64 {
         let patches: Vec<ContactPatch> = self
             .detections
-            .iter()
+            .par_iter()
             .filter(|d| !d.a_in_b.is_empty() || !d.b_in_a.is_empty())
             .map(|d| {
                 let s = self.pair_surfaces(d.a, d.b);
@@ -295,22 +284,22 @@ impl World {
             return;
         }
         let mut patches = std::mem::take(&mut self.patches);
-        for patch in &mut patches {
+        patches.par_iter_mut().for_each(|patch| {
             let s = self.pair_surfaces(patch.a, patch.b);
             let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
             contact::resample(patch, &s, &p);
-        }
+        });
         self.patches = patches;
     }
 
     /// Penalty and friction forces on the contact surfels (paper §7).
     fn forces(&mut self) -> u64 {
         let mut patches = std::mem::take(&mut self.patches);
-        for patch in &mut patches {
+        patches.par_iter_mut().for_each(|patch| {
             let s = self.pair_surfaces(patch.a, patch.b);
             let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
             contact::forces(patch, &s, &p);
-        }
+        });
         self.patches = patches;
         self.patches.iter().map(|p| p.surfels.len() as u64).sum()
     }
