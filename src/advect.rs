@@ -5,6 +5,7 @@
 
 use crate::grid::Grid;
 use crate::kernel::poly6_shape;
+use crate::mls::cofactor;
 use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
 use glam::{Mat3, Vec3};
@@ -98,11 +99,7 @@ impl SurfelBinding {
                 let j = Mat3::IDENTITY + g;
                 let n0 = surfels.rest_normal.get(s);
                 // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
-                let cof = Mat3::from_cols(
-                    j.y_axis.cross(j.z_axis),
-                    j.z_axis.cross(j.x_axis),
-                    j.x_axis.cross(j.y_axis),
-                );
+                let cof = cofactor(j);
                 let n = (cof * n0).try_normalize().unwrap_or(surfels.normal.get(s));
                 (surfels.rest.get(s) + u, n, v)
             })

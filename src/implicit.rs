@@ -52,6 +52,17 @@ pub struct Projection {
     pub converged: bool,
 }
 
+/// `a = Σw s / Σw`, `n = normalize(Σw n)`, `f = n·(x − a)` from the weighted sums.
+fn finish(x: Vec3, w_sum: f32, ws: Vec3, wn: Vec3) -> Option<SurfaceSample> {
+    let average = ws / w_sum;
+    let normal = wn.try_normalize()?;
+    Some(SurfaceSample {
+        f: normal.dot(x - average),
+        normal,
+        average,
+    })
+}
+
 /// Grid cell size that lets one 27-cell query cover every kernel of surfels of
 /// disk radius up to `max_radius`.
 pub fn grid_cell(max_radius: f32) -> f32 {
@@ -85,13 +96,7 @@ impl<'a> ImplicitSurface<'a> {
         if w_sum <= 1.0e-30 {
             return None;
         }
-        let average = ws / w_sum;
-        let normal = wn.try_normalize()?;
-        Some(SurfaceSample {
-            f: normal.dot(x - average),
-            normal,
-            average,
-        })
+        finish(x, w_sum, ws, wn)
     }
 
     fn accumulate(&self, x: Vec3) -> (f32, Vec3, Vec3) {
@@ -127,13 +132,7 @@ impl<'a> ImplicitSurface<'a> {
             ws += w * self.pos.get(k);
             wn += w * self.normal.get(k);
         }
-        let average = ws / w_sum;
-        let normal = wn.try_normalize()?;
-        Some(SurfaceSample {
-            f: normal.dot(x - average),
-            normal,
-            average,
-        })
+        finish(x, w_sum, ws, wn)
     }
 
     /// Orthogonal projection onto the surface: `x ← x − f(x) n(x)` until

@@ -257,6 +257,17 @@ fn jacobi_eigen<const N: usize>(mut m: [[f64; N]; N]) -> ([f64; N], [[f64; N]; N
     (std::array::from_fn(|k| m[k][k]), v)
 }
 
+/// Cofactor matrix `[J₂×J₃, J₃×J₁, J₁×J₂]` (columns) = `det(J) J⁻ᵀ` = ∂det J/∂J:
+/// the volume term's force direction and the normal transform without a division.
+#[inline]
+pub fn cofactor(j: Mat3) -> Mat3 {
+    Mat3::from_cols(
+        j.y_axis.cross(j.z_axis),
+        j.z_axis.cross(j.x_axis),
+        j.x_axis.cross(j.y_axis),
+    )
+}
+
 #[inline]
 fn outer(a: DVec3, b: DVec3) -> DMat3 {
     DMat3::from_cols(a * b.x, a * b.y, a * b.z)

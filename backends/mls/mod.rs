@@ -14,7 +14,7 @@ use glam::{Mat3, Vec3};
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::{Diagnostics, Dynamics, StepContext, integrate_symplectic};
 use phyxel::material::{Material, StrainForm};
-use phyxel::mls::MlsStencil;
+use phyxel::mls::{MlsStencil, cofactor};
 use phyxel::phyxels::Phyxels;
 use rayon::prelude::*;
 
@@ -357,11 +357,7 @@ impl Law {
         let s = if self.paper { 2.0 } else { 1.0 };
         let mut p = j * sigma * (-volume * s);
         if self.kv > 0.0 {
-            let cof = Mat3::from_cols(
-                j.y_axis.cross(j.z_axis),
-                j.z_axis.cross(j.x_axis),
-                j.x_axis.cross(j.y_axis),
-            );
+            let cof = cofactor(j);
             p -= cof * (volume * self.kv * (j.determinant() - 1.0));
         }
         (p, frobenius(strain))
