@@ -3,7 +3,7 @@
 //! surfels, and their distribution to the phyxels.
 
 use crate::brent::brent;
-use crate::detect::PairDetection;
+use crate::detect::{Colliding, PairDetection};
 use crate::grid::Grid;
 use crate::implicit::ImplicitSurface;
 use crate::kernel::poly6;
@@ -93,6 +93,39 @@ impl PairSurfaces<'_> {
     }
 }
 
+/// `f_a`, `f_b` along one colliding surfel's segment: the implicit surfaces where a
+/// surfel kernel reaches, else the first-order extension `n·(x − p)` of the signed
+/// distance from the segment's anchor point p on that surface. Deep inside an overlap the
+/// truncated implicit surface is undefined anyway, and the extension saves a k-nearest
+/// search per evaluation (docs/ARCHITECTURE.md).
+struct SegmentField<'a, 'b> {
+    s: &'a PairSurfaces<'b>,
+    anchor_a: (Vec3, Vec3),
+    anchor_b: (Vec3, Vec3),
+}
+
+impl SegmentField<'_, '_> {
+    fn side(surface: &ImplicitSurface<'_>, (p, n): (Vec3, Vec3), x: Vec3) -> (f32, Vec3) {
+        match surface.sample_near(x) {
+            Some(s) => (s.f, s.normal),
+            None => (n.dot(x - p), n),
+        }
+    }
+
+    fn f_a(&self, x: Vec3) -> (f32, Vec3) {
+        Self::side(&self.s.a, self.anchor_a, x)
+    }
+
+    fn f_b(&self, x: Vec3) -> (f32, Vec3) {
+        Self::side(&self.s.b, self.anchor_b, x)
+    }
+
+    /// `F(x) = λ_a f_a(x) − λ_b f_b(x)` (paper eq. 3).
+    fn contact_function(&self, p: &ContactParams, x: Vec3) -> Option<f32> {
+        Some(p.lambda_a * self.f_a(x).0 - p.lambda_b * self.f_b(x).0)
+    }
+}
+
 /// Moves every colliding surfel onto Φ: the root of F on the segment from the surfel to
 /// its projection onto the other surface, by Brent's method; surfels whose root leaves
 /// the intersection volume are dropped (paper §6).
@@ -102,14 +135,29 @@ pub fn contact_surface(
     p: &ContactParams,
 ) -> ContactPatch {
     let tol = 0.05 * p.spacing;
-    let place = |start: Vec3, end: Vec3, object: usize| -> Option<ContactSurfel> {
-        let seg = end - start;
+    // `own` is the surface the colliding surfel lies on, `other` the one it is inside;
+    // the anchors are the surfel and its projection, with their surfaces' normals.
+    let place = |c: &Colliding, own: &Surfels, from_a: bool, object: usize| {
+        let start = own.pos.get(c.surfel as usize);
+        let own_surface = if from_a { &s.a } else { &s.b };
+        let own_normal = own_surface.sample(start)?.normal;
+        let (anchor_a, anchor_b) = if from_a {
+            ((start, own_normal), (c.projection, c.normal))
+        } else {
+            ((c.projection, c.normal), (start, own_normal))
+        };
+        let field = SegmentField {
+            s,
+            anchor_a,
+            anchor_b,
+        };
+        let seg = c.projection - start;
         let len = seg.length();
         let x = if len < 1e-4 * p.spacing {
             start
         } else {
             let t = brent(
-                |t| s.contact_function(p, start + t * seg),
+                |t| field.contact_function(p, start + t * seg),
                 0.0,
                 1.0,
                 1e-3 * p.spacing / len,
@@ -117,12 +165,13 @@ pub fn contact_surface(
             )?;
             start + t * seg
         };
-        if !s.in_volume(x, tol) {
+        let ((fa, na), (fb, nb)) = (field.f_a(x), field.f_b(x));
+        if fa > tol || fb > tol {
             return None;
         }
         Some(ContactSurfel {
             pos: x,
-            normal: s.normal(x, p)?,
+            normal: (p.lambda_a * na - p.lambda_b * nb).try_normalize()?,
             object,
             area: 0.0,
             force: Vec3::ZERO,
@@ -131,11 +180,11 @@ pub fn contact_surface(
     let from_a = det
         .a_in_b
         .par_iter()
-        .map(|c| place(s.surfels_a.pos.get(c.surfel as usize), c.projection, det.a));
+        .map(|c| place(c, s.surfels_a, true, det.a));
     let from_b = det
         .b_in_a
         .par_iter()
-        .map(|c| place(s.surfels_b.pos.get(c.surfel as usize), c.projection, det.b));
+        .map(|c| place(c, s.surfels_b, false, det.b));
     let placed: Vec<Option<ContactSurfel>> = from_a.chain(from_b).collect();
     let dropped = placed.iter().filter(|c| c.is_none()).count();
     ContactPatch {
