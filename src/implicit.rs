@@ -26,6 +26,9 @@ pub struct ImplicitSurface<'a> {
     normal: &'a Vec3s,
     radius: &'a [f32],
     grid: &'a Grid,
+    /// Grid for points far from every kernel (a coarser grid of the same surfels keeps
+    /// their nearest-surfel search short); `grid` unless set.
+    far: &'a Grid,
     /// Largest query radius: the widest kernel's cutoff.
     reach: f32,
     tolerance: f32,
@@ -63,6 +66,11 @@ fn finish(x: Vec3, w_sum: f32, ws: Vec3, wn: Vec3) -> Option<SurfaceSample> {
     })
 }
 
+/// Cell of the far-field grid in cells of the kernel grid: a nearest-surfel search from
+/// a few kernel reaches deep takes one or two coarse queries instead of thousands of
+/// fine cells.
+pub const FAR_GRID_FACTOR: f32 = 8.0;
+
 /// Grid cell size that lets one 27-cell query cover every kernel of surfels of
 /// disk radius up to `max_radius`.
 pub fn grid_cell(max_radius: f32) -> f32 {
@@ -84,9 +92,17 @@ impl<'a> ImplicitSurface<'a> {
             normal,
             radius,
             grid,
+            far: grid,
             reach: grid_cell(r_max),
             tolerance: PROJECTION_TOLERANCE * SIGMA_PER_RADIUS * r_min.min(r_max),
         }
+    }
+
+    /// Uses `coarse` (a grid of the same surfels with larger cells) for points far from
+    /// every kernel.
+    pub fn with_far_grid(mut self, coarse: &'a Grid) -> Self {
+        self.far = coarse;
+        self
     }
 
     /// `f`, `n`, `a` at `x` from the surfels within their kernels' reach; `None` when
@@ -122,7 +138,7 @@ impl<'a> ImplicitSurface<'a> {
         // Far from every kernel: weight the nearest surfels on their own scale.
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         let mut near = Vec::with_capacity(FAR_NEIGHBOURS);
-        self.grid.k_nearest(x, FAR_NEIGHBOURS, &mut near);
+        self.far.k_nearest(x, FAR_NEIGHBOURS, &mut near);
         let (_, d2_far) = *near.last()?;
         let (_, d2_near) = near[0];
         let s2 = d2_far.max(1e-30);

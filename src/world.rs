@@ -5,7 +5,7 @@ use crate::contact::{self, ContactParams, ContactPatch, PairSurfaces};
 use crate::detect::{PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::Grid;
-use crate::implicit::{ImplicitSurface, grid_cell};
+use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, grid_cell};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use glam::Vec3;
@@ -36,6 +36,8 @@ pub struct World {
     pub patches: Vec<ContactPatch>,
     /// Phyxel grids (current positions) of moving objects in contact.
     phyxel_grids: Vec<Option<Grid>>,
+    /// Coarse surfel grids for far-field nearest-surfel searches.
+    far_grids: Vec<Option<Grid>>,
     /// Resample the contact surfaces into render surfaces (only needed for output).
     pub render_contacts: bool,
 }
@@ -95,6 +97,7 @@ impl World {
             detections: Vec::new(),
             patches: Vec::new(),
             phyxel_grids: Vec::new(),
+            far_grids: Vec::new(),
             render_contacts: false,
         }
     }
@@ -104,9 +107,13 @@ impl World {
         let (oa, ob) = (&self.objects[a], &self.objects[b]);
         let ga = self.grids[a].as_ref().expect("grid built for pairs");
         let gb = self.grids[b].as_ref().expect("grid built for pairs");
+        let fa = self.far_grids[a].as_ref().expect("grid built for pairs");
+        let fb = self.far_grids[b].as_ref().expect("grid built for pairs");
         PairSurfaces {
-            a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga),
-            b: ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb),
+            a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga)
+                .with_far_grid(fa),
+            b: ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb)
+                .with_far_grid(fb),
             surfels_a: &oa.surfels,
             surfels_b: &ob.surfels,
             grid_a: ga,
@@ -198,6 +205,7 @@ impl World {
         let n = self.objects.len();
         self.grids.resize_with(n, || None);
         self.phyxel_grids.resize_with(n, || None);
+        self.far_grids.resize_with(n, || None);
         let mut needed = vec![false; n];
         for p in &self.pairs {
             needed[p.a] = true;
@@ -205,19 +213,19 @@ impl World {
         }
         let objects = &self.objects;
         let mut built = 0;
-        for (k, (g, pg)) in self
+        for (k, ((g, pg), fg)) in self
             .grids
             .iter_mut()
             .zip(&mut self.phyxel_grids)
+            .zip(&mut self.far_grids)
             .enumerate()
         {
             let o = &objects[k];
             if needed[k] && (g.is_none() || !o.is_static()) {
                 let r_max = o.surfels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
-                *g = Some(Grid::build(
-                    o.surfels.pos.iter(),
-                    grid_cell(r_max).max(1e-6),
-                ));
+                let cell = grid_cell(r_max).max(1e-6);
+                *g = Some(Grid::build(o.surfels.pos.iter(), cell));
+                *fg = Some(Grid::build(o.surfels.pos.iter(), FAR_GRID_FACTOR * cell));
                 let cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
                 *pg = Some(Grid::build(o.phyxels.pos.iter(), cell));
                 built += (o.surfels.len() + o.phyxels.len()) as u64;
