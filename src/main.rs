@@ -3,6 +3,9 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use phyxel::backends;
+use phyxel::frame::Format;
+use phyxel::import::read_frame;
+use phyxel::render::{Camera, RenderOptions, camera_for, render};
 use phyxel::scene::{BUILTIN, BuildOptions, DEFAULT_SCENE, Scene};
 use phyxel::summary::{RunOptions, RunSummary, run};
 use phyxel::timing::Phase;
@@ -43,12 +46,44 @@ enum Command {
         /// Also write phyxel PLY frames to --out.
         #[arg(long)]
         phyxels: bool,
+        /// File format of the surfel frames in --out: ply (binary PLY) or vtk (.vtp).
+        #[arg(long, default_value = "ply", value_parser = ["ply", "vtk"])]
+        format: String,
+        /// Also render every frame to surfels_NNNNN.png in --out.
+        #[arg(long, requires = "out")]
+        png: bool,
+        /// Image size for --png, WIDTHxHEIGHT.
+        #[arg(long, default_value = "800x600")]
+        size: String,
         /// Print the run summary as one JSON object on stdout.
         #[arg(long)]
         json: bool,
         /// Run even when dt exceeds the stable bound.
         #[arg(long)]
         allow_unstable: bool,
+    },
+    /// Render a surfel frame (PLY) to a PNG image.
+    Render {
+        /// A surfel PLY frame (from `run --out`) or any PLY point cloud with x y z.
+        frame: PathBuf,
+        /// Output PNG file.
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Image size, WIDTHxHEIGHT.
+        #[arg(long, default_value = "800x600")]
+        size: String,
+        /// Take the camera from this scene's [camera] (built-in name or .toml file).
+        #[arg(long)]
+        scene: Option<String>,
+        /// Camera position X,Y,Z (default: a 3/4 view fitted to the frame).
+        #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+        eye: Option<Vec<f32>>,
+        /// Point the camera looks at, X,Y,Z (default: the frame's centre).
+        #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
+        target: Option<Vec<f32>>,
+        /// Vertical field of view in degrees.
+        #[arg(long, default_value_t = 35.0)]
+        fov: f32,
     },
     /// List the built-in scenes, or print one as TOML.
     Scenes {
@@ -62,6 +97,15 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Scenes { show } => scenes(show),
+        Command::Render {
+            frame,
+            out,
+            size,
+            scene,
+            eye,
+            target,
+            fov,
+        } => render_frame(&frame, &out, &size, scene.as_deref(), eye, target, fov),
         Command::Run {
             scene,
             steps,
@@ -69,10 +113,26 @@ fn main() -> ExitCode {
             backend,
             out,
             phyxels,
+            format,
+            png,
+            size,
             json,
             allow_unstable,
         } => {
+            let (width, height) = match parse_size(&size) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: --size {size}: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
             let opts = RunOptions {
+                format: Format::parse(&format).expect("clap checks the value"),
+                png: png.then(|| RenderOptions {
+                    width,
+                    height,
+                    ..Default::default()
+                }),
                 build: BuildOptions {
                     dt,
                     backend,
@@ -83,6 +143,79 @@ fn main() -> ExitCode {
                 phyxels,
             };
             run_scene(&scene, &opts, json)
+        }
+    }
+}
+
+/// Parses `WIDTHxHEIGHT`.
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| "expected WIDTHxHEIGHT, e.g. 800x600".to_string())?;
+    let parse = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (16..=8192).contains(&n) => Ok(n),
+        _ => Err(format!("'{v}': must be a whole number from 16 to 8192")),
+    };
+    Ok((parse(w)?, parse(h)?))
+}
+
+fn point(name: &str, v: Option<Vec<f32>>) -> Result<Option<[f32; 3]>, String> {
+    match v {
+        None => Ok(None),
+        Some(v) if v.len() == 3 => Ok(Some([v[0], v[1], v[2]])),
+        Some(v) => Err(format!("--{name}: expected X,Y,Z, got {} values", v.len())),
+    }
+}
+
+fn render_frame(
+    frame: &std::path::Path,
+    out: &std::path::Path,
+    size: &str,
+    scene: Option<&str>,
+    eye: Option<Vec<f32>>,
+    target: Option<Vec<f32>>,
+    fov: f32,
+) -> ExitCode {
+    let result = (|| -> Result<String, String> {
+        let (width, height) = parse_size(size).map_err(|e| format!("--size {size}: {e}"))?;
+        let surface = read_frame(frame)?;
+        let mut opts = RenderOptions {
+            width,
+            height,
+            ..Default::default()
+        };
+        if let Some(s) = scene {
+            let scene = Scene::resolve(s).map_err(|e| e.to_string())?;
+            opts.camera = scene.camera;
+        }
+        let (eye, target) = (point("eye", eye)?, point("target", target)?);
+        if eye.is_some() || target.is_some() || opts.camera.is_none() {
+            let fitted = camera_for(&surface, &opts);
+            let cam = Camera {
+                position: eye.unwrap_or(fitted.position),
+                target: target.unwrap_or(fitted.target),
+                fov,
+                ..fitted
+            };
+            cam.validate().map_err(|e| format!("camera: {e}"))?;
+            opts.camera = Some(cam);
+        }
+        render(&surface, &opts).write_png(out)?;
+        Ok(format!(
+            "{}: {} surfels -> {} ({width}x{height})",
+            frame.display(),
+            surface.len(),
+            out.display()
+        ))
+    })();
+    match result {
+        Ok(msg) => {
+            eprintln!("{msg}");
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
         }
     }
 }

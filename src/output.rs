@@ -1,8 +1,8 @@
 //! Frame output: binary little-endian PLY files of surfels and phyxels.
 
 use crate::contact::ContactSurfel;
+use crate::frame::{Format, Frame};
 use crate::world::World;
-use glam::Vec3;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -10,12 +10,28 @@ use std::path::{Path, PathBuf};
 /// Writes `surfels_NNNNN.ply` (and `phyxels_NNNNN.ply` when asked) for frame `frame`
 /// into `dir`. Surfel properties: position, normal, radius, object id, contact flag.
 pub fn write_frame(world: &World, dir: &Path, frame: u64, phyxels: bool) -> std::io::Result<()> {
+    write_frame_as(world, dir, frame, phyxels, Format::Ply).map(|_| ())
+}
+
+/// Like [`write_frame`] with the surfel file in `format` (`surfels_NNNNN.ply` or
+/// `.vtp`); returns the render surface that was written.
+pub fn write_frame_as(
+    world: &World,
+    dir: &Path,
+    frame: u64,
+    phyxels: bool,
+    format: Format,
+) -> std::io::Result<Frame> {
     std::fs::create_dir_all(dir)?;
-    write_surfels(world, &dir.join(format!("surfels_{frame:05}.ply")))?;
+    let surface = surface_frame(world);
+    surface.write(
+        &dir.join(format!("surfels_{frame:05}.{}", format.extension())),
+        format,
+    )?;
     if phyxels {
         write_phyxels(world, &dir.join(format!("phyxels_{frame:05}.ply")))?;
     }
-    Ok(())
+    Ok(surface)
 }
 
 fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
@@ -24,10 +40,10 @@ fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
         .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
 }
 
-/// The render surface `S' = S \ C ∪ Φ` (paper §8) of every object as one PLY point
-/// cloud: each object's surfels except its colliding ones, plus the resampled contact
-/// surfels (flag `contact = 1`, disk radius from their object's surfel spacing).
-pub fn write_surfels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
+/// The render surface `S' = S \ C ∪ Φ` (paper §8) of every object as one point cloud:
+/// each object's surfels except its colliding ones, plus the resampled contact surfels
+/// (flag `contact = 1`, disk radius from their object's surfel spacing).
+pub fn surface_frame(world: &World) -> Frame {
     let n_obj = world.objects.len();
     let mut colliding: Vec<Vec<bool>> = world
         .objects
@@ -42,39 +58,25 @@ pub fn write_surfels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
             colliding[d.b][c.surfel as usize] = true;
         }
     }
-    let contact: Vec<&ContactSurfel> = world.patches.iter().flat_map(|p| &p.render).collect();
-    let kept: usize = colliding
-        .iter()
-        .map(|c| c.iter().filter(|&&x| !x).count())
-        .sum();
-    let n = kept + contact.len();
-    let mut w = create(path)?;
-    write!(
-        w,
-        "ply\nformat binary_little_endian 1.0\ncomment phyxel render surface\nelement vertex {n}\n\
-         property float x\nproperty float y\nproperty float z\n\
-         property float nx\nproperty float ny\nproperty float nz\n\
-         property float radius\nproperty int object\nproperty uchar contact\nend_header\n"
-    )?;
-    let vertex = |w: &mut BufWriter<File>, p: Vec3, nrm: Vec3, r: f32, id: u32, flag: u8| {
-        for v in [p.x, p.y, p.z, nrm.x, nrm.y, nrm.z, r] {
-            w.write_all(&v.to_le_bytes())?;
-        }
-        w.write_all(&(id as i32).to_le_bytes())?;
-        w.write_all(&[flag])
-    };
+    let mut frame = Frame::default();
     for (k, o) in world.objects.iter().enumerate() {
         let s = &o.surfels;
         for i in (0..s.len()).filter(|&i| !colliding[k][i]) {
-            vertex(&mut w, s.pos.get(i), s.normal.get(i), s.radius[i], o.id, 0)?;
+            frame.push(s.pos.get(i), s.normal.get(i), s.radius[i], o.id as i32, 0);
         }
     }
-    for c in contact {
+    for c in world.patches.iter().flat_map(|p| &p.render) {
+        let c: &ContactSurfel = c;
         let o = &world.objects[c.object.min(n_obj - 1)];
         let r = o.surfel_spacing * std::f32::consts::FRAC_2_PI.sqrt();
-        vertex(&mut w, c.pos, c.normal, r, o.id, 1)?;
+        frame.push(c.pos, c.normal, r, o.id as i32, 1);
     }
-    w.flush()?;
+    frame
+}
+
+/// The render surface of every object (see [`surface_frame`]) as one binary PLY file.
+pub fn write_surfels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
+    surface_frame(world).write_ply(path)?;
     Ok(path.to_path_buf())
 }
 

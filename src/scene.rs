@@ -4,6 +4,7 @@ use crate::backends;
 use crate::material::Material;
 use crate::object::Object;
 use crate::phyxels::Phyxels;
+use crate::render::Camera;
 use crate::shape::Shape;
 use crate::surfels::Surfels;
 use crate::world::World;
@@ -49,6 +50,9 @@ pub struct Scene {
     pub gravity: [f32; 3],
     #[serde(default)]
     pub output: Output,
+    /// Camera for rendered frames (`phyxel run --png`); omitted: fitted to the first frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub camera: Option<Camera>,
     pub objects: Vec<ObjectSpec>,
 }
 
@@ -217,6 +221,9 @@ impl Scene {
         }
         if self.output.every == 0 {
             return Err(err("output.every", "every = 0: must be >= 1".into()));
+        }
+        if let Some(c) = &self.camera {
+            c.validate().map_err(|m| err("camera", m))?;
         }
         if self.objects.is_empty() {
             return Err(err("objects", "the scene has no [[objects]]".into()));

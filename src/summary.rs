@@ -1,6 +1,8 @@
 //! The run summary (`phyxel run --json`) and the loop that produces it.
 
+use crate::frame::Format;
 use crate::output;
+use crate::render::{self, RenderOptions};
 use crate::scene::{BuildOptions, Scene, SceneError};
 use crate::timing::Phase;
 use crate::world::World;
@@ -19,6 +21,11 @@ pub struct RunOptions {
     pub out: Option<PathBuf>,
     /// Also write phyxel frames.
     pub phyxels: bool,
+    /// File format of the surfel frames.
+    pub format: Format,
+    /// Also render each frame to `surfels_NNNNN.png` in `out`, with these options (the
+    /// camera: theirs, else the scene's, else fitted to the first frame).
+    pub png: Option<RenderOptions>,
 }
 
 /// One object at the end of a run.
@@ -90,10 +97,23 @@ pub fn run(
     let every = scene.output.every;
     let phyxels = opts.phyxels || scene.output.phyxels;
     let mut frames = 0;
-    let frame = |world: &World, k: u64| -> Result<(), SceneError> {
+    let mut png = opts.png.clone();
+    if let Some(p) = &mut png {
+        p.camera = p.camera.or(scene.camera);
+    }
+    let mut frame = |world: &World, k: u64| -> Result<(), SceneError> {
         if let Some(dir) = &write_frames {
-            output::write_frame(world, dir, k, phyxels)
-                .map_err(|e| SceneError(format!("writing frame {k} to {}: {e}", dir.display())))?;
+            let err =
+                |e: String| SceneError(format!("writing frame {k} to {}: {e}", dir.display()));
+            let surface = output::write_frame_as(world, dir, k, phyxels, opts.format)
+                .map_err(|e| err(e.to_string()))?;
+            if let Some(p) = &mut png {
+                // One camera for the whole run: fitted to the first frame.
+                p.camera = Some(render::camera_for(&surface, p));
+                render::render(&surface, p)
+                    .write_png(&dir.join(format!("surfels_{k:05}.png")))
+                    .map_err(err)?;
+            }
         }
         Ok(())
     };

@@ -1,0 +1,119 @@
+//! Reading files in: PLY frames (for `phyxel render` and round trips) and, through the
+//! same PLY reader, triangle meshes and point clouds. Every error names the file and,
+//! where there is one, the element or line.
+
+use crate::frame::Frame;
+use glam::Vec3;
+use ply_rs_bw::parser::{Parser, Reader};
+use ply_rs_bw::ply::{DefaultElement, Encoding, Header, Payload, Property};
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+/// A parsed PLY file: its header and every element, in header order.
+pub struct PlyFile {
+    pub header: Header,
+    pub payload: Payload<DefaultElement>,
+}
+
+/// Reads a whole PLY file (ASCII or binary). Errors name the file, and for a payload cut
+/// short or malformed, the element name and index (binary) or line (ASCII).
+pub fn read_ply(path: &Path) -> Result<PlyFile, String> {
+    let name = path.display();
+    let file = File::open(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+    let mut reader = Reader::new(BufReader::new(file));
+    let parser = Parser::<DefaultElement>::new();
+    let header = parser
+        .read_header(&mut reader)
+        .map_err(|e| format!("{name}: bad PLY header: {e}"))?;
+    let mut payload = Payload::with_capacity(header.elements.len());
+    for (key, def) in &header.elements {
+        let elems = match header.encoding {
+            Encoding::Ascii => parser
+                .read_payload_for_element(&mut reader, def, &header)
+                .map_err(|e| format!("{name}: element '{key}': {e}"))?,
+            Encoding::BinaryLittleEndian | Encoding::BinaryBigEndian => {
+                let mut v = Vec::with_capacity(def.count.min(1 << 24));
+                for i in 0..def.count {
+                    let r = if header.encoding == Encoding::BinaryLittleEndian {
+                        parser.read_little_endian_element(reader.get_mut(), def)
+                    } else {
+                        parser.read_big_endian_element(reader.get_mut(), def)
+                    };
+                    let e = r.map_err(|e| {
+                        let what = if e.kind() == std::io::ErrorKind::UnexpectedEof {
+                            "file cut short (binary PLY truncated)".to_string()
+                        } else {
+                            e.to_string()
+                        };
+                        format!("{name}: element '{key}' {i} of {}: {what}", def.count)
+                    })?;
+                    v.push(e);
+                }
+                v
+            }
+        };
+        payload.insert(key.clone(), elems);
+    }
+    Ok(PlyFile { header, payload })
+}
+
+/// A scalar property of element `i` as f32, or an error naming the file and element.
+fn scalar(file: &str, elem: &str, i: usize, e: &DefaultElement, prop: &str) -> Result<f32, String> {
+    match e.get(prop) {
+        Some(p) => p
+            .to_f32_lossy()
+            .ok_or_else(|| format!("{file}: element '{elem}' {i}: property '{prop}' is a list")),
+        None => Err(format!("{file}: element '{elem}' has no property '{prop}'")),
+    }
+}
+
+fn integer(p: Option<&Property>) -> Option<i64> {
+    Some(match p? {
+        Property::Char(v) => *v as i64,
+        Property::UChar(v) => *v as i64,
+        Property::Short(v) => *v as i64,
+        Property::UShort(v) => *v as i64,
+        Property::Int(v) => *v as i64,
+        Property::UInt(v) => *v as i64,
+        Property::Float(v) => *v as i64,
+        Property::Double(v) => *v as i64,
+        _ => return None,
+    })
+}
+
+/// Reads a surfel frame written by `phyxel run --out` (or any PLY point cloud with
+/// `x y z`; normals, `radius`, `object` and `contact` are optional, defaulting to
+/// +z, 0, 0 and 0). A radius of 0 means "unknown": the renderer picks one.
+pub fn read_frame(path: &Path) -> Result<Frame, String> {
+    let ply = read_ply(path)?;
+    let file = path.display().to_string();
+    let verts = ply
+        .payload
+        .get("vertex")
+        .ok_or_else(|| format!("{file}: no 'vertex' element"))?;
+    let mut frame = Frame::default();
+    for (i, e) in verts.iter().enumerate() {
+        let get = |p: &str| scalar(&file, "vertex", i, e, p);
+        let pos = Vec3::new(get("x")?, get("y")?, get("z")?);
+        if !pos.is_finite() {
+            return Err(format!(
+                "{file}: element 'vertex' {i}: position {pos} is not finite"
+            ));
+        }
+        let normal = if e.contains_key("nx") {
+            Vec3::new(get("nx")?, get("ny")?, get("nz")?)
+        } else {
+            Vec3::Z
+        };
+        let radius = if e.contains_key("radius") {
+            get("radius")?
+        } else {
+            0.0
+        };
+        let object = integer(e.get("object")).unwrap_or(0) as i32;
+        let contact = integer(e.get("contact")).unwrap_or(0).clamp(0, 255) as u8;
+        frame.push(pos, normal, radius, object, contact);
+    }
+    Ok(frame)
+}

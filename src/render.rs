@@ -1,0 +1,341 @@
+//! A headless software splat renderer: surfels drawn as shaded, oriented discs with a
+//! depth buffer (ray–disc intersection per pixel), Lambert + ambient lighting, one
+//! colour per object and contact surfels highlighted; supersampled, written as PNG.
+
+use crate::frame::Frame;
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::Path;
+
+/// Background colour (RGB) of every rendered image.
+pub const BACKGROUND: [u8; 3] = [236, 239, 243];
+
+/// Colour of contact surfels (flag `contact = 1`).
+pub const CONTACT_COLOUR: [f32; 3] = [0.92, 0.16, 0.10];
+
+/// Object colours, by object id modulo their count (no reds: red marks contact).
+pub const PALETTE: [[f32; 3]; 6] = [
+    [0.26, 0.50, 0.86],
+    [0.36, 0.70, 0.36],
+    [0.93, 0.74, 0.22],
+    [0.60, 0.42, 0.80],
+    [0.22, 0.70, 0.70],
+    [0.62, 0.62, 0.60],
+];
+
+/// The colour of object `id`.
+pub fn object_colour(id: i32) -> [f32; 3] {
+    PALETTE[id.rem_euclid(PALETTE.len() as i32) as usize]
+}
+
+/// A pinhole camera: eye position, point looked at, vertical field of view (degrees).
+/// In a scene file: `[camera] position = [..], target = [..], fov = 35`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Camera {
+    pub position: [f32; 3],
+    pub target: [f32; 3],
+    /// Vertical field of view (degrees).
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+    /// World up direction.
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+}
+
+fn default_fov() -> f32 {
+    35.0
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+
+impl Camera {
+    /// A 3/4 view (front, right, above) that fits the box `lo..hi` into a
+    /// `width × height` image.
+    pub fn fit(lo: Vec3, hi: Vec3, width: u32, height: u32) -> Self {
+        let centre = 0.5 * (lo + hi);
+        let radius = (0.5 * (hi - lo).length()).max(1e-6);
+        let fov = default_fov();
+        let aspect = width as f32 / height.max(1) as f32;
+        let half_v = 0.5 * fov.to_radians();
+        let half_h = (half_v.tan() * aspect).atan();
+        let half = half_v.min(half_h);
+        let dist = 1.05 * radius / half.sin();
+        let dir = Vec3::new(0.55, 0.45, 1.0).normalize();
+        Self {
+            position: (centre + dist * dir).to_array(),
+            target: centre.to_array(),
+            fov,
+            up: default_up(),
+        }
+    }
+
+    /// Checks the camera; the message names the bad value.
+    pub fn validate(&self) -> Result<(), String> {
+        let (eye, target, up) = (
+            Vec3::from(self.position),
+            Vec3::from(self.target),
+            Vec3::from(self.up),
+        );
+        if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
+            return Err("position, target and up must be finite".into());
+        }
+        if !(self.fov > 1.0 && self.fov < 170.0) {
+            return Err(format!("fov = {}: must be in (1, 170) degrees", self.fov));
+        }
+        let fwd = target - eye;
+        if fwd.length() < 1e-9 {
+            return Err("position and target coincide".into());
+        }
+        if fwd.normalize().cross(up).length() < 1e-4 {
+            return Err("up is parallel to the view direction".into());
+        }
+        Ok(())
+    }
+
+    fn basis(&self) -> (Vec3, Vec3, Vec3, Vec3) {
+        let eye = Vec3::from(self.position);
+        let fwd = (Vec3::from(self.target) - eye).normalize();
+        let right = fwd.cross(Vec3::from(self.up)).normalize();
+        let up = right.cross(fwd);
+        (eye, fwd, right, up)
+    }
+
+    /// Focal length in pixels for an image `height` pixels high.
+    fn focal(&self, height: u32) -> f32 {
+        0.5 * height as f32 / (0.5 * self.fov.to_radians()).tan()
+    }
+
+    /// The pixel coordinates (x right, y down; pixel centres at +0.5) and view depth of
+    /// `p` in a `width × height` image; `None` behind the camera.
+    pub fn project(&self, p: Vec3, width: u32, height: u32) -> Option<(f32, f32, f32)> {
+        let (eye, fwd, right, up) = self.basis();
+        let q = p - eye;
+        let z = q.dot(fwd);
+        if z <= 1e-6 {
+            return None;
+        }
+        let f = self.focal(height);
+        Some((
+            0.5 * width as f32 + f * q.dot(right) / z,
+            0.5 * height as f32 - f * q.dot(up) / z,
+            z,
+        ))
+    }
+}
+
+/// How to render.
+#[derive(Clone, Debug)]
+pub struct RenderOptions {
+    pub width: u32,
+    pub height: u32,
+    /// Camera; `None`: [`Camera::fit`] to the frame's bounds.
+    pub camera: Option<Camera>,
+    /// Samples per pixel along each axis (2: 4 samples per pixel).
+    pub supersample: u32,
+    /// Disc radius scale over the surfel radius (closes gaps between neighbours).
+    pub splat_scale: f32,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        Self {
+            width: 800,
+            height: 600,
+            camera: None,
+            supersample: 2,
+            splat_scale: 1.2,
+        }
+    }
+}
+
+/// An 8-bit RGB image, rows top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
+}
+
+impl Image {
+    /// The colour of pixel `(x, y)`.
+    pub fn pixel(&self, x: u32, y: u32) -> [u8; 3] {
+        let i = 3 * (y as usize * self.width as usize + x as usize);
+        [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
+    }
+
+    /// Writes the image as an 8-bit RGB PNG.
+    pub fn write_png(&self, path: &Path) -> Result<(), String> {
+        let name = path.display();
+        let file = File::create(path).map_err(|e| format!("{name}: cannot create: {e}"))?;
+        let mut enc = png::Encoder::new(BufWriter::new(file), self.width, self.height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        enc.set_compression(png::Compression::High);
+        let mut w = enc
+            .write_header()
+            .map_err(|e| format!("{name}: writing PNG: {e}"))?;
+        w.write_image_data(&self.rgb)
+            .map_err(|e| format!("{name}: writing PNG: {e}"))?;
+        w.finish().map_err(|e| format!("{name}: writing PNG: {e}"))
+    }
+
+    /// Reads an 8-bit RGB or RGBA PNG (for tests and tools).
+    pub fn read_png(path: &Path) -> Result<Self, String> {
+        let name = path.display();
+        let file = File::open(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+        let mut dec = png::Decoder::new(std::io::BufReader::new(file))
+            .read_info()
+            .map_err(|e| format!("{name}: reading PNG: {e}"))?;
+        let mut buf = vec![0; dec.output_buffer_size().unwrap_or(0)];
+        let info = dec
+            .next_frame(&mut buf)
+            .map_err(|e| format!("{name}: reading PNG: {e}"))?;
+        let channels = match info.color_type {
+            png::ColorType::Rgb => 3,
+            png::ColorType::Rgba => 4,
+            c => return Err(format!("{name}: unsupported PNG colour type {c:?}")),
+        };
+        if info.bit_depth != png::BitDepth::Eight {
+            return Err(format!(
+                "{name}: unsupported PNG bit depth {:?}",
+                info.bit_depth
+            ));
+        }
+        let rgb = buf[..info.buffer_size()]
+            .chunks_exact(channels)
+            .flat_map(|c| [c[0], c[1], c[2]])
+            .collect();
+        Ok(Self {
+            width: info.width,
+            height: info.height,
+            rgb,
+        })
+    }
+}
+
+/// The camera `opts` asks for, or one fitted to `frame`.
+pub fn camera_for(frame: &Frame, opts: &RenderOptions) -> Camera {
+    opts.camera.unwrap_or_else(|| {
+        let (lo, hi) = frame
+            .bounds()
+            .unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        Camera::fit(lo, hi, opts.width, opts.height)
+    })
+}
+
+/// Renders `frame` as splats.
+pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
+    let cam = camera_for(frame, opts);
+    let s = opts.supersample.max(1);
+    let (w, h) = (opts.width.max(1) * s, opts.height.max(1) * s);
+    let (eye, fwd, right, up) = cam.basis();
+    let f = cam.focal(h);
+    let bg = BACKGROUND.map(|c| c as f32 / 255.0);
+    let mut colour = vec![bg; (w * h) as usize];
+    let mut depth = vec![f32::INFINITY; (w * h) as usize];
+    // Key light from the upper left of the viewer, fill from the camera.
+    let key = (-0.45 * right + 0.8 * up - 0.5 * fwd).normalize();
+    // Radius for frames without one: from the bounds and the count.
+    let fallback = frame
+        .bounds()
+        .map(|(lo, hi)| {
+            let d = hi - lo;
+            let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
+            (area / frame.len().max(1) as f32).sqrt() * 0.7
+        })
+        .unwrap_or(0.01)
+        .max(1e-6);
+    for i in 0..frame.len() {
+        let p = frame.pos[i];
+        let r0 = if frame.radius[i] > 0.0 && frame.radius[i].is_finite() {
+            frame.radius[i]
+        } else {
+            fallback
+        };
+        let r = r0 * opts.splat_scale;
+        let q = p - eye;
+        let z = q.dot(fwd);
+        if z <= r || !p.is_finite() {
+            continue;
+        }
+        let cx = 0.5 * w as f32 + f * q.dot(right) / z;
+        let cy = 0.5 * h as f32 - f * q.dot(up) / z;
+        let rp = f * r / (z - r) + 1.0;
+        let (x0, x1) = (
+            (cx - rp).floor().max(0.0),
+            (cx + rp).ceil().min(w as f32 - 1.0),
+        );
+        let (y0, y1) = (
+            (cy - rp).floor().max(0.0),
+            (cy + rp).ceil().min(h as f32 - 1.0),
+        );
+        if x0 > x1 || y0 > y1 {
+            continue;
+        }
+        let mut n = frame.normal[i].normalize_or_zero();
+        if n == Vec3::ZERO {
+            n = -q / z;
+        }
+        if n.dot(q) > 0.0 {
+            n = -n;
+        }
+        let base = if frame.contact[i] != 0 {
+            CONTACT_COLOUR
+        } else {
+            object_colour(frame.object[i])
+        };
+        let lambert = n.dot(key).max(0.0);
+        let fill = n.dot(-fwd).max(0.0);
+        let light = 0.22 + 0.62 * lambert + 0.22 * fill;
+        let shaded = base.map(|c| (c * light).min(1.0));
+        for py in y0 as u32..=y1 as u32 {
+            for px in x0 as u32..=x1 as u32 {
+                // Ray with unit forward component: t is the view depth.
+                let d = fwd
+                    + ((px as f32 + 0.5 - 0.5 * w as f32) / f) * right
+                    + ((0.5 * h as f32 - py as f32 - 0.5) / f) * up;
+                let denom = n.dot(d);
+                if denom.abs() < 1e-4 {
+                    continue; // disc seen edge-on
+                }
+                let t = n.dot(q) / denom;
+                if (eye + t * d - p).length_squared() > r * r {
+                    continue;
+                }
+                let k = (py * w + px) as usize;
+                if t > 0.0 && t < depth[k] {
+                    depth[k] = t;
+                    colour[k] = shaded;
+                }
+            }
+        }
+    }
+    // Box-filter down to the output size.
+    let (ow, oh) = (opts.width.max(1), opts.height.max(1));
+    let mut rgb = Vec::with_capacity((3 * ow * oh) as usize);
+    let norm = 1.0 / (s * s) as f32;
+    for y in 0..oh {
+        for x in 0..ow {
+            let mut acc = [0.0f32; 3];
+            for sy in 0..s {
+                for sx in 0..s {
+                    let c = colour[((y * s + sy) * w + x * s + sx) as usize];
+                    for k in 0..3 {
+                        acc[k] += c[k];
+                    }
+                }
+            }
+            rgb.extend(acc.map(|a| (a * norm * 255.0).round().clamp(0.0, 255.0) as u8));
+        }
+    }
+    Image {
+        width: ow,
+        height: oh,
+        rgb,
+    }
+}

@@ -1,0 +1,195 @@
+//! The splat renderer: `phyxel run --png`, `phyxel render`, and the library API.
+
+use glam::Vec3;
+use phyxel::frame::Frame;
+use phyxel::import::read_frame;
+use phyxel::render::{BACKGROUND, Camera, Image, RenderOptions, render};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// A fresh temp directory, removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(label: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("phyxel-render-{label}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        Self(p)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn phyxel(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args(args)
+        .output()
+        .expect("phyxel runs")
+}
+
+fn centre(frame: &Frame) -> Vec3 {
+    frame.pos.iter().copied().sum::<Vec3>() / frame.len() as f32
+}
+
+/// The object's centre is drawn (not background), the corners are background.
+fn check_object_at_centre(img: &Image, frame: &Frame, cam: &Camera) {
+    let (x, y, _) = cam
+        .project(centre(frame), img.width, img.height)
+        .expect("centre in front of the camera");
+    let (x, y) = (x as u32, y as u32);
+    assert!(
+        x < img.width && y < img.height,
+        "centre projects to ({x}, {y})"
+    );
+    assert_ne!(img.pixel(x, y), BACKGROUND, "object pixel at ({x}, {y})");
+    for (cx, cy) in [(0, 0), (img.width - 1, 0), (0, img.height - 1)] {
+        assert_eq!(img.pixel(cx, cy), BACKGROUND, "corner ({cx}, {cy})");
+    }
+}
+
+#[test]
+fn run_png_writes_one_image_per_frame() {
+    let dir = TempDir::new("run");
+    let out = dir.0.to_str().unwrap();
+    let o = phyxel(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "10",
+        "--out",
+        out,
+        "--png",
+        "--size",
+        "320x240",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for k in 0..=1 {
+        let png = dir.0.join(format!("surfels_{k:05}.png"));
+        let img = Image::read_png(&png).unwrap();
+        assert_eq!((img.width, img.height), (320, 240));
+        let frame = read_frame(&dir.0.join(format!("surfels_{k:05}.ply"))).unwrap();
+        // The run's camera is fitted to the first frame.
+        let first = read_frame(&dir.0.join("surfels_00000.ply")).unwrap();
+        let (lo, hi) = first.bounds().unwrap();
+        check_object_at_centre(&img, &frame, &Camera::fit(lo, hi, 320, 240));
+    }
+}
+
+#[test]
+fn render_command_draws_a_frame() {
+    let dir = TempDir::new("cmd");
+    let out = dir.0.to_str().unwrap();
+    let o = phyxel(&["run", "falling-sphere", "--steps", "1", "--out", out]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let ply = dir.0.join("surfels_00000.ply");
+    let png = dir.0.join("image.png");
+    let o = phyxel(&[
+        "render",
+        ply.to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "200x150",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let img = Image::read_png(&png).unwrap();
+    assert_eq!((img.width, img.height), (200, 150));
+    let frame = read_frame(&ply).unwrap();
+    let (lo, hi) = frame.bounds().unwrap();
+    check_object_at_centre(&img, &frame, &Camera::fit(lo, hi, 200, 150));
+}
+
+#[test]
+fn render_command_errors_name_the_file() {
+    let o = phyxel(&["render", "/nonexistent/frame.ply", "-o", "/tmp/x.png"]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("/nonexistent/frame.ply"), "{err}");
+    let o = phyxel(&["render", "x.ply", "-o", "/tmp/x.png", "--size", "big"]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--size big"));
+    let o = phyxel(&["run", "falling-sphere", "--png"]);
+    assert!(!o.status.success(), "--png without --out is refused");
+}
+
+/// A flat square patch of surfels facing +z at `z`, object `id`, contact flag `c`.
+fn patch(frame: &mut Frame, x0: f32, z: f32, id: i32, c: u8) {
+    for i in 0..20 {
+        for j in 0..20 {
+            let p = Vec3::new(x0 + 0.05 * i as f32, 0.05 * j as f32 - 0.5, z);
+            frame.push(p, Vec3::Z, 0.03, id, c);
+        }
+    }
+}
+
+#[test]
+fn objects_get_their_colours_and_contact_is_highlighted() {
+    let mut frame = Frame::default();
+    patch(&mut frame, -1.1, 0.0, 0, 0);
+    patch(&mut frame, 0.1, 0.0, 0, 1);
+    let cam = Camera {
+        position: [0.0, 0.0, 4.0],
+        target: [0.0, 0.0, 0.0],
+        fov: 40.0,
+        up: [0.0, 1.0, 0.0],
+    };
+    let opts = RenderOptions {
+        width: 160,
+        height: 120,
+        camera: Some(cam),
+        ..Default::default()
+    };
+    let img = render(&frame, &opts);
+    let at = |p: Vec3| {
+        let (x, y, _) = cam.project(p, 160, 120).unwrap();
+        img.pixel(x as u32, y as u32)
+    };
+    let plain = at(Vec3::new(-0.6, 0.0, 0.0));
+    let contact = at(Vec3::new(0.6, 0.0, 0.0));
+    // Object 0 is blue, contact red.
+    assert!(plain[2] > plain[0], "object colour {plain:?}");
+    assert!(contact[0] > 2 * contact[2], "contact colour {contact:?}");
+    assert_eq!(at(Vec3::new(0.0, 0.9, 0.0)), BACKGROUND);
+}
+
+#[test]
+fn nearer_splats_hide_farther_ones() {
+    let mut frame = Frame::default();
+    patch(&mut frame, -0.5, 0.0, 1, 0); // green, behind
+    patch(&mut frame, -0.5, 0.5, 0, 0); // blue, in front
+    let cam = Camera {
+        position: [0.0, 0.0, 4.0],
+        target: [0.0, 0.0, 0.0],
+        fov: 40.0,
+        up: [0.0, 1.0, 0.0],
+    };
+    let opts = RenderOptions {
+        width: 100,
+        height: 100,
+        camera: Some(cam),
+        ..Default::default()
+    };
+    let img = render(&frame, &opts);
+    let (x, y, _) = cam.project(Vec3::new(0.0, 0.0, 0.5), 100, 100).unwrap();
+    let c = img.pixel(x as u32, y as u32);
+    assert!(c[2] > c[1], "front (blue) object visible: {c:?}");
+}
+
+#[test]
+fn png_round_trip() {
+    let dir = TempDir::new("png");
+    let img = Image {
+        width: 3,
+        height: 2,
+        rgb: (0..18).map(|v| v * 10).collect(),
+    };
+    let p: &Path = &dir.0.join("a.png");
+    img.write_png(p).unwrap();
+    assert_eq!(Image::read_png(p).unwrap(), img);
+}
