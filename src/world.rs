@@ -40,6 +40,9 @@ pub struct World {
     far_grids: Vec<Option<Grid>>,
     /// Resample the contact surfaces into render surfaces (only needed for output).
     pub render_contacts: bool,
+    /// Contact surfels whose friction force was evaluated, summed over the run
+    /// (zero when every pair has μ = 0: no friction work).
+    pub friction_work: u64,
 }
 
 /// Support of the contact-force distribution kernel in influence radii. The paper uses
@@ -99,6 +102,7 @@ impl World {
             phyxel_grids: Vec::new(),
             far_grids: Vec::new(),
             render_contacts: false,
+            friction_work: 0,
         }
     }
 
@@ -145,9 +149,11 @@ impl World {
         t.add_work(Phase::Detect, tested);
         let contacts = t.time(Phase::ContactSurface, || self.contact_surface());
         t.add_work(Phase::ContactSurface, contacts);
-        t.time(Phase::Resample, || self.resample());
-        let forced = t.time(Phase::Forces, || self.forces());
+        let rendered = t.time(Phase::Resample, || self.resample());
+        t.add_work(Phase::Resample, rendered);
+        let (forced, rubbed) = t.time(Phase::Forces, || self.forces());
         t.add_work(Phase::Forces, forced);
+        self.friction_work += rubbed;
         t.time(Phase::Distribute, || self.distribute());
         t.time(Phase::Topology, || self.topology());
         self.times = t;
@@ -287,9 +293,9 @@ impl World {
 
     /// Even, hole-free resampling of each contact surface for the render surface;
     /// skipped when nothing is rendered.
-    fn resample(&mut self) {
+    fn resample(&mut self) -> u64 {
         if !self.render_contacts {
-            return;
+            return 0;
         }
         let mut patches = std::mem::take(&mut self.patches);
         patches.par_iter_mut().for_each(|patch| {
@@ -298,18 +304,29 @@ impl World {
             contact::resample(patch, &s, &p);
         });
         self.patches = patches;
+        self.patches.iter().map(|p| p.render.len() as u64).sum()
     }
 
-    /// Penalty and friction forces on the contact surfels (paper §7).
-    fn forces(&mut self) -> u64 {
+    /// Penalty and friction forces on the contact surfels (paper §7). Returns the
+    /// contact surfels forced and, of those, the ones whose pair has friction.
+    fn forces(&mut self) -> (u64, u64) {
         let mut patches = std::mem::take(&mut self.patches);
-        patches.par_iter_mut().for_each(|patch| {
-            let s = self.pair_surfaces(patch.a, patch.b);
-            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
-            contact::forces(patch, &s, &p);
-        });
+        let with_friction: u64 = patches
+            .par_iter_mut()
+            .map(|patch| {
+                let s = self.pair_surfaces(patch.a, patch.b);
+                let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
+                contact::forces(patch, &s, &p);
+                if p.friction > 0.0 {
+                    patch.surfels.len() as u64
+                } else {
+                    0
+                }
+            })
+            .sum();
         self.patches = patches;
-        self.patches.iter().map(|p| p.surfels.len() as u64).sum()
+        let forced = self.patches.iter().map(|p| p.surfels.len() as u64).sum();
+        (forced, with_friction)
     }
 
     /// Contact forces spread onto the phyxels of moving objects (their grids were built

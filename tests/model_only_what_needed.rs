@@ -1,0 +1,63 @@
+//! A feature a scene does not use costs nothing: asserted from the per-phase work
+//! counters (work items, not times).
+
+use phyxel::backends::mls::MlsDynamics;
+use phyxel::scene::{BuildOptions, Scene};
+use phyxel::timing::Phase;
+
+fn run(name: &str, steps: usize, render: bool) -> phyxel::World {
+    let scene = Scene::builtin(name).unwrap();
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    w.render_contacts = render;
+    for _ in 0..steps {
+        w.step();
+    }
+    w
+}
+
+/// `two-spheres` (μ = 0, elastic, no frames written): the spheres do touch (contact
+/// surfels forced), yet no friction is evaluated, no render surface is resampled, and the
+/// MLS backends keep no plastic state at all.
+#[test]
+fn unused_features_do_no_work() {
+    let w = run("two-spheres", 150, false);
+    assert!(
+        w.times.work(Phase::Forces) > 0,
+        "the spheres must touch for this test"
+    );
+    assert_eq!(w.friction_work, 0, "friction work with μ = 0");
+    assert_eq!(
+        w.times.work(Phase::Resample),
+        0,
+        "render resampling without frames"
+    );
+    for o in &w.objects {
+        let mls = MlsDynamics::new(&o.phyxels, &o.material);
+        assert!(
+            mls.plastic_strain().is_empty(),
+            "plastic state for an elastic material"
+        );
+    }
+}
+
+/// The counters are live: with friction (`incline`, μ = 0.5) friction is evaluated, and
+/// with frames written the contact surface is resampled.
+#[test]
+fn used_features_do_work() {
+    let w = run("incline", 200, true);
+    assert!(w.friction_work > 0);
+    assert!(w.times.work(Phase::Resample) > 0);
+}
+
+/// Static objects are never stepped: in `sphere-on-plane` the dynamics phase counts only
+/// the ball's phyxels, every step.
+#[test]
+fn static_objects_have_no_dynamics() {
+    let steps = 20;
+    let w = run("sphere-on-plane", steps, false);
+    let ball = w.objects.iter().find(|o| !o.is_static()).unwrap();
+    assert_eq!(
+        w.times.work(Phase::Dynamics),
+        (ball.phyxels.len() * steps) as u64
+    );
+}
