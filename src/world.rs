@@ -170,6 +170,7 @@ impl World {
 
     /// Each non-static object's backend advances its phyxels (under gravity, the
     /// contact forces of the previous step and the object's external load).
+    #[inline(never)] // a named frame in flamegraphs
     fn dynamics(&mut self) {
         let (dt, gravity) = (self.dt, self.gravity);
         let t = self.steps as f32 * dt;
@@ -184,6 +185,7 @@ impl World {
     }
 
     /// Surfels follow the phyxels of their object.
+    #[inline(never)] // a named frame in flamegraphs
     fn advect(&mut self) {
         self.objects
             .par_iter_mut()
@@ -192,6 +194,7 @@ impl World {
     }
 
     /// Overlapping surfel bounding boxes and their intersection boxes.
+    #[inline(never)] // a named frame in flamegraphs
     fn broad_phase(&mut self) {
         let n = self.objects.len();
         let first = self.boxes.len() != n;
@@ -207,6 +210,7 @@ impl World {
 
     /// Surfel and phyxel grids of the objects in an overlapping pair (Teschner et al.
     /// 2003); static objects keep theirs, objects in no pair get none.
+    #[inline(never)] // a named frame in flamegraphs
     fn surfel_grid(&mut self) -> u64 {
         let n = self.objects.len();
         self.grids.resize_with(n, || None);
@@ -242,6 +246,7 @@ impl World {
 
     /// Colliding surfels of every pair: surfels in the intersection box that are inside
     /// the other object (eq. 2).
+    #[inline(never)] // a named frame in flamegraphs
     fn detect(&mut self) -> u64 {
         let volume = |k: usize| Volume {
             phyxels: self.phyxel_grids[k].as_ref().expect("grid built for pairs"),
@@ -276,6 +281,7 @@ impl World {
     }
 
     /// Colliding surfels moved onto the contact surface Φ (paper §6).
+    #[inline(never)] // a named frame in flamegraphs
     fn contact_surface(&mut self) -> u64 {
         let patches: Vec<ContactPatch> = self
             .detections
@@ -293,6 +299,7 @@ impl World {
 
     /// Even, hole-free resampling of each contact surface for the render surface;
     /// skipped when nothing is rendered.
+    #[inline(never)] // a named frame in flamegraphs
     fn resample(&mut self) -> u64 {
         if !self.render_contacts {
             return 0;
@@ -309,6 +316,7 @@ impl World {
 
     /// Penalty and friction forces on the contact surfels (paper §7). Returns the
     /// contact surfels forced and, of those, the ones whose pair has friction.
+    #[inline(never)] // a named frame in flamegraphs
     fn forces(&mut self) -> (u64, u64) {
         let mut patches = std::mem::take(&mut self.patches);
         let with_friction: u64 = patches
@@ -331,6 +339,7 @@ impl World {
 
     /// Contact forces spread onto the phyxels of moving objects (their grids were built
     /// this step with the surfel grids); they act at the next step.
+    #[inline(never)] // a named frame in flamegraphs
     fn distribute(&mut self) {
         for patch in &self.patches {
             for (k, sign) in [(patch.a, 1.0f32), (patch.b, -1.0)] {
@@ -346,6 +355,7 @@ impl World {
     }
 
     /// Fracture and self-collision. Lands with the topology issue.
+    #[inline(never)] // a named frame in flamegraphs
     fn topology(&mut self) {}
 
     /// Total linear momentum of all objects (kg·m/s).
