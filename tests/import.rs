@@ -1,0 +1,216 @@
+//! Frame export and import: PLY round trip, VTK (.vtp) export, bad-input errors.
+
+use phyxel::frame::{Format, Frame};
+use phyxel::import::read_frame;
+use phyxel::output::surface_frame;
+use phyxel::scene::Scene;
+use std::path::PathBuf;
+use std::process::Command;
+
+/// A fresh temp directory, removed on drop.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(label: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("phyxel-import-{label}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        Self(p)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// The render surface of two-spheres mid-collision (contact surfels present).
+fn colliding_frame() -> Frame {
+    let scene = Scene::builtin("two-spheres").unwrap();
+    let mut world = scene.build(&Default::default()).unwrap();
+    world.render_contacts = true;
+    for _ in 0..150 {
+        world.step();
+    }
+    surface_frame(&world)
+}
+
+#[test]
+fn ply_round_trip_is_exact() {
+    let dir = TempDir::new("ply");
+    let frame = colliding_frame();
+    assert!(frame.len() > 1000);
+    assert!(
+        frame.contact.contains(&1),
+        "two-spheres at step 150 is in contact"
+    );
+    assert!(frame.object.contains(&1));
+    let path = dir.0.join("f.ply");
+    frame.write(&path, Format::Ply).unwrap();
+    let back = read_frame(&path).unwrap();
+    assert_eq!(back, frame);
+}
+
+#[test]
+fn run_out_frames_read_back() {
+    let dir = TempDir::new("run");
+    let o = Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args(["run", "falling-sphere", "--steps", "10", "--out"])
+        .arg(&dir.0)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let f = read_frame(&dir.0.join("surfels_00001.ply")).unwrap();
+    let scene = Scene::builtin("falling-sphere").unwrap();
+    let mut world = scene.build(&Default::default()).unwrap();
+    world.render_contacts = true;
+    for _ in 0..10 {
+        world.step();
+    }
+    assert_eq!(f, surface_frame(&world));
+}
+
+/// The `<DataArray Name="name">` values of a .vtp file as numbers.
+fn vtp_array(text: &str, name: &str) -> Vec<f64> {
+    let tag = format!("Name=\"{name}\"");
+    let start = text.find(&tag).expect(name);
+    let body = &text[start..];
+    let body = &body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()];
+    body.split_whitespace()
+        .map(|v| v.parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn vtk_export_has_the_same_point_data() {
+    let dir = TempDir::new("vtk");
+    let frame = colliding_frame();
+    let path = dir.0.join("f.vtp");
+    frame.write(&path, Format::Vtk).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.starts_with("<?xml"));
+    assert!(text.contains(&format!("NumberOfPoints=\"{}\"", frame.len())));
+    let radius = vtp_array(&text, "radius");
+    let object = vtp_array(&text, "object");
+    let contact = vtp_array(&text, "contact");
+    let normals = vtp_array(&text, "Normals");
+    assert_eq!(radius.len(), frame.len());
+    assert_eq!(normals.len(), 3 * frame.len());
+    for i in 0..frame.len() {
+        assert_eq!(radius[i] as f32, frame.radius[i]);
+        assert_eq!(object[i] as i32, frame.object[i]);
+        assert_eq!(contact[i] as u8, frame.contact[i]);
+        assert_eq!(normals[3 * i + 2] as f32, frame.normal[i].z);
+    }
+    // Points come after point data: check the last array is the positions.
+    let pts_start = text.find("<Points>").unwrap();
+    let pts = &text[pts_start..];
+    let first = pts.lines().nth(2).unwrap();
+    let p = frame.pos[0];
+    assert_eq!(first, format!("{} {} {}", p.x, p.y, p.z));
+}
+
+#[test]
+fn run_format_vtk_writes_vtp_frames() {
+    let dir = TempDir::new("runvtk");
+    let o = Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args([
+            "run",
+            "falling-sphere",
+            "--steps",
+            "10",
+            "--format",
+            "vtk",
+            "--out",
+        ])
+        .arg(&dir.0)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for k in 0..=1 {
+        let p = dir.0.join(format!("surfels_{k:05}.vtp"));
+        let text = std::fs::read_to_string(&p).unwrap();
+        assert!(text.contains("<VTKFile type=\"PolyData\""));
+        assert!(text.trim_end().ends_with("</VTKFile>"));
+    }
+    assert!(!dir.0.join("surfels_00000.ply").exists());
+    let o = Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args(["run", "falling-sphere", "--format", "obj"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+}
+
+#[test]
+fn truncated_binary_ply_names_file_and_element() {
+    let dir = TempDir::new("trunc");
+    let frame = colliding_frame();
+    let path = dir.0.join("cut.ply");
+    frame.write_ply(&path).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    // Keep the header and a bit over 10 vertices (33 bytes each).
+    let header = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap()
+        + 11;
+    std::fs::write(&path, &bytes[..header + 33 * 10 + 5]).unwrap();
+    let err = read_frame(&path).unwrap_err();
+    assert!(err.contains("cut.ply"), "{err}");
+    assert!(err.contains("element 'vertex' 10 of"), "{err}");
+    assert!(err.contains("cut short"), "{err}");
+}
+
+#[test]
+fn missing_and_malformed_frames_are_errors() {
+    let dir = TempDir::new("bad");
+    let err = read_frame(&dir.0.join("none.ply")).unwrap_err();
+    assert!(
+        err.contains("none.ply") && err.contains("cannot open"),
+        "{err}"
+    );
+    let p = dir.0.join("text.ply");
+    std::fs::write(&p, "not a ply file\n").unwrap();
+    let err = read_frame(&p).unwrap_err();
+    assert!(err.contains("text.ply") && err.contains("header"), "{err}");
+    // NaN in a binary frame: the element is named.
+    let mut f = Frame::default();
+    f.push(glam::Vec3::ZERO, glam::Vec3::Z, 0.1, 0, 0);
+    f.push(
+        glam::Vec3::new(1.0, f32::NAN, 0.0),
+        glam::Vec3::Z,
+        0.1,
+        0,
+        0,
+    );
+    let p = dir.0.join("nan.ply");
+    f.write_ply(&p).unwrap();
+    let err = read_frame(&p).unwrap_err();
+    assert!(
+        err.contains("nan.ply") && err.contains("'vertex' 1") && err.contains("not finite"),
+        "{err}"
+    );
+    // In ASCII the parser refuses "nan" with the line number.
+    let p = dir.0.join("nan_ascii.ply");
+    std::fs::write(
+        &p,
+        "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+         property float z\nend_header\n0 0 0\n1 nan 0\n",
+    )
+    .unwrap();
+    let err = read_frame(&p).unwrap_err();
+    assert!(
+        err.contains("nan_ascii.ply") && err.contains("Line 9"),
+        "{err}"
+    );
+    let p = dir.0.join("short.ply");
+    std::fs::write(
+        &p,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nend_header\n0 0 0\n1 1\n",
+    )
+    .unwrap();
+    let err = read_frame(&p).unwrap_err();
+    assert!(err.contains("short.ply") && err.contains("vertex"), "{err}");
+}
