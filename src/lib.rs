@@ -35,6 +35,7 @@ pub mod implicit;
 pub mod import;
 pub mod kernel;
 pub mod material;
+pub mod mesh;
 pub mod mls;
 pub mod object;
 pub mod output;

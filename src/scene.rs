@@ -173,6 +173,20 @@ impl Scene {
         let text = std::fs::read_to_string(path)
             .map_err(|e| SceneError(format!("{origin}: cannot read scene file: {e}")))?;
         let mut scene = Self::parse(&text, &origin)?;
+        // Mesh shapes: paths are relative to the scene file.
+        let base = path.parent().unwrap_or(Path::new(""));
+        let mut meshes = false;
+        for (k, o) in scene.objects.iter_mut().enumerate() {
+            if matches!(o.shape, Shape::Mesh { .. }) {
+                o.shape
+                    .load_mesh(base)
+                    .map_err(|m| SceneError(format!("{origin}: objects[{k}].shape: {m}")))?;
+                meshes = true;
+            }
+        }
+        if meshes {
+            scene.validate(&origin)?; // the size checks, now that the meshes are known
+        }
         if scene.name.is_empty() {
             scene.name = path
                 .file_stem()
@@ -372,10 +386,11 @@ impl ObjectSpec {
     /// Samples the shape and creates the object with backend `backend`.
     pub fn build(&self, id: u32, backend: &str) -> Result<Object, String> {
         let (rot, pos) = self.placement();
-        let vol = self.shape.sample_volume(self.spacing);
-        let surf = self
-            .shape
-            .sample_surface(self.surfel_spacing.unwrap_or(0.5 * self.spacing));
+        // A mesh not loaded by `Scene::load`: its path is relative to the working directory.
+        let mut shape = self.shape.clone();
+        shape.load_mesh(Path::new(""))?;
+        let vol = shape.sample_volume(self.spacing);
+        let surf = shape.sample_surface(self.surfel_spacing.unwrap_or(0.5 * self.spacing));
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
         let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
         let v = Vec3::from(self.velocity);

@@ -7,8 +7,11 @@
 
 use std::f32::consts::{PI, TAU};
 
+use crate::mesh::TriMesh;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
+use std::path::Path;
+use std::sync::Arc;
 
 /// A built-in shape in object-local coordinates, centred at the origin.
 ///
@@ -38,6 +41,20 @@ pub enum Shape {
     Plane {
         size: [f32; 2],
     },
+    /// A closed triangle mesh from an OBJ or PLY file, `path` relative to the scene file,
+    /// scaled by `scale` and centred on its bounding box (see [`crate::mesh`]). Loaded by
+    /// [`Shape::load_mesh`] (done by `Scene::load` and `ObjectSpec::build`).
+    Mesh {
+        path: String,
+        #[serde(default = "one")]
+        scale: f32,
+        #[serde(skip)]
+        mesh: Option<Arc<TriMesh>>,
+    },
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 /// Surface samples (surfels): oriented disks that together cover the surface.
@@ -77,6 +94,14 @@ impl Shape {
                 positive("radius", radius)?;
                 positive("length", length)
             }
+            Shape::Mesh {
+                ref path, scale, ..
+            } => {
+                if path.is_empty() {
+                    return Err("path = \"\": must name an .obj or .ply file".into());
+                }
+                positive("scale", scale)
+            }
             Shape::Torus { major, minor } => {
                 positive("major", major)?;
                 positive("minor", minor)?;
@@ -113,6 +138,7 @@ impl Shape {
                 Vec2::new(Vec2::new(p.x, p.z).length() - major, p.y).length() - minor
             }
             Shape::Plane { .. } => p.y,
+            Shape::Mesh { ref mesh, .. } => mesh.as_ref().map_or(f32::INFINITY, |m| m.sdf(p)),
         }
     }
 
@@ -148,6 +174,15 @@ impl Shape {
                 (p - radial * major).normalize_or(radial)
             }
             Shape::Plane { .. } => Vec3::Y,
+            Shape::Mesh { .. } => {
+                let h = 1e-4 * self.half_extents().max_element().max(1e-6);
+                Vec3::new(
+                    self.sdf(p + h * Vec3::X) - self.sdf(p - h * Vec3::X),
+                    self.sdf(p + h * Vec3::Y) - self.sdf(p - h * Vec3::Y),
+                    self.sdf(p + h * Vec3::Z) - self.sdf(p - h * Vec3::Z),
+                )
+                .normalize_or(Vec3::Y)
+            }
         }
     }
 
@@ -161,6 +196,7 @@ impl Shape {
             }
             Shape::Torus { major, minor } => 2.0 * PI * PI * major * minor * minor,
             Shape::Plane { .. } => 0.0,
+            Shape::Mesh { ref mesh, .. } => mesh.as_ref().map_or(0.0, |m| m.signed_volume()),
         }
     }
 
@@ -172,6 +208,7 @@ impl Shape {
             Shape::Capsule { radius, length } => TAU * radius * (length + 2.0 * radius),
             Shape::Torus { major, minor } => 4.0 * PI * PI * major * minor,
             Shape::Plane { size: [x, z] } => x * z,
+            Shape::Mesh { ref mesh, .. } => mesh.as_ref().map_or(0.0, |m| m.area()),
         }
     }
 
@@ -183,6 +220,10 @@ impl Shape {
             Shape::Capsule { radius, length } => Vec3::new(radius, 0.5 * length + radius, radius),
             Shape::Torus { major, minor } => Vec3::new(major + minor, minor, major + minor),
             Shape::Plane { size: [x, z] } => Vec3::new(0.5 * x, 0.0, 0.5 * z),
+            // Unknown until loaded: no size check can fail on it.
+            Shape::Mesh { ref mesh, .. } => {
+                mesh.as_ref().map_or(Vec3::INFINITY, |m| m.half_extents())
+            }
         }
     }
 
@@ -216,6 +257,27 @@ impl Shape {
             };
         }
 
+        if let Shape::Mesh { ref mesh, .. } = *self {
+            let Some(m) = mesh else {
+                return VolumeSample::default();
+            };
+            let half = m.half_extents().to_array();
+            let axes =
+                |counts: [usize; 3]| counts.map(|n| lattice_axis(n, spacing).collect::<Vec<_>>());
+            let [xs, ys, zs] = axes(half.map(|h| fitted_count(h, spacing)));
+            let mut positions = m.lattice_inside(&xs, &ys, &zs);
+            if positions.is_empty() {
+                let [xs, ys, zs] = axes(half.map(|h| 2 * (h / spacing).floor() as usize + 1));
+                positions = m.lattice_inside(&xs, &ys, &zs);
+            }
+            if positions.is_empty() {
+                positions.push(Vec3::ZERO);
+            }
+            return VolumeSample {
+                positions,
+                cell_volume,
+            };
+        }
         let half = self.half_extents().to_array();
         let fitted = self.lattice_inside(half.map(|h| fitted_count(h, spacing)), spacing);
         let positions = if fitted.is_empty() {
@@ -251,6 +313,18 @@ impl Shape {
     /// If `spacing` is not a finite number > 0.
     pub fn sample_surface(&self, spacing: f32) -> SurfaceSample {
         check_spacing(spacing);
+        if let Shape::Mesh { ref mesh, .. } = *self {
+            let Some(m) = mesh else {
+                return SurfaceSample::default();
+            };
+            let (positions, normals, r) = m.sample_surface(spacing);
+            let radii = vec![r; positions.len()];
+            return SurfaceSample {
+                positions,
+                normals,
+                radii,
+            };
+        }
         let mut out = SurfaceSample::default();
         let mut push = |p: Vec3, n: Vec3| {
             out.positions.push(p);
@@ -333,10 +407,24 @@ impl Shape {
                     }
                 }
             }
+            Shape::Mesh { .. } => unreachable!("handled above"),
         }
         let per_surfel = self.area() / out.positions.len() as f32;
         out.radii = vec![(2.0 * per_surfel / PI).sqrt(); out.positions.len()];
         out
+    }
+
+    /// Loads a `mesh` shape's file (`path` relative to `base`) once; other shapes: no-op.
+    /// Errors name the file and what is wrong with it.
+    pub fn load_mesh(&mut self, base: &Path) -> Result<(), String> {
+        if let Shape::Mesh {
+            path, scale, mesh, ..
+        } = self
+            && mesh.is_none()
+        {
+            *mesh = Some(Arc::new(TriMesh::load(&base.join(&*path), *scale)?));
+        }
+        Ok(())
     }
 
     /// Lattice points (`counts` per axis, symmetric about the origin) with sdf < 0.

@@ -1,0 +1,367 @@
+//! Mesh shapes: OBJ and PLY (ASCII and binary) meshes generated here, loaded through scene
+//! files, sampled into phyxels and surfels; and every bad input gives a clear error.
+
+use glam::Vec3;
+use phyxel::mesh::TriMesh;
+use phyxel::scene::{BuildOptions, Scene};
+use phyxel::shape::Shape;
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(label: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("phyxel-mesh-{label}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).unwrap();
+        Self(p)
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+type Raw = (Vec<Vec3>, Vec<[u32; 3]>);
+
+/// An icosphere of radius `r`: an icosahedron subdivided `n` times, outward-wound.
+fn icosphere(r: f32, n: usize) -> Raw {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<Vec3> = [
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ]
+    .iter()
+    .map(|&p| Vec3::from(p).normalize())
+    .collect();
+    let mut f: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..n {
+        let mut mid = std::collections::HashMap::new();
+        let mut m = |a: u32, b: u32, v: &mut Vec<Vec3>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                v.push((v[a as usize] + v[b as usize]).normalize());
+                v.len() as u32 - 1
+            })
+        };
+        let mut g = Vec::new();
+        for [a, b, c] in f {
+            let (ab, bc, ca) = (m(a, b, &mut v), m(b, c, &mut v), m(c, a, &mut v));
+            g.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = g;
+    }
+    (v.into_iter().map(|p| p * r).collect(), f)
+}
+
+/// A torus around y: centre-line radius `big`, tube radius `small`, `nu × nv` quads.
+fn torus(big: f32, small: f32, nu: u32, nv: u32) -> Raw {
+    let mut v = Vec::new();
+    for i in 0..nu {
+        let u = i as f32 / nu as f32 * std::f32::consts::TAU;
+        for j in 0..nv {
+            let w = j as f32 / nv as f32 * std::f32::consts::TAU;
+            let rr = big + small * w.cos();
+            v.push(Vec3::new(rr * u.cos(), small * w.sin(), rr * u.sin()));
+        }
+    }
+    let id = |i: u32, j: u32| (i % nu) * nv + (j % nv);
+    let mut f = Vec::new();
+    for i in 0..nu {
+        for j in 0..nv {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            f.push([a, c, b]);
+            f.push([a, d, c]);
+        }
+    }
+    (v, f)
+}
+
+fn write_obj(path: &Path, (v, f): &Raw) {
+    let mut s = String::from("# generated\n");
+    for p in v {
+        writeln!(s, "v {} {} {}", p.x, p.y, p.z).unwrap();
+    }
+    for t in f {
+        writeln!(s, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1).unwrap();
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn ply_header(format: &str, nv: usize, nf: usize) -> String {
+    format!(
+        "ply\nformat {format} 1.0\nelement vertex {nv}\nproperty float x\nproperty float y\n\
+         property float z\nelement face {nf}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+}
+
+fn write_ply_ascii(path: &Path, (v, f): &Raw) {
+    let mut s = ply_header("ascii", v.len(), f.len());
+    for p in v {
+        writeln!(s, "{} {} {}", p.x, p.y, p.z).unwrap();
+    }
+    for t in f {
+        writeln!(s, "3 {} {} {}", t[0], t[1], t[2]).unwrap();
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn write_ply_binary(path: &Path, (v, f): &Raw) {
+    let mut b = ply_header("binary_little_endian", v.len(), f.len()).into_bytes();
+    for p in v {
+        for c in p.to_array() {
+            b.write_all(&c.to_le_bytes()).unwrap();
+        }
+    }
+    for t in f {
+        b.push(3);
+        for i in t {
+            b.write_all(&(*i as i32).to_le_bytes()).unwrap();
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+/// A scene file in `dir` with one mesh object (file name relative to the scene).
+fn scene_with(dir: &Path, file: &str, spacing: f32, surfel: f32) -> PathBuf {
+    let p = dir.join("scene.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "[[objects]]\nshape = {{ type = \"mesh\", path = \"{file}\" }}\n\
+             spacing = {spacing}\nsurfel_spacing = {surfel}\nposition = [0.0, 0.0, 0.0]\n"
+        ),
+    )
+    .unwrap();
+    p
+}
+
+fn within(count: usize, target: f32, tol: f32) -> bool {
+    (count as f32 - target).abs() <= tol * target
+}
+
+#[test]
+fn icosphere_in_every_format_samples_a_sphere() {
+    let dir = TempDir::new("ico");
+    let r = 0.1;
+    let mesh = icosphere(r, 4);
+    let (spacing, surfel) = (0.01, 0.004);
+    for (file, write) in [
+        ("ico.obj", write_obj as fn(&Path, &Raw)),
+        ("ico_ascii.ply", write_ply_ascii),
+        ("ico_bin.ply", write_ply_binary),
+    ] {
+        write(&dir.0.join(file), &mesh);
+        let scene = Scene::load(&scene_with(&dir.0, file, spacing, surfel)).unwrap();
+        let world = scene.build(&BuildOptions::default()).unwrap();
+        let o = &world.objects[0];
+        // Phyxels: all inside, count within 5% of volume / spacing³.
+        let target_v = 4.0 / 3.0 * std::f32::consts::PI * r.powi(3) / spacing.powi(3);
+        assert!(
+            within(o.phyxels.len(), target_v, 0.05),
+            "{file}: {} phyxels vs {target_v}",
+            o.phyxels.len()
+        );
+        for i in 0..o.phyxels.len() {
+            assert!(
+                o.phyxels.pos.get(i).length() < r,
+                "{file}: phyxel {i} outside"
+            );
+        }
+        // Surfels: on the sphere within 1% of r, normals outward, count within 5%.
+        let target_s = 4.0 * std::f32::consts::PI * r * r / (surfel * surfel);
+        assert!(
+            within(o.surfels.len(), target_s, 0.05),
+            "{file}: {} surfels vs {target_s}",
+            o.surfels.len()
+        );
+        for i in 0..o.surfels.len() {
+            let p = o.surfels.pos.get(i);
+            assert!(
+                (p.length() - r).abs() < 0.01 * r,
+                "{file}: surfel {i} at |p| = {}",
+                p.length()
+            );
+            assert!(
+                o.surfels.normal.get(i).dot(p.normalize()) > 0.95,
+                "{file}: normal {i}"
+            );
+        }
+    }
+}
+
+#[test]
+fn torus_mesh_samples_a_torus() {
+    let dir = TempDir::new("torus");
+    let (big, small) = (0.07, 0.03);
+    write_obj(&dir.0.join("torus.obj"), &torus(big, small, 96, 48));
+    let (spacing, surfel) = (0.0075, 0.003);
+    let scene = Scene::load(&scene_with(&dir.0, "torus.obj", spacing, surfel)).unwrap();
+    let world = scene.build(&BuildOptions::default()).unwrap();
+    let o = &world.objects[0];
+    // The torus is centred on its bounding box: already centred.
+    let tube = |p: Vec3| {
+        let q = Vec3::new(p.x, 0.0, p.z).normalize() * big;
+        p - q
+    };
+    let pi = std::f32::consts::PI;
+    let target_v = 2.0 * pi * pi * big * small * small / spacing.powi(3);
+    assert!(
+        within(o.phyxels.len(), target_v, 0.05),
+        "{} phyxels vs {target_v}",
+        o.phyxels.len()
+    );
+    for i in 0..o.phyxels.len() {
+        assert!(
+            tube(o.phyxels.pos.get(i)).length() < small,
+            "phyxel {i} outside"
+        );
+    }
+    let target_s = 4.0 * pi * pi * big * small / (surfel * surfel);
+    assert!(
+        within(o.surfels.len(), target_s, 0.05),
+        "{} surfels vs {target_s}",
+        o.surfels.len()
+    );
+    for i in 0..o.surfels.len() {
+        let d = tube(o.surfels.pos.get(i));
+        assert!(
+            (d.length() - small).abs() < 0.01 * small,
+            "surfel {i}: {}",
+            d.length()
+        );
+        assert!(
+            o.surfels.normal.get(i).dot(d.normalize()) > 0.95,
+            "normal {i}"
+        );
+    }
+}
+
+#[test]
+fn scale_and_inside_out_meshes() {
+    let (v, mut f) = icosphere(1.0, 2);
+    for t in &mut f {
+        t.swap(1, 2); // wound inward: turned outward on load
+    }
+    let dir = TempDir::new("scale");
+    let p = dir.0.join("inv.obj");
+    write_obj(&p, &(v, f));
+    let m = TriMesh::load(&p, 0.05).unwrap();
+    assert!((m.half_extents().x - 0.05).abs() < 1e-4);
+    assert!(m.signed_volume() > 0.0);
+    assert!(m.contains(Vec3::ZERO) && !m.contains(Vec3::splat(0.05)));
+    let mut s = Shape::Mesh {
+        path: "inv.obj".into(),
+        scale: 0.05,
+        mesh: None,
+    };
+    s.load_mesh(&dir.0).unwrap();
+    assert!(s.sdf(Vec3::ZERO) < -0.04 && s.sdf(Vec3::new(0.1, 0.0, 0.0)) > 0.04);
+}
+
+/// Loads a scene whose one object is mesh `file` and returns the error.
+fn scene_error(dir: &Path, file: &str) -> String {
+    let scene = scene_with(dir, file, 0.02, 0.01);
+    Scene::load(&scene).expect_err("bad mesh").to_string()
+}
+
+#[test]
+fn bad_meshes_give_clear_errors() {
+    let dir = TempDir::new("bad");
+    let d = &dir.0;
+    let e = scene_error(d, "missing.obj");
+    assert!(
+        e.contains("missing.obj") && e.contains("no such mesh file"),
+        "{e}"
+    );
+    assert!(e.contains("objects[0].shape"), "{e}");
+
+    let (v, mut f) = icosphere(0.1, 1);
+    f.pop();
+    write_obj(&d.join("open.obj"), &(v.clone(), f));
+    let e = scene_error(d, "open.obj");
+    assert!(
+        e.contains("open.obj") && e.contains("open mesh") && e.contains("triangle"),
+        "{e}"
+    );
+
+    let (mut v2, f2) = icosphere(0.1, 1);
+    v2[5].y = f32::NAN;
+    write_obj(&d.join("nan.obj"), &(v2, f2.clone()));
+    let e = scene_error(d, "nan.obj");
+    assert!(
+        e.contains("nan.obj") && e.contains("vertex 5") && e.contains("non-finite"),
+        "{e}"
+    );
+
+    std::fs::write(d.join("empty.obj"), "# nothing\n").unwrap();
+    let e = scene_error(d, "empty.obj");
+    assert!(e.contains("empty.obj") && e.contains("empty mesh"), "{e}");
+
+    write_ply_binary(&d.join("cut.ply"), &(v.clone(), f2.clone()));
+    let bytes = std::fs::read(d.join("cut.ply")).unwrap();
+    std::fs::write(d.join("cut.ply"), &bytes[..bytes.len() - 7]).unwrap();
+    let e = scene_error(d, "cut.ply");
+    assert!(
+        e.contains("cut.ply") && e.contains("element 'face'") && e.contains("cut short"),
+        "{e}"
+    );
+
+    // A triangle listed twice: its edges are used three times (non-manifold).
+    let mut f3 = f2.clone();
+    f3.push(f2[0]);
+    write_obj(&d.join("dup.obj"), &(v.clone(), f3));
+    let e = scene_error(d, "dup.obj");
+    assert!(e.contains("dup.obj") && e.contains("non-manifold"), "{e}");
+
+    std::fs::write(d.join("mesh.stl"), "solid\n").unwrap();
+    let e = scene_error(d, "mesh.stl");
+    assert!(
+        e.contains("mesh.stl") && e.contains("unknown mesh format"),
+        "{e}"
+    );
+
+    // A PLY point cloud is not a mesh.
+    std::fs::write(
+        d.join("cloud.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+         property float z\nend_header\n0 0 0\n",
+    )
+    .unwrap();
+    let e = scene_error(d, "cloud.ply");
+    assert!(e.contains("cloud.ply") && e.contains("no 'face'"), "{e}");
+}
