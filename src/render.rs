@@ -58,20 +58,32 @@ impl Camera {
     /// `width × height` image.
     pub fn fit(lo: Vec3, hi: Vec3, width: u32, height: u32) -> Self {
         let centre = 0.5 * (lo + hi);
-        let radius = (0.5 * (hi - lo).length()).max(1e-6);
         let fov = default_fov();
         let aspect = width as f32 / height.max(1) as f32;
-        let half_v = 0.5 * fov.to_radians();
-        let half_h = (half_v.tan() * aspect).atan();
-        let half = half_v.min(half_h);
-        let dist = 1.05 * radius / half.sin();
+        let tan_v = (0.5 * fov.to_radians()).tan() * 0.9; // 10% margin
+        let tan_h = tan_v * aspect;
         let dir = Vec3::new(0.55, 0.45, 1.0).normalize();
-        Self {
-            position: (centre + dist * dir).to_array(),
+        let mut cam = Self {
+            position: (centre + dir).to_array(),
             target: centre.to_array(),
             fov,
             up: default_up(),
+        };
+        let (_, _, right, up) = cam.basis();
+        // Nearest eye distance along `dir` at which every box corner is in view.
+        let mut dist = 1e-6f32.max(0.5 * (hi - lo).length());
+        for k in 0..8 {
+            let corner = Vec3::new(
+                if k & 1 == 0 { lo.x } else { hi.x },
+                if k & 2 == 0 { lo.y } else { hi.y },
+                if k & 4 == 0 { lo.z } else { hi.z },
+            );
+            let q = corner - centre;
+            let need = q.dot(dir) + (q.dot(right).abs() / tan_h).max(q.dot(up).abs() / tan_v);
+            dist = dist.max(need);
         }
+        cam.position = (centre + dist * dir).to_array();
+        cam
     }
 
     /// Checks the camera; the message names the bad value.
