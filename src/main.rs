@@ -10,7 +10,7 @@ use phyxel::scene::{BUILTIN, BuildOptions, DEFAULT_SCENE, Scene};
 use phyxel::summary::{RunOptions, RunSummary, run};
 use phyxel::timing::Phase;
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -61,6 +61,10 @@ enum Command {
         /// Run even when dt exceeds the stable bound.
         #[arg(long)]
         allow_unstable: bool,
+        /// Profile the run (sampling, 997 Hz) and write a flamegraph SVG; the phases appear
+        /// as frames named like the timing table (`phyxel::world::World::detect`, ...).
+        #[arg(long, value_name = "FILE.svg")]
+        flamegraph: Option<PathBuf>,
     },
     /// Render a surfel frame (PLY) to a PNG image.
     Render {
@@ -118,6 +122,7 @@ fn main() -> ExitCode {
             size,
             json,
             allow_unstable,
+            flamegraph,
         } => {
             let (width, height) = match parse_size(&size) {
                 Ok(s) => s,
@@ -142,7 +147,7 @@ fn main() -> ExitCode {
                 out,
                 phyxels,
             };
-            run_scene(&scene, &opts, json)
+            run_scene(&scene, &opts, json, flamegraph.as_deref())
         }
     }
 }
@@ -246,7 +251,21 @@ fn scenes(show: Option<String>) -> ExitCode {
     }
 }
 
-fn run_scene(arg: &str, opts: &RunOptions, json: bool) -> ExitCode {
+/// A sampling profiler (timer signal, so no perf permissions are needed).
+fn start_profiler(_: &Path) -> Result<pprof::ProfilerGuard<'static>, pprof::Error> {
+    pprof::ProfilerGuardBuilder::default()
+        .frequency(997)
+        .blocklist(&["libc", "libgcc", "pthread", "vdso"])
+        .build()
+}
+
+fn write_flamegraph(guard: &pprof::ProfilerGuard<'_>, path: &Path) -> Result<(), String> {
+    let report = guard.report().build().map_err(|e| e.to_string())?;
+    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+    report.flamegraph(file).map_err(|e| e.to_string())
+}
+
+fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>) -> ExitCode {
     // Command-line overrides are checked here so the error names the option, not the scene.
     if let Some(dt) = opts.build.dt
         && !(dt.is_finite() && dt > 0.0)
@@ -291,12 +310,25 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool) -> ExitCode {
     } else {
         ProgressBar::hidden()
     };
+    let profiler = match flamegraph.map(start_profiler).transpose() {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: --flamegraph: cannot start the profiler: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
     let result = run(&scene, opts, |s| {
         if s % 16 == 0 {
             bar.set_position(s);
         }
     });
     bar.finish_and_clear();
+    if let (Some(guard), Some(path)) = (profiler, flamegraph)
+        && let Err(e) = write_flamegraph(&guard, path)
+    {
+        eprintln!("error: --flamegraph {}: {e}", path.display());
+        return ExitCode::FAILURE;
+    }
     let (_, summary) = match result {
         Ok(r) => r,
         Err(e) => {

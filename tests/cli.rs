@@ -602,3 +602,26 @@ fn error_scene_without_objects() {
     );
     expect_scene_error("no-objects-key", "name = \"empty\"\n", &["objects"]);
 }
+
+/// `run --flamegraph FILE.svg` profiles the run and writes an SVG flamegraph; the run's
+/// own output is unchanged.
+#[test]
+fn flamegraph_is_written() {
+    let path = std::env::temp_dir().join(format!("phyxel-flame-{}.svg", std::process::id()));
+    let path_s = path.to_str().unwrap();
+    stdout_of(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "200",
+        "--flamegraph",
+        path_s,
+    ]);
+    let svg = std::fs::read_to_string(&path).expect("flamegraph written");
+    assert!(
+        svg.starts_with("<?xml") && svg.contains("<svg"),
+        "not an SVG: {}",
+        &svg[..svg.len().min(200)]
+    );
+    std::fs::remove_file(&path).ok();
+}
