@@ -1,6 +1,7 @@
 //! A headless software splat renderer: surfels drawn as shaded, oriented discs with a
 //! depth buffer (ray–disc intersection per pixel), Lambert + ambient lighting, one
-//! colour per object and contact surfels highlighted; supersampled, written as PNG.
+//! colour per object and contact surfels highlighted (an overlay seen through the
+//! objects); supersampled, written as PNG.
 
 use crate::frame::Frame;
 use glam::Vec3;
@@ -14,6 +15,10 @@ pub const BACKGROUND: [u8; 3] = [236, 239, 243];
 
 /// Colour of contact surfels (flag `contact = 1`).
 pub const CONTACT_COLOUR: [f32; 3] = [0.92, 0.16, 0.10];
+
+/// Opacity of the contact overlay: contact surfels are drawn over everything (seen
+/// through the objects), so the contact surface shows even where the objects hide it.
+pub const CONTACT_ALPHA: f32 = 0.75;
 
 /// Object colours, by object id modulo their count (no reds: red marks contact).
 pub const PALETTE: [[f32; 3]; 6] = [
@@ -250,6 +255,8 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
     let bg = BACKGROUND.map(|c| c as f32 / 255.0);
     let mut colour = vec![bg; (w * h) as usize];
     let mut depth = vec![f32::INFINITY; (w * h) as usize];
+    let mut ov_colour = colour.clone();
+    let mut ov_depth = depth.clone();
     // Key light from the upper left of the viewer, fill from the camera.
     let key = (-0.45 * right + 0.8 * up - 0.5 * fwd).normalize();
     // Radius for frames without one: from the bounds and the count.
@@ -301,9 +308,14 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
         } else {
             object_colour(frame.object[i])
         };
+        let contact = frame.contact[i] != 0;
         let lambert = n.dot(key).max(0.0);
         let fill = n.dot(-fwd).max(0.0);
-        let light = 0.22 + 0.62 * lambert + 0.22 * fill;
+        let light = if contact {
+            0.7 + 0.3 * lambert.max(fill) // the overlay stays bright
+        } else {
+            0.22 + 0.62 * lambert + 0.22 * fill
+        };
         let shaded = base.map(|c| (c * light).min(1.0));
         for py in y0 as u32..=y1 as u32 {
             for px in x0 as u32..=x1 as u32 {
@@ -320,6 +332,12 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
                     continue;
                 }
                 let k = (py * w + px) as usize;
+                // Contact splats go to an overlay seen through the objects.
+                let (depth, colour) = if contact {
+                    (&mut ov_depth, &mut ov_colour)
+                } else {
+                    (&mut depth, &mut colour)
+                };
                 if t > 0.0 && t < depth[k] {
                     depth[k] = t;
                     colour[k] = shaded;
@@ -336,9 +354,15 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
             let mut acc = [0.0f32; 3];
             for sy in 0..s {
                 for sx in 0..s {
-                    let c = colour[((y * s + sy) * w + x * s + sx) as usize];
+                    let k = ((y * s + sy) * w + x * s + sx) as usize;
+                    let (c, o) = (colour[k], ov_colour[k]);
+                    let a = if ov_depth[k].is_finite() {
+                        CONTACT_ALPHA
+                    } else {
+                        0.0
+                    };
                     for k in 0..3 {
-                        acc[k] += c[k];
+                        acc[k] += (1.0 - a) * c[k] + a * o[k];
                     }
                 }
             }

@@ -193,3 +193,29 @@ fn png_round_trip() {
     img.write_png(p).unwrap();
     assert_eq!(Image::read_png(p).unwrap(), img);
 }
+
+#[test]
+fn contact_shows_through_the_object_in_front() {
+    let mut frame = Frame::default();
+    patch(&mut frame, -0.5, 0.0, 0, 1); // contact, behind
+    patch(&mut frame, -0.5, 0.5, 1, 0); // green, in front
+    let cam = Camera {
+        position: [0.0, 0.0, 4.0],
+        target: [0.0, 0.0, 0.0],
+        fov: 40.0,
+        up: [0.0, 1.0, 0.0],
+    };
+    let opts = RenderOptions {
+        width: 100,
+        height: 100,
+        camera: Some(cam),
+        ..Default::default()
+    };
+    let img = render(&frame, &opts);
+    let (x, y, _) = cam.project(Vec3::new(0.0, 0.0, 0.5), 100, 100).unwrap();
+    let c = img.pixel(x as u32, y as u32);
+    assert!(
+        c[0] > c[1],
+        "contact overlay visible through the object: {c:?}"
+    );
+}
