@@ -219,3 +219,64 @@ fn contact_shows_through_the_object_in_front() {
         "contact overlay visible through the object: {c:?}"
     );
 }
+
+#[test]
+fn scene_camera_is_used_and_checked() {
+    let dir = TempDir::new("cam");
+    let scene = dir.0.join("cam.toml");
+    let body = "steps = 1\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\n\
+                spacing = 0.025\nposition = [0.5, 0.0, 0.0]\n";
+    // Looking at the sphere from the side, off-centre in the image.
+    std::fs::write(
+        &scene,
+        format!("{body}[camera]\nposition = [0.0, 0.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 40\n"),
+    )
+    .unwrap();
+    let out = dir.0.join("out");
+    let o = phyxel(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--png",
+        "--size",
+        "200x100",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let img = Image::read_png(&out.join("surfels_00000.png")).unwrap();
+    let cam = Camera {
+        position: [0.0, 0.0, 2.0],
+        target: [0.0, 0.0, 0.0],
+        fov: 40.0,
+        up: [0.0, 1.0, 0.0],
+    };
+    let (x, y, _) = cam.project(Vec3::new(0.5, 0.0, 0.0), 200, 100).unwrap();
+    assert_ne!(img.pixel(x as u32, y as u32), BACKGROUND);
+    assert_eq!(img.pixel(100, 50), BACKGROUND, "the image centre is empty");
+    // `render --scene` takes the same camera.
+    let png = dir.0.join("again.png");
+    let o = phyxel(&[
+        "render",
+        out.join("surfels_00000.ply").to_str().unwrap(),
+        "-o",
+        png.to_str().unwrap(),
+        "--size",
+        "200x100",
+        "--scene",
+        scene.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(Image::read_png(&png).unwrap(), img);
+    // A bad camera is refused with the field named.
+    std::fs::write(
+        &scene,
+        format!(
+            "{body}[camera]\nposition = [0.0, 0.0, 2.0]\ntarget = [0.0, 0.0, 0.0]\nfov = 500\n"
+        ),
+    )
+    .unwrap();
+    let o = phyxel(&["run", scene.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("camera") && err.contains("fov = 500"), "{err}");
+}
