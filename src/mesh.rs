@@ -11,6 +11,291 @@ use std::collections::HashMap;
 use std::f32::consts::PI;
 use std::path::Path;
 
+/// The surface of a `mesh` shape: a closed triangle mesh or an oriented point cloud.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Surface {
+    Triangles(TriMesh),
+    Points(PointCloud),
+}
+
+impl Surface {
+    /// Loads `path`: `.obj`, or `.ply` with faces (a mesh) or with normals and no faces
+    /// (an oriented point cloud); scaled by `scale` and centred on its bounding box.
+    pub fn load(path: &Path, scale: f32) -> Result<Self, String> {
+        let name = path.display();
+        let is_ply = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("ply"));
+        if is_ply && path.exists() {
+            return match load_ply(path)? {
+                Loaded::Mesh((v, t)) => Ok(Surface::Triangles(
+                    TriMesh::new(v, t)
+                        .map_err(|e| format!("{name}: {e}"))?
+                        .scaled_centred(scale),
+                )),
+                Loaded::Points(p, n) => Ok(Surface::Points(
+                    PointCloud::new(p, n)
+                        .map_err(|e| format!("{name}: {e}"))?
+                        .scaled_centred(scale),
+                )),
+            };
+        }
+        TriMesh::load(path, scale).map(Surface::Triangles)
+    }
+
+    pub fn half_extents(&self) -> Vec3 {
+        match self {
+            Surface::Triangles(m) => m.half_extents(),
+            Surface::Points(c) => c.half_extents(),
+        }
+    }
+
+    pub fn area(&self) -> f32 {
+        match self {
+            Surface::Triangles(m) => m.area(),
+            Surface::Points(c) => c.areas.iter().sum(),
+        }
+    }
+
+    pub fn signed_volume(&self) -> f32 {
+        match self {
+            Surface::Triangles(m) => m.signed_volume(),
+            Surface::Points(c) => c.volume(),
+        }
+    }
+
+    pub fn sdf(&self, p: Vec3) -> f32 {
+        match self {
+            Surface::Triangles(m) => m.sdf(p),
+            Surface::Points(c) => c.sdf(p),
+        }
+    }
+
+    pub fn lattice_inside(&self, xs: &[f32], ys: &[f32], zs: &[f32]) -> Vec<Vec3> {
+        let points: Vec<Vec3> = zs
+            .iter()
+            .flat_map(|&z| {
+                ys.iter()
+                    .flat_map(move |&y| xs.iter().map(move |&x| Vec3::new(x, y, z)))
+            })
+            .collect();
+        points
+            .into_par_iter()
+            .filter(|&p| match self {
+                Surface::Triangles(m) => m.contains(p),
+                Surface::Points(c) => c.winding_number(p) > 0.5,
+            })
+            .collect()
+    }
+
+    pub fn sample_surface(&self, spacing: f32) -> (Vec<Vec3>, Vec<Vec3>, f32) {
+        match self {
+            Surface::Triangles(m) => m.sample_surface(spacing),
+            Surface::Points(c) => c.sample_surface(spacing),
+        }
+    }
+}
+
+/// An oriented point cloud (positions with outward normals) sampling a closed surface.
+/// Each point stands for an area `areas[i]` (from its 6 nearest neighbours); inside is
+/// where the point-cloud generalized winding number (Barill et al. 2018) exceeds ½.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointCloud {
+    pub points: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub areas: Vec<f32>,
+}
+
+impl PointCloud {
+    /// Checks (finite, non-zero normals, at least 4 points) and estimates point areas.
+    pub fn new(points: Vec<Vec3>, normals: Vec<Vec3>) -> Result<Self, String> {
+        if points.len() < 4 {
+            return Err(format!(
+                "empty point cloud: {} points, need at least 4",
+                points.len()
+            ));
+        }
+        if let Some(i) = points.iter().position(|v| !v.is_finite()) {
+            return Err(format!(
+                "vertex {i} has a non-finite coordinate {}",
+                points[i]
+            ));
+        }
+        let mut unit = Vec::with_capacity(normals.len());
+        for (i, n) in normals.iter().enumerate() {
+            let u = n.normalize_or_zero();
+            if !n.is_finite() || u == Vec3::ZERO {
+                return Err(format!("vertex {i} has a zero or non-finite normal {n}"));
+            }
+            unit.push(u);
+        }
+        let mut c = Self {
+            points,
+            normals: unit,
+            areas: Vec::new(),
+        };
+        c.estimate_areas();
+        Ok(c)
+    }
+
+    fn scaled_centred(mut self, scale: f32) -> Self {
+        let (lo, hi) = bounds(&self.points);
+        let centre = 0.5 * (lo + hi);
+        for p in &mut self.points {
+            *p = (*p - centre) * scale;
+        }
+        for a in &mut self.areas {
+            *a *= scale * scale;
+        }
+        self
+    }
+
+    /// Area per point from the local density: with d the mean distance to the 6 nearest
+    /// neighbours and ρ = 3d, aᵢ = πρ² / (points within ρ). A ball of radius ρ cuts a
+    /// sphere (of any radius) in a cap of area exactly πρ², so the estimate is unbiased on
+    /// curved surfaces too.
+    fn estimate_areas(&mut self) {
+        let (lo, hi) = bounds(&self.points);
+        let d = hi - lo;
+        let box_area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
+        let h0 = (box_area / self.points.len() as f32).sqrt().max(1e-9);
+        let cell = h0;
+        let key = |p: Vec3| ((p - lo) / cell).floor().as_ivec3();
+        let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
+        for (i, &p) in self.points.iter().enumerate() {
+            grid.entry(key(p)).or_default().push(i as u32);
+        }
+        // Distances from p to the points within `reach` cells, self excluded.
+        let near = |i: usize, reach: i32| -> Vec<f32> {
+            let p = self.points[i];
+            let c = key(p);
+            let mut dist = Vec::new();
+            for dz in -reach..=reach {
+                for dy in -reach..=reach {
+                    for dx in -reach..=reach {
+                        if let Some(v) = grid.get(&(c + glam::IVec3::new(dx, dy, dz))) {
+                            dist.extend(
+                                v.iter()
+                                    .filter(|&&j| j as usize != i)
+                                    .map(|&j| self.points[j as usize].distance(p)),
+                            );
+                        }
+                    }
+                }
+            }
+            dist
+        };
+        self.areas = (0..self.points.len())
+            .into_par_iter()
+            .map(|i| {
+                let mut reach = 1;
+                let mut dist = near(i, reach);
+                while dist.len() < 6 && reach < 8 {
+                    reach *= 2;
+                    dist = near(i, reach);
+                }
+                dist.sort_by(f32::total_cmp);
+                let k = dist.len().min(6);
+                if k == 0 {
+                    return h0 * h0;
+                }
+                let rho = 3.0 * dist[..k].iter().sum::<f32>() / k as f32;
+                let reach = (rho / cell).ceil() as i32;
+                let inside = near(i, reach).iter().filter(|&&d| d < rho).count() + 1;
+                PI * rho * rho / inside as f32
+            })
+            .collect();
+    }
+
+    pub fn half_extents(&self) -> Vec3 {
+        let (lo, hi) = bounds(&self.points);
+        0.5 * (hi - lo)
+    }
+
+    /// Enclosed volume by the divergence theorem, ⅓ Σ aᵢ xᵢ·nᵢ.
+    pub fn volume(&self) -> f32 {
+        (0..self.points.len())
+            .map(|i| self.areas[i] * self.points[i].dot(self.normals[i]))
+            .sum::<f32>()
+            / 3.0
+    }
+
+    /// Point-cloud generalized winding number about `q` (≈1 inside, ≈0 outside).
+    pub fn winding_number(&self, q: Vec3) -> f32 {
+        let mut w = 0.0f64;
+        for i in 0..self.points.len() {
+            let d = (self.points[i] - q).as_dvec3();
+            // Regularised within a point's own footprint.
+            let r = d.length().max(0.5 * (self.areas[i] as f64).sqrt());
+            w += self.areas[i] as f64 * d.dot(self.normals[i].as_dvec3()) / (r * r * r);
+        }
+        (w / (4.0 * std::f64::consts::PI)) as f32
+    }
+
+    /// Distance to the nearest point, negative inside.
+    pub fn sdf(&self, q: Vec3) -> f32 {
+        let d = self
+            .points
+            .iter()
+            .map(|p| p.distance(q))
+            .fold(f32::INFINITY, f32::min);
+        if self.winding_number(q) > 0.5 { -d } else { d }
+    }
+
+    /// The points thinned Poisson-disk towards `round(area / spacing²)` (all of them
+    /// when the cloud is sparser than that), with their normals and the disk radius.
+    pub fn sample_surface(&self, spacing: f32) -> (Vec<Vec3>, Vec<Vec3>, f32) {
+        let area: f32 = self.areas.iter().sum();
+        let target = (area / (spacing * spacing)).round().max(1.0) as usize;
+        let cand: Vec<(Vec3, Vec3)> = self
+            .points
+            .iter()
+            .zip(&self.normals)
+            .map(|(&p, &n)| (p, n))
+            .collect();
+        let kept = thin_to(&cand, target, spacing);
+        let pos: Vec<Vec3> = kept.iter().map(|&i| cand[i].0).collect();
+        let nrm: Vec<Vec3> = kept.iter().map(|&i| cand[i].1).collect();
+        let radius = (2.0 * area / (PI * pos.len().max(1) as f32)).sqrt();
+        (pos, nrm, radius)
+    }
+}
+
+fn bounds(points: &[Vec3]) -> (Vec3, Vec3) {
+    points
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        })
+}
+
+/// Poisson-disk thinning of `cand` with the exclusion radius bisected so the count comes
+/// within 0.5% of `target` (or as close as the candidates allow).
+fn thin_to(cand: &[(Vec3, Vec3)], target: usize, spacing: f32) -> Vec<usize> {
+    if cand.len() <= target {
+        return (0..cand.len()).collect();
+    }
+    let (mut lo, mut hi) = (0.05 * spacing, 1.5 * spacing);
+    let mut best = thin(cand, spacing);
+    for _ in 0..24 {
+        let r = 0.5 * (lo + hi);
+        let kept = thin(cand, r);
+        let err = (kept.len() as f32 - target as f32).abs();
+        if err < (best.len() as f32 - target as f32).abs() {
+            best = kept.clone();
+        }
+        if err <= 0.005 * target as f32 {
+            break;
+        }
+        if kept.len() > target {
+            lo = r;
+        } else {
+            hi = r;
+        }
+    }
+    best
+}
+
 /// A closed, consistently outward-oriented triangle mesh, centred on its bounding box.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TriMesh {
@@ -32,7 +317,14 @@ impl TriMesh {
             .unwrap_or_default();
         let (vertices, triangles) = match ext.as_str() {
             "obj" => load_obj(path)?,
-            "ply" => load_ply(path)?,
+            "ply" => match load_ply(path)? {
+                Loaded::Mesh(raw) => raw,
+                Loaded::Points(..) => {
+                    return Err(format!(
+                        "{name}: a point cloud (no 'face' element), not a mesh"
+                    ));
+                }
+            },
             _ => {
                 return Err(format!(
                     "{name}: unknown mesh format '.{ext}' (supported: .obj, .ply)"
@@ -274,25 +566,7 @@ impl TriMesh {
             };
             cand.push((p, n));
         }
-        // Poisson-disk thinning: bisect the exclusion radius for the target count.
-        let (mut lo, mut hi) = (0.3 * spacing, 1.5 * spacing);
-        let mut best = thin(&cand, spacing);
-        for _ in 0..24 {
-            let r = 0.5 * (lo + hi);
-            let kept = thin(&cand, r);
-            let err = (kept.len() as f32 - target as f32).abs();
-            if err < (best.len() as f32 - target as f32).abs() {
-                best = kept.clone();
-            }
-            if err <= 0.005 * target as f32 {
-                break;
-            }
-            if kept.len() > target {
-                lo = r;
-            } else {
-                hi = r;
-            }
-        }
+        let best = thin_to(&cand, target, spacing);
         let pos: Vec<Vec3> = best.iter().map(|&i| cand[i].0).collect();
         let nrm: Vec<Vec3> = best.iter().map(|&i| cand[i].1).collect();
         let radius = (2.0 * area / (PI * pos.len().max(1) as f32)).sqrt();
@@ -400,7 +674,13 @@ fn load_obj(path: &Path) -> Result<Raw, String> {
     Ok((vertices, triangles))
 }
 
-fn load_ply(path: &Path) -> Result<Raw, String> {
+/// What a PLY file holds.
+enum Loaded {
+    Mesh(Raw),
+    Points(Vec<Vec3>, Vec<Vec3>),
+}
+
+fn load_ply(path: &Path) -> Result<Loaded, String> {
     let name = path.display();
     let ply = read_ply(path)?;
     let verts = ply
@@ -418,9 +698,30 @@ fn load_ply(path: &Path) -> Result<Raw, String> {
         }
         vertices.push(Vec3::from(c));
     }
-    let faces = ply.payload.get("face").ok_or_else(|| {
-        format!("{name}: no 'face' element (a point cloud): a mesh shape needs triangles")
-    })?;
+    let Some(faces) = ply.payload.get("face") else {
+        // A point cloud: usable with normals.
+        let has_normals = verts
+            .first()
+            .is_some_and(|e| ["nx", "ny", "nz"].iter().all(|k| e.contains_key(*k)));
+        if !has_normals {
+            return Err(format!(
+                "{name}: no 'face' element, and no normals (nx ny nz) for an oriented point \
+                 cloud: a mesh shape needs triangles or oriented points"
+            ));
+        }
+        let mut normals = Vec::with_capacity(verts.len());
+        for (i, e) in verts.iter().enumerate() {
+            let mut c = [0.0f32; 3];
+            for (k, prop) in ["nx", "ny", "nz"].iter().enumerate() {
+                c[k] = e
+                    .get(*prop)
+                    .and_then(|p| p.to_f32_lossy())
+                    .ok_or_else(|| format!("{name}: element 'vertex' {i}: no scalar '{prop}'"))?;
+            }
+            normals.push(Vec3::from(c));
+        }
+        return Ok(Loaded::Points(vertices, normals));
+    };
     let mut triangles = Vec::with_capacity(faces.len());
     for (i, f) in faces.iter().enumerate() {
         let idx = f
@@ -440,5 +741,5 @@ fn load_ply(path: &Path) -> Result<Raw, String> {
             triangles.push([idx[0], idx[k], idx[k + 1]]);
         }
     }
-    Ok((vertices, triangles))
+    Ok(Loaded::Mesh((vertices, triangles)))
 }

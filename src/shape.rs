@@ -7,7 +7,7 @@
 
 use std::f32::consts::{PI, TAU};
 
-use crate::mesh::TriMesh;
+use crate::mesh::Surface;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -49,7 +49,7 @@ pub enum Shape {
         #[serde(default = "one")]
         scale: f32,
         #[serde(skip)]
-        mesh: Option<Arc<TriMesh>>,
+        mesh: Option<Arc<Surface>>,
     },
 }
 
@@ -422,7 +422,7 @@ impl Shape {
         } = self
             && mesh.is_none()
         {
-            *mesh = Some(Arc::new(TriMesh::load(&base.join(&*path), *scale)?));
+            *mesh = Some(Arc::new(Surface::load(&base.join(&*path), *scale)?));
         }
         Ok(())
     }

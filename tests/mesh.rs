@@ -365,3 +365,90 @@ fn bad_meshes_give_clear_errors() {
     let e = scene_error(d, "cloud.ply");
     assert!(e.contains("cloud.ply") && e.contains("no 'face'"), "{e}");
 }
+
+/// `n` points on a sphere of radius `r` (Fibonacci spiral) with outward normals, as a PLY
+/// point cloud: `x y z nx ny nz`, no faces.
+fn write_cloud(path: &Path, r: f32, n: usize, binary: bool) {
+    let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    let pts: Vec<Vec3> = (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let rho = (1.0 - y * y).sqrt();
+            let a = golden * i as f32;
+            Vec3::new(rho * a.cos(), y, rho * a.sin())
+        })
+        .collect();
+    let fmt = if binary {
+        "binary_little_endian"
+    } else {
+        "ascii"
+    };
+    let mut b = format!(
+        "ply\nformat {fmt} 1.0\nelement vertex {n}\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n"
+    )
+    .into_bytes();
+    for d in pts {
+        let p = d * r;
+        if binary {
+            for c in [p.x, p.y, p.z, d.x, d.y, d.z] {
+                b.write_all(&c.to_le_bytes()).unwrap();
+            }
+        } else {
+            writeln!(b, "{} {} {} {} {} {}", p.x, p.y, p.z, d.x, d.y, d.z).unwrap();
+        }
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+#[test]
+fn oriented_point_cloud_samples_a_sphere() {
+    let dir = TempDir::new("cloud");
+    let r = 0.1;
+    let (spacing, surfel) = (0.01, 0.004);
+    for (file, binary) in [("cloud.ply", false), ("cloud_bin.ply", true)] {
+        write_cloud(&dir.0.join(file), r, 12000, binary);
+        let scene = Scene::load(&scene_with(&dir.0, file, spacing, surfel)).unwrap();
+        let world = scene.build(&BuildOptions::default()).unwrap();
+        let o = &world.objects[0];
+        let target_v = 4.0 / 3.0 * std::f32::consts::PI * r.powi(3) / spacing.powi(3);
+        assert!(
+            within(o.phyxels.len(), target_v, 0.05),
+            "{file}: {} phyxels vs {target_v}",
+            o.phyxels.len()
+        );
+        for i in 0..o.phyxels.len() {
+            assert!(
+                o.phyxels.pos.get(i).length() < r,
+                "{file}: phyxel {i} outside"
+            );
+        }
+        let target_s = 4.0 * std::f32::consts::PI * r * r / (surfel * surfel);
+        assert!(
+            within(o.surfels.len(), target_s, 0.05),
+            "{file}: {} surfels vs {target_s}",
+            o.surfels.len()
+        );
+        for i in 0..o.surfels.len() {
+            let p = o.surfels.pos.get(i);
+            assert!((p.length() - r).abs() < 0.01 * r, "{file}: surfel {i}");
+            assert!(
+                o.surfels.normal.get(i).dot(p.normalize()) > 0.95,
+                "{file}: normal {i}"
+            );
+        }
+    }
+    // A zero normal is refused, naming the vertex.
+    std::fs::write(
+        dir.0.join("zero.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n\
+         0 0 0 1 0 0\n1 0 0 1 0 0\n0 1 0 0 0 0\n0 0 1 0 0 1\n",
+    )
+    .unwrap();
+    let e = scene_error(&dir.0, "zero.ply");
+    assert!(
+        e.contains("zero.ply") && e.contains("vertex 2") && e.contains("normal"),
+        "{e}"
+    );
+}
