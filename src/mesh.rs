@@ -648,6 +648,37 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
 
 type Raw = (Vec<Vec3>, Vec<[u32; 3]>);
 
+/// The first OBJ line (1-based) whose vertex or face data does not parse, for error
+/// messages (the OBJ parser does not report lines).
+fn obj_bad_line(path: &Path) -> Option<(usize, String)> {
+    let text = std::fs::read_to_string(path).ok()?;
+    let mut vertices = 0i64;
+    for (k, line) in text.lines().enumerate() {
+        let mut tok = line.split_whitespace();
+        let ok = match tok.next() {
+            Some("v") => {
+                vertices += 1;
+                let c: Vec<_> = tok.collect();
+                c.len() >= 3 && c.iter().all(|t| t.parse::<f32>().is_ok())
+            }
+            Some("vn") | Some("vt") => tok.all(|t| t.parse::<f32>().is_ok()),
+            Some("f") => {
+                let c: Vec<_> = tok.collect();
+                c.len() >= 3
+                    && c.iter().all(|t| {
+                        let i = t.split('/').next().and_then(|i| i.parse::<i64>().ok());
+                        i.is_some_and(|i| i != 0 && i.abs() <= vertices)
+                    })
+            }
+            _ => true,
+        };
+        if !ok {
+            return Some((k + 1, line.trim().to_string()));
+        }
+    }
+    None
+}
+
 fn load_obj(path: &Path) -> Result<Raw, String> {
     let name = path.display();
     let opts = tobj::LoadOptions {
@@ -656,8 +687,10 @@ fn load_obj(path: &Path) -> Result<Raw, String> {
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _) =
-        tobj::load_obj(path, &opts).map_err(|e| format!("{name}: cannot read OBJ: {e}"))?;
+    let (models, _) = tobj::load_obj(path, &opts).map_err(|e| match obj_bad_line(path) {
+        Some((line, text)) => format!("{name}: line {line}: cannot read OBJ ({e}): '{text}'"),
+        None => format!("{name}: cannot read OBJ: {e}"),
+    })?;
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     for m in &models {

@@ -348,6 +348,17 @@ fn bad_meshes_give_clear_errors() {
     let e = scene_error(d, "dup.obj");
     assert!(e.contains("dup.obj") && e.contains("non-manifold"), "{e}");
 
+    // A malformed OBJ line is reported with its number.
+    std::fs::write(d.join("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 x\nf 1 2 3\n").unwrap();
+    let e = scene_error(d, "bad.obj");
+    assert!(e.contains("bad.obj") && e.contains("line 3"), "{e}");
+    std::fs::write(d.join("badf.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n").unwrap();
+    let e = scene_error(d, "badf.obj");
+    assert!(
+        e.contains("badf.obj") && (e.contains("line 4") || e.contains("vertex 8")),
+        "{e}"
+    );
+
     std::fs::write(d.join("mesh.stl"), "solid\n").unwrap();
     let e = scene_error(d, "mesh.stl");
     assert!(
