@@ -90,10 +90,15 @@ pub struct ObjectSpec {
     #[serde(default)]
     pub name: String,
     pub shape: Shape,
-    /// Phyxel lattice spacing (m).
+    /// Phyxel lattice spacing (m). May be omitted when `phyxels` gives a target count.
+    #[serde(default)]
     pub spacing: f32,
-    /// Surfel spacing (m). Omitted: half the phyxel spacing.
+    /// Surfel spacing (m). Omitted: half the phyxel spacing (or from `surfels`).
     pub surfel_spacing: Option<f32>,
+    /// Target phyxel count: sets the spacing to `(volume / phyxels)^(1/3)`.
+    pub phyxels: Option<u32>,
+    /// Target surfel count: sets the surfel spacing to `(area / surfels)^(1/2)`.
+    pub surfels: Option<u32>,
     /// Dynamics backend (`"mls"`); ignored for static objects.
     #[serde(default = "default_backend")]
     pub backend: String,
@@ -251,7 +256,17 @@ impl Scene {
                 .validate()
                 .map_err(|m| err(&format!("{at}.material"), m))?;
             let size = o.shape.half_extents().max_element() * 2.0;
-            if !(o.spacing.is_finite() && o.spacing > 0.0) {
+            for (name, n) in [("phyxels", o.phyxels), ("surfels", o.surfels)] {
+                if n == Some(0) {
+                    return Err(err(
+                        &format!("{at}.{name}"),
+                        format!("{name} = 0: must be >= 1"),
+                    ));
+                }
+            }
+            if o.phyxels.is_some() && o.spacing == 0.0 {
+                // The spacing follows from the count once the shape is sampled.
+            } else if !(o.spacing.is_finite() && o.spacing > 0.0) {
                 return Err(err(
                     &format!("{at}.spacing"),
                     format!("spacing = {}: must be a finite number > 0", o.spacing),
@@ -373,6 +388,30 @@ impl Scene {
     }
 }
 
+/// The lattice spacing whose phyxel count is closest to `target`: starts from
+/// `(volume/target)^(1/3)` and corrects a few times by the cube root of the count
+/// ratio, since a small lattice's count jumps with the rounding at the boundary.
+fn lattice_spacing_for(shape: &Shape, target: u32) -> f32 {
+    let target = target as f32;
+    let mut s = (shape.volume() / target).cbrt();
+    let mut best = (f32::INFINITY, s);
+    for _ in 0..8 {
+        if !(s.is_finite() && s > 0.0) {
+            break;
+        }
+        let n = shape.sample_volume(s).positions.len() as f32;
+        let err = (n / target - 1.0).abs();
+        if err < best.0 {
+            best = (err, s);
+        }
+        if err < 0.01 {
+            break;
+        }
+        s *= (n / target).cbrt();
+    }
+    best.1
+}
+
 impl ObjectSpec {
     /// The rigid placement: local → world.
     pub fn placement(&self) -> (Quat, Vec3) {
@@ -383,14 +422,37 @@ impl ObjectSpec {
         )
     }
 
+    /// Phyxel and surfel spacing (m): given, or from the target counts `phyxels` and
+    /// `surfels` and the shape's volume and area.
+    pub fn spacings(&self, shape: &Shape) -> Result<(f32, f32), String> {
+        let spacing = match self.phyxels {
+            Some(n) => lattice_spacing_for(shape, n),
+            None => self.spacing,
+        };
+        let surfel = match (self.surfels, self.surfel_spacing) {
+            (Some(n), _) => (shape.area() / n as f32).sqrt(),
+            (None, Some(s)) => s,
+            (None, None) => 0.5 * spacing,
+        };
+        if !(spacing.is_finite() && spacing > 0.0 && surfel.is_finite() && surfel > 0.0) {
+            return Err(format!(
+                "spacing {spacing} / surfel spacing {surfel} from phyxels = {:?}, surfels = {:?}: \
+                 the shape has no volume or area to divide",
+                self.phyxels, self.surfels
+            ));
+        }
+        Ok((spacing, surfel))
+    }
+
     /// Samples the shape and creates the object with backend `backend`.
     pub fn build(&self, id: u32, backend: &str) -> Result<Object, String> {
         let (rot, pos) = self.placement();
         // A mesh not loaded by `Scene::load`: its path is relative to the working directory.
         let mut shape = self.shape.clone();
         shape.load_mesh(Path::new(""))?;
-        let vol = shape.sample_volume(self.spacing);
-        let surf = shape.sample_surface(self.surfel_spacing.unwrap_or(0.5 * self.spacing));
+        let (spacing, surfel_spacing) = self.spacings(&shape)?;
+        let vol = shape.sample_volume(spacing);
+        let surf = shape.sample_surface(surfel_spacing);
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
         let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
         let v = Vec3::from(self.velocity);
