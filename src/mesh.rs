@@ -72,14 +72,7 @@ impl Surface {
     }
 
     pub fn lattice_inside(&self, xs: &[f32], ys: &[f32], zs: &[f32]) -> Vec<Vec3> {
-        let points: Vec<Vec3> = zs
-            .iter()
-            .flat_map(|&z| {
-                ys.iter()
-                    .flat_map(move |&y| xs.iter().map(move |&x| Vec3::new(x, y, z)))
-            })
-            .collect();
-        points
+        lattice_points(xs, ys, zs)
             .into_par_iter()
             .filter(|&p| match self {
                 Surface::Triangles(m) => m.contains(p),
@@ -496,14 +489,7 @@ impl TriMesh {
 
     /// Lattice points inside the surface (the lattice given by per-axis coordinates).
     pub fn lattice_inside(&self, xs: &[f32], ys: &[f32], zs: &[f32]) -> Vec<Vec3> {
-        let points: Vec<Vec3> = zs
-            .iter()
-            .flat_map(|&z| {
-                ys.iter()
-                    .flat_map(move |&y| xs.iter().map(move |&x| Vec3::new(x, y, z)))
-            })
-            .collect();
-        points
+        lattice_points(xs, ys, zs)
             .into_par_iter()
             .filter(|&p| self.contains(p))
             .collect()
@@ -775,4 +761,14 @@ fn load_ply(path: &Path) -> Result<Loaded, String> {
         }
     }
     Ok(Loaded::Mesh((vertices, triangles)))
+}
+
+/// The lattice points of per-axis coordinates, z slowest (the phyxel order of shapes).
+fn lattice_points(xs: &[f32], ys: &[f32], zs: &[f32]) -> Vec<Vec3> {
+    zs.iter()
+        .flat_map(|&z| {
+            ys.iter()
+                .flat_map(move |&y| xs.iter().map(move |&x| Vec3::new(x, y, z)))
+        })
+        .collect()
 }
