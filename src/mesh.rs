@@ -699,6 +699,29 @@ enum Loaded {
     Points(Vec<Vec3>, Vec<Vec3>),
 }
 
+/// Three scalar properties of every vertex as vectors; the error names the file, the
+/// vertex and the missing property.
+fn vertex_vectors(
+    verts: &[ply_rs_bw::ply::DefaultElement],
+    props: [&str; 3],
+    name: &impl std::fmt::Display,
+) -> Result<Vec<Vec3>, String> {
+    verts
+        .iter()
+        .enumerate()
+        .map(|(i, e)| {
+            let mut c = [0.0f32; 3];
+            for (k, prop) in props.iter().enumerate() {
+                c[k] = e
+                    .get(*prop)
+                    .and_then(|p| p.to_f32_lossy())
+                    .ok_or_else(|| format!("{name}: element 'vertex' {i}: no scalar '{prop}'"))?;
+            }
+            Ok(Vec3::from(c))
+        })
+        .collect()
+}
+
 fn load_ply(path: &Path) -> Result<Loaded, String> {
     let name = path.display();
     let ply = read_ply(path)?;
@@ -706,17 +729,7 @@ fn load_ply(path: &Path) -> Result<Loaded, String> {
         .payload
         .get("vertex")
         .ok_or_else(|| format!("{name}: no 'vertex' element"))?;
-    let mut vertices = Vec::with_capacity(verts.len());
-    for (i, e) in verts.iter().enumerate() {
-        let mut c = [0.0f32; 3];
-        for (k, prop) in ["x", "y", "z"].iter().enumerate() {
-            c[k] = e
-                .get(*prop)
-                .and_then(|p| p.to_f32_lossy())
-                .ok_or_else(|| format!("{name}: element 'vertex' {i}: no scalar '{prop}'"))?;
-        }
-        vertices.push(Vec3::from(c));
-    }
+    let vertices = vertex_vectors(verts, ["x", "y", "z"], &name)?;
     let Some(faces) = ply.payload.get("face") else {
         // A point cloud: usable with normals.
         let has_normals = verts
@@ -728,17 +741,7 @@ fn load_ply(path: &Path) -> Result<Loaded, String> {
                  cloud: a mesh shape needs triangles or oriented points"
             ));
         }
-        let mut normals = Vec::with_capacity(verts.len());
-        for (i, e) in verts.iter().enumerate() {
-            let mut c = [0.0f32; 3];
-            for (k, prop) in ["nx", "ny", "nz"].iter().enumerate() {
-                c[k] = e
-                    .get(*prop)
-                    .and_then(|p| p.to_f32_lossy())
-                    .ok_or_else(|| format!("{name}: element 'vertex' {i}: no scalar '{prop}'"))?;
-            }
-            normals.push(Vec3::from(c));
-        }
+        let normals = vertex_vectors(verts, ["nx", "ny", "nz"], &name)?;
         return Ok(Loaded::Points(vertices, normals));
     };
     let mut triangles = Vec::with_capacity(faces.len());
