@@ -68,6 +68,13 @@ pub trait Dynamics: Send + Sync {
         Diagnostics::default()
     }
 
+    /// True if the object may break apart. Only then does the topology phase check the
+    /// phyxels' connectivity after each step (no topology work for bodies that cannot
+    /// fracture). A piece gets a fresh backend of the same name, built from its phyxels.
+    fn can_fracture(&self, _material: &Material) -> bool {
+        false
+    }
+
     /// True for backends that never move their phyxels (ground planes, fixed obstacles):
     /// the pipeline skips their step and advection.
     fn is_static(&self) -> bool {
