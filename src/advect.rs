@@ -28,6 +28,9 @@ pub struct SurfelBinding {
     weight: Vec<f32>,
     /// Rest offset `s₀ − x₀ᵢ`.
     offset: Vec<Vec3>,
+    /// Advected (position, normal, velocity) per surfel, kept between steps so the step
+    /// does not allocate.
+    scratch: Vec<(Vec3, Vec3, Vec3)>,
 }
 
 impl SurfelBinding {
@@ -83,10 +86,11 @@ impl SurfelBinding {
 
     /// Moves surfels, their normals and velocities with the phyxels, given the
     /// displacement gradient of every phyxel.
-    pub fn advect(&self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
-        let out: Vec<(Vec3, Vec3, Vec3)> = (0..surfels.len())
-            .into_par_iter()
-            .map(|s| {
+    pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
+        let mut out = std::mem::take(&mut self.scratch);
+        out.resize(surfels.len(), (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO));
+        out.par_iter_mut().enumerate().for_each(|(s, out)| {
+            *out = {
                 let (mut u, mut g, mut v) = (Vec3::ZERO, Mat3::ZERO, Vec3::ZERO);
                 for k in self.offsets[s] as usize..self.offsets[s + 1] as usize {
                     let i = self.phyxel[k] as usize;
@@ -102,12 +106,13 @@ impl SurfelBinding {
                 let cof = cofactor(j);
                 let n = (cof * n0).try_normalize().unwrap_or(surfels.normal.get(s));
                 (surfels.rest.get(s) + u, n, v)
-            })
-            .collect();
-        for (s, (x, n, v)) in out.into_iter().enumerate() {
+            };
+        });
+        for (s, &(x, n, v)) in out.iter().enumerate() {
             surfels.pos.set(s, x);
             surfels.normal.set(s, n);
             surfels.vel.set(s, v);
         }
+        self.scratch = out;
     }
 }

@@ -133,7 +133,9 @@ pub fn contact_surface(
     det: &PairDetection,
     s: &PairSurfaces<'_>,
     p: &ContactParams,
-) -> ContactPatch {
+    scratch: &mut PatchScratch,
+    patch: &mut ContactPatch,
+) {
     let tol = 0.05 * p.spacing;
     // `own` is the surface the colliding surfel lies on, `other` the one it is inside;
     // the anchors are the surfel and its projection, with their surfaces' normals.
@@ -177,23 +179,39 @@ pub fn contact_surface(
             force: Vec3::ZERO,
         })
     };
-    let from_a = det
-        .a_in_b
-        .par_iter()
-        .map(|c| place(c, s.surfels_a, true, det.a));
-    let from_b = det
-        .b_in_a
-        .par_iter()
-        .map(|c| place(c, s.surfels_b, false, det.b));
-    let placed: Vec<Option<ContactSurfel>> = from_a.chain(from_b).collect();
-    let dropped = placed.iter().filter(|c| c.is_none()).count();
-    ContactPatch {
-        a: det.a,
-        b: det.b,
-        surfels: placed.into_iter().flatten().collect(),
-        render: Vec::new(),
-        dropped,
-    }
+    let n_a = det.a_in_b.len();
+    let placed = &mut scratch.placed;
+    placed.clear();
+    placed.resize(n_a + det.b_in_a.len(), None);
+    placed.par_iter_mut().enumerate().for_each(|(k, slot)| {
+        *slot = if k < n_a {
+            place(&det.a_in_b[k], s.surfels_a, true, det.a)
+        } else {
+            place(&det.b_in_a[k - n_a], s.surfels_b, false, det.b)
+        };
+    });
+    patch.a = det.a;
+    patch.b = det.b;
+    patch.surfels.clear();
+    patch.surfels.extend(placed.iter().flatten());
+    patch.render.clear();
+    patch.dropped = placed.len() - patch.surfels.len();
+}
+
+/// Scratch of one pair's contact phases, kept between steps so that the step does not
+/// allocate once the buffers have grown to the contact's size.
+#[derive(Clone, Debug, Default)]
+pub struct PatchScratch {
+    placed: Vec<Option<ContactSurfel>>,
+    grid: Grid,
+    density: Vec<f32>,
+}
+
+/// Scratch of [`distribute`]: the phyxels near one contact surfel.
+#[derive(Clone, Debug, Default)]
+pub struct DistributeScratch {
+    near: Vec<(usize, f32)>,
+    knn: Vec<(usize, f32)>,
 }
 
 /// Even, hole-free sampling of Φ for the render surface (after Witkin–Heckbert, as in
@@ -357,22 +375,21 @@ fn pca_normals(surfels: &mut [ContactSurfel], r: f32) {
 /// Area each contact surfel stands for: `1 / Σ_j W(|x_i − x_j|)` with the normalised
 /// 2-D poly6 kernel of support 2 spacings (a kernel density estimate of surfels per m²,
 /// exact for any uniform sampling, unlike a k-nearest radius).
-pub fn areas(surfels: &mut [ContactSurfel], spacing: f32) {
+pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScratch) {
     let hh = 2.0 * spacing;
     let norm = 4.0 / (std::f32::consts::PI * hh.powi(8));
-    let grid = grid_of(surfels, hh);
-    let density: Vec<f32> = surfels
-        .par_iter()
-        .map(|c| {
-            let mut rho = 0.0;
-            grid.for_each_within(c.pos, hh, |_, d2| {
-                let q = hh * hh - d2;
-                rho += norm * q * q * q;
-            });
-            rho
-        })
-        .collect();
-    for (c, rho) in surfels.iter_mut().zip(density) {
+    let PatchScratch { grid, density, .. } = scratch;
+    grid.rebuild(surfels.iter().map(|c| c.pos), hh);
+    density.clear();
+    density.resize(surfels.len(), 0.0);
+    let grid = &*grid;
+    density.par_iter_mut().enumerate().for_each(|(i, rho)| {
+        grid.for_each_within(surfels[i].pos, hh, |_, d2| {
+            let q = hh * hh - d2;
+            *rho += norm * q * q * q;
+        });
+    });
+    for (c, &rho) in surfels.iter_mut().zip(density.iter()) {
         c.area = 1.0 / rho;
     }
 }
@@ -387,18 +404,21 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32) {
 /// along the contact normal, and the tangential part of `d` is sampling noise (rim
 /// surfels of a curved body) that would make a resting body drift; friction alone acts
 /// tangentially.
-pub fn forces(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
-    areas(&mut patch.surfels, p.spacing);
+pub fn forces(
+    patch: &mut ContactPatch,
+    s: &PairSurfaces<'_>,
+    p: &ContactParams,
+    scratch: &mut PatchScratch,
+) {
+    areas(&mut patch.surfels, p.spacing, scratch);
     let side = |own: &ImplicitSurface<'_>, x: Vec3| -> Option<(Vec3, Vec3)> {
         let proj = own.project(x)?;
         // Φ outside this object: its surface is not displaced here.
         (proj.signed_distance <= 0.0).then_some((proj.point - x, proj.point))
     };
     let velocity = |surfels: &Surfels, grid: &Grid, x: Vec3| {
-        let mut near = Vec::with_capacity(1);
-        grid.k_nearest(x, 1, &mut near);
-        near.first()
-            .map_or(Vec3::ZERO, |&(k, _)| surfels.vel.get(k))
+        grid.nearest(x)
+            .map_or(Vec3::ZERO, |(k, _)| surfels.vel.get(k))
     };
     let one_side = |d: Vec3, n: Vec3, v_rel: Vec3| -> Vec3 {
         let d = d.dot(n) * n;
@@ -442,18 +462,18 @@ pub fn distribute(
     phyxels: &mut Phyxels,
     grid: &Grid,
     h: f32,
+    scratch: &mut DistributeScratch,
 ) {
-    let mut near: Vec<(usize, f32)> = Vec::new();
-    let mut knn = Vec::new();
+    let DistributeScratch { near, knn } = scratch;
     for c in surfels {
         near.clear();
         grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
         let mut support = h;
         if near.len() < MIN_DISTRIBUTION_PHYXELS {
-            grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, &mut knn);
+            grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, knn);
             support = knn.last().map_or(h, |e| e.1.sqrt() * 1.001 + 1e-9);
             near.clear();
-            near.extend_from_slice(&knn);
+            near.extend_from_slice(knn);
         }
         near.sort_unstable_by_key(|e| e.0);
         let total: f32 = near.iter().map(|&(_, d2)| poly6(d2, support)).sum();
@@ -461,7 +481,7 @@ pub fn distribute(
             continue;
         }
         let f = sign * c.force;
-        for &(i, d2) in &near {
+        for &(i, d2) in near.iter() {
             phyxels.force.add(i, f * (poly6(d2, support) / total));
         }
     }

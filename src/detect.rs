@@ -67,35 +67,52 @@ impl Volume<'_> {
     }
 }
 
-/// The surfels of `surfels` in `pair.bounds` that are inside `other`, in surfel order.
-/// `candidates` is scratch for the candidate indices. Candidates far from `other`'s
-/// surface are classified by `volume` alone (one grid query) and projected only when
-/// inside (deep penetration).
+/// Scratch of one side of a pair's detection, kept between steps so that the step does
+/// not allocate once it has grown to the contact's size.
+#[derive(Clone, Debug, Default)]
+pub struct DetectScratch {
+    candidates: Vec<u32>,
+    found: Vec<Option<Colliding>>,
+}
+
+/// The surfels of `surfels` in `pair.bounds` that are inside `other`, in surfel order,
+/// written to `out`; returns the number of candidates tested. Candidates far from
+/// `other`'s surface are classified by `volume` alone (one grid query) and projected only
+/// when inside (deep penetration).
 pub fn colliding_surfels(
     surfels: &Surfels,
     other: &ImplicitSurface<'_>,
     volume: &Volume<'_>,
     pair: &Pair,
-    candidates: &mut Vec<u32>,
-) -> Vec<Colliding> {
+    scratch: &mut DetectScratch,
+    out: &mut Vec<Colliding>,
+) -> usize {
+    let DetectScratch { candidates, found } = scratch;
     candidates.clear();
     points_in_box(&surfels.pos, &pair.bounds, candidates);
-    candidates
-        .par_chunks(CHUNK)
-        .flat_map_iter(|chunk| {
-            chunk.iter().filter_map(|&s| {
+    found.clear();
+    found.resize(candidates.len(), None);
+    found
+        .par_chunks_mut(CHUNK)
+        .zip(candidates.par_chunks(CHUNK))
+        .for_each(|(slots, chunk)| {
+            for (slot, &s) in slots.iter_mut().zip(chunk) {
                 let x = surfels.pos.get(s as usize);
-                if other.sample_near(x).is_none() && !volume.contains(x) {
-                    return None;
-                }
-                let (inside, p) = other.inside(x)?;
-                inside.then_some(Colliding {
-                    surfel: s,
-                    projection: p.point,
-                    normal: p.normal,
-                    depth: -p.signed_distance,
-                })
-            })
-        })
-        .collect()
+                *slot = if other.sample_near(x).is_none() && !volume.contains(x) {
+                    None
+                } else {
+                    other.inside(x).and_then(|(inside, p)| {
+                        inside.then_some(Colliding {
+                            surfel: s,
+                            projection: p.point,
+                            normal: p.normal,
+                            depth: -p.signed_distance,
+                        })
+                    })
+                };
+            }
+        });
+    out.clear();
+    out.extend(found.iter().flatten());
+    candidates.len()
 }

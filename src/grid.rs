@@ -465,6 +465,28 @@ impl Grid {
         }
     }
 
+    /// The nearest indexed point to `x` and its squared distance, without allocating:
+    /// the search radius doubles from one cell until a point lies within it (every point
+    /// within r is found, so the nearest of them is final).
+    pub fn nearest(&self, x: Vec3) -> Option<(usize, f32)> {
+        if self.sorted.is_empty() || !x.is_finite() {
+            return None;
+        }
+        let mut r = self.cell;
+        loop {
+            let mut best: Option<(usize, f32)> = None;
+            self.for_each_within(x, r, |i, d2| {
+                if best.is_none_or(|(j, b)| (d2, i) < (b, j)) {
+                    best = Some((i, d2));
+                }
+            });
+            if best.is_some() || r == f32::INFINITY {
+                return best;
+            }
+            r *= 2.0;
+        }
+    }
+
     /// The `k` nearest points to `x` as `(index, squared_distance)`, nearest first
     /// (ties broken by index). Fewer than `k` only when the grid indexes fewer points.
     /// Empty for a non-finite `x`. Allocates only if `out` must grow.

@@ -14,6 +14,13 @@ pub const SIGMA_PER_RADIUS: f32 = 1.0;
 pub const CUTOFF_SIGMAS: f32 = 2.5;
 /// Surfels used when none lies within the cutoff (points far from the surface).
 pub const FAR_NEIGHBOURS: usize = 8;
+
+thread_local! {
+    /// k-nearest scratch of the far-field path, reused by each worker thread.
+    static KNN_SCRATCH: std::cell::RefCell<Vec<(usize, f32)>> = const {
+        std::cell::RefCell::new(Vec::new())
+    };
+}
 /// Iteration limit of the orthogonal projection.
 pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
 /// Convergence tolerance of the projection, in units of the smallest σ.
@@ -137,18 +144,20 @@ impl<'a> ImplicitSurface<'a> {
         }
         // Far from every kernel: weight the nearest surfels on their own scale.
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
-        let mut near = Vec::with_capacity(FAR_NEIGHBOURS);
-        self.far.k_nearest(x, FAR_NEIGHBOURS, &mut near);
-        let (_, d2_far) = *near.last()?;
-        let (_, d2_near) = near[0];
-        let s2 = d2_far.max(1e-30);
-        for &(k, d2) in &near {
-            let w = (-(d2 - d2_near) / s2).exp();
-            w_sum += w;
-            ws += w * self.pos.get(k);
-            wn += w * self.normal.get(k);
-        }
-        finish(x, w_sum, ws, wn)
+        // One scratch list per thread: the step stays free of heap allocation.
+        KNN_SCRATCH.with_borrow_mut(|near| {
+            self.far.k_nearest(x, FAR_NEIGHBOURS, near);
+            let (_, d2_far) = *near.last()?;
+            let (_, d2_near) = near[0];
+            let s2 = d2_far.max(1e-30);
+            for &(k, d2) in near.iter() {
+                let w = (-(d2 - d2_near) / s2).exp();
+                w_sum += w;
+                ws += w * self.pos.get(k);
+                wn += w * self.normal.get(k);
+            }
+            finish(x, w_sum, ws, wn)
+        })
     }
 
     /// Orthogonal projection onto the surface: `x ← x − f(x) n(x)` until

@@ -1,13 +1,17 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
 use crate::broad_phase::{Aabb, Pair, overlapping_pairs};
-use crate::contact::{self, ContactParams, ContactPatch, PairSurfaces};
-use crate::detect::{PairDetection, Volume, colliding_surfels};
+use crate::contact::{
+    self, ContactParams, ContactPatch, DistributeScratch, PairSurfaces, PatchScratch,
+};
+use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::Grid;
 use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, grid_cell};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
+use bumpalo::Bump;
+use bumpalo::collections::Vec as BumpVec;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -43,6 +47,45 @@ pub struct World {
     /// Contact surfels whose friction force was evaluated, summed over the run
     /// (zero when every pair has μ = 0: no friction work).
     pub friction_work: u64,
+    /// Scratch that lives for one step (flags, index lists); reset at each step.
+    arena: Bump,
+    /// Per-pair detection scratch (both sides), reused from step to step.
+    detect_scratch: Vec<[DetectScratch; 2]>,
+    /// Per-patch contact scratch, reused from step to step.
+    patch_scratch: Vec<PatchScratch>,
+    distribute_scratch: DistributeScratch,
+}
+
+/// The surfaces of the objects, for the phases that read pairs of them while writing
+/// per-pair results elsewhere in the world.
+struct SurfaceView<'w> {
+    objects: &'w [Object],
+    grids: &'w [Option<Grid>],
+    far_grids: &'w [Option<Grid>],
+}
+
+impl SurfaceView<'_> {
+    fn pair(&self, a: usize, b: usize) -> PairSurfaces<'_> {
+        let (oa, ob) = (&self.objects[a], &self.objects[b]);
+        let ga = self.grids[a].as_ref().expect("grid built for pairs");
+        let gb = self.grids[b].as_ref().expect("grid built for pairs");
+        let fa = self.far_grids[a].as_ref().expect("grid built for pairs");
+        let fb = self.far_grids[b].as_ref().expect("grid built for pairs");
+        PairSurfaces {
+            a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga)
+                .with_far_grid(fa),
+            b: ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb)
+                .with_far_grid(fb),
+            surfels_a: &oa.surfels,
+            surfels_b: &ob.surfels,
+            grid_a: ga,
+            grid_b: gb,
+        }
+    }
+
+    fn params(&self, a: usize, b: usize, dt: f32) -> ContactParams {
+        contact_params(&self.objects[a], &self.objects[b], dt)
+    }
 }
 
 /// Support of the contact-force distribution kernel in influence radii. The paper uses
@@ -57,18 +100,16 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
     let (ma, mb) = (&a.material, &b.material);
     let e_star = 1.0
         / ((1.0 - ma.poisson * ma.poisson) / ma.young + (1.0 - mb.poisson * mb.poisson) / mb.young);
-    let dynamic: Vec<&Object> = [a, b].into_iter().filter(|o| !o.is_static()).collect();
-    let pick = if dynamic.is_empty() {
-        vec![a, b]
-    } else {
-        dynamic
-    };
+    // The moving objects set the scale (both when neither moves).
+    let any_moving = !a.is_static() || !b.is_static();
+    let pick = [a, b]
+        .into_iter()
+        .filter(move |o| !any_moving || !o.is_static());
     let h = pick
-        .iter()
+        .clone()
         .map(|o| o.phyxel_spacing)
         .fold(f32::INFINITY, f32::min);
     let rho = pick
-        .iter()
         .map(|o| o.material.density)
         .fold(f32::INFINITY, f32::min);
     let stiffness = 0.5 * (ma.contact_stiffness + mb.contact_stiffness) * e_star / h;
@@ -103,25 +144,10 @@ impl World {
             far_grids: Vec::new(),
             render_contacts: false,
             friction_work: 0,
-        }
-    }
-
-    /// The implicit surfaces and surfels of a pair (their surfel grids must exist).
-    fn pair_surfaces(&self, a: usize, b: usize) -> PairSurfaces<'_> {
-        let (oa, ob) = (&self.objects[a], &self.objects[b]);
-        let ga = self.grids[a].as_ref().expect("grid built for pairs");
-        let gb = self.grids[b].as_ref().expect("grid built for pairs");
-        let fa = self.far_grids[a].as_ref().expect("grid built for pairs");
-        let fb = self.far_grids[b].as_ref().expect("grid built for pairs");
-        PairSurfaces {
-            a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga)
-                .with_far_grid(fa),
-            b: ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb)
-                .with_far_grid(fb),
-            surfels_a: &oa.surfels,
-            surfels_b: &ob.surfels,
-            grid_a: ga,
-            grid_b: gb,
+            arena: Bump::new(),
+            detect_scratch: Vec::new(),
+            patch_scratch: Vec::new(),
+            distribute_scratch: DistributeScratch::default(),
         }
     }
 
@@ -138,6 +164,7 @@ impl World {
     /// One time step: dynamics, surfel advection, then contact handling.
     pub fn step(&mut self) {
         let mut t = std::mem::take(&mut self.times);
+        self.arena.reset();
         t.time(Phase::Dynamics, || self.dynamics());
         t.add_work(Phase::Dynamics, self.moving_phyxels());
         t.time(Phase::Advect, || self.advect());
@@ -204,7 +231,8 @@ impl World {
                 *b = Aabb::of(&o.surfels.pos);
             }
         }
-        let is_static: Vec<bool> = self.objects.iter().map(|o| o.is_static()).collect();
+        let is_static =
+            BumpVec::from_iter_in(self.objects.iter().map(|o| o.is_static()), &self.arena);
         overlapping_pairs(&self.boxes, &is_static, &mut self.pairs);
     }
 
@@ -216,7 +244,7 @@ impl World {
         self.grids.resize_with(n, || None);
         self.phyxel_grids.resize_with(n, || None);
         self.far_grids.resize_with(n, || None);
-        let mut needed = vec![false; n];
+        let mut needed = BumpVec::from_iter_in(std::iter::repeat_n(false, n), &self.arena);
         for p in &self.pairs {
             needed[p.a] = true;
             needed[p.b] = true;
@@ -234,10 +262,14 @@ impl World {
             if needed[k] && (g.is_none() || !o.is_static()) {
                 let r_max = o.surfels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
                 let cell = grid_cell(r_max).max(1e-6);
-                *g = Some(Grid::build(o.surfels.pos.iter(), cell));
-                *fg = Some(Grid::build(o.surfels.pos.iter(), FAR_GRID_FACTOR * cell));
+                // Rebuilt in place: the grids keep their buffers between steps.
+                g.get_or_insert_default()
+                    .rebuild(o.surfels.pos.iter(), cell);
+                fg.get_or_insert_default()
+                    .rebuild(o.surfels.pos.iter(), FAR_GRID_FACTOR * cell);
                 let cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
-                *pg = Some(Grid::build(o.phyxels.pos.iter(), cell));
+                pg.get_or_insert_default()
+                    .rebuild(o.phyxels.pos.iter(), cell);
                 built += (o.surfels.len() + o.phyxels.len()) as u64;
             }
         }
@@ -248,52 +280,65 @@ impl World {
     /// the other object (eq. 2).
     #[inline(never)] // a named frame in flamegraphs
     fn detect(&mut self) -> u64 {
-        let volume = |k: usize| Volume {
-            phyxels: self.phyxel_grids[k].as_ref().expect("grid built for pairs"),
-            reach: self.objects[k].phyxel_spacing,
+        let n = self.pairs.len();
+        // Results and scratch keep their buffers from earlier steps.
+        self.detections.resize_with(n, Default::default);
+        self.detect_scratch.resize_with(n, Default::default);
+        let view = SurfaceView {
+            objects: &self.objects,
+            grids: &self.grids,
+            far_grids: &self.far_grids,
         };
-        let detections: Vec<PairDetection> = self
-            .pairs
-            .par_iter()
-            .map(|pair| {
-                let s = self.pair_surfaces(pair.a, pair.b);
-                let mut candidates = Vec::new();
-                let a_in_b =
-                    colliding_surfels(s.surfels_a, &s.b, &volume(pair.b), pair, &mut candidates);
-                let mut count = candidates.len();
-                let b_in_a =
-                    colliding_surfels(s.surfels_b, &s.a, &volume(pair.a), pair, &mut candidates);
-                count += candidates.len();
-                PairDetection {
-                    a: pair.a,
-                    b: pair.b,
-                    a_in_b,
-                    b_in_a,
-                    candidates: count,
-                }
-            })
-            .collect();
-        for d in &detections {
+        let phyxel_grids = &self.phyxel_grids;
+        let volume = |k: usize| Volume {
+            phyxels: phyxel_grids[k].as_ref().expect("grid built for pairs"),
+            reach: view.objects[k].phyxel_spacing,
+        };
+        self.detections
+            .par_iter_mut()
+            .zip(self.detect_scratch.par_iter_mut())
+            .zip(self.pairs.par_iter())
+            .for_each(|((d, [sa, sb]), pair)| {
+                let s = view.pair(pair.a, pair.b);
+                d.a = pair.a;
+                d.b = pair.b;
+                d.candidates =
+                    colliding_surfels(s.surfels_a, &s.b, &volume(pair.b), pair, sa, &mut d.a_in_b);
+                d.candidates +=
+                    colliding_surfels(s.surfels_b, &s.a, &volume(pair.a), pair, sb, &mut d.b_in_a);
+            });
+        for d in &self.detections {
             self.max_penetration = self.max_penetration.max(d.max_depth());
         }
-        self.detections = detections;
         self.detections.iter().map(|d| d.candidates as u64).sum()
     }
 
     /// Colliding surfels moved onto the contact surface Φ (paper §6).
     #[inline(never)] // a named frame in flamegraphs
     fn contact_surface(&mut self) -> u64 {
-        let patches: Vec<ContactPatch> = self
-            .detections
-            .par_iter()
-            .filter(|d| !d.a_in_b.is_empty() || !d.b_in_a.is_empty())
-            .map(|d| {
-                let s = self.pair_surfaces(d.a, d.b);
-                let p = contact_params(&self.objects[d.a], &self.objects[d.b], self.dt);
-                contact::contact_surface(d, &s, &p)
-            })
-            .collect();
-        self.patches = patches;
+        let touching = BumpVec::from_iter_in(
+            self.detections
+                .iter()
+                .filter(|d| !d.a_in_b.is_empty() || !d.b_in_a.is_empty()),
+            &self.arena,
+        );
+        self.patches.resize_with(touching.len(), Default::default);
+        self.patch_scratch
+            .resize_with(touching.len(), Default::default);
+        let view = SurfaceView {
+            objects: &self.objects,
+            grids: &self.grids,
+            far_grids: &self.far_grids,
+        };
+        let dt = self.dt;
+        self.patches
+            .par_iter_mut()
+            .zip(self.patch_scratch.par_iter_mut())
+            .zip(touching.par_iter())
+            .for_each(|((patch, scratch), d)| {
+                let p = view.params(d.a, d.b, dt);
+                contact::contact_surface(d, &view.pair(d.a, d.b), &p, scratch, patch);
+            });
         self.patches.iter().map(|p| p.surfels.len() as u64).sum()
     }
 
@@ -304,13 +349,16 @@ impl World {
         if !self.render_contacts {
             return 0;
         }
-        let mut patches = std::mem::take(&mut self.patches);
-        patches.par_iter_mut().for_each(|patch| {
-            let s = self.pair_surfaces(patch.a, patch.b);
-            let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
-            contact::resample(patch, &s, &p);
+        let view = SurfaceView {
+            objects: &self.objects,
+            grids: &self.grids,
+            far_grids: &self.far_grids,
+        };
+        let dt = self.dt;
+        self.patches.par_iter_mut().for_each(|patch| {
+            let p = view.params(patch.a, patch.b, dt);
+            contact::resample(patch, &view.pair(patch.a, patch.b), &p);
         });
-        self.patches = patches;
         self.patches.iter().map(|p| p.render.len() as u64).sum()
     }
 
@@ -318,13 +366,19 @@ impl World {
     /// contact surfels forced and, of those, the ones whose pair has friction.
     #[inline(never)] // a named frame in flamegraphs
     fn forces(&mut self) -> (u64, u64) {
-        let mut patches = std::mem::take(&mut self.patches);
-        let with_friction: u64 = patches
+        let view = SurfaceView {
+            objects: &self.objects,
+            grids: &self.grids,
+            far_grids: &self.far_grids,
+        };
+        let dt = self.dt;
+        let with_friction: u64 = self
+            .patches
             .par_iter_mut()
-            .map(|patch| {
-                let s = self.pair_surfaces(patch.a, patch.b);
-                let p = contact_params(&self.objects[patch.a], &self.objects[patch.b], self.dt);
-                contact::forces(patch, &s, &p);
+            .zip(self.patch_scratch.par_iter_mut())
+            .map(|(patch, scratch)| {
+                let p = view.params(patch.a, patch.b, dt);
+                contact::forces(patch, &view.pair(patch.a, patch.b), &p, scratch);
                 if p.friction > 0.0 {
                     patch.surfels.len() as u64
                 } else {
@@ -332,7 +386,6 @@ impl World {
                 }
             })
             .sum();
-        self.patches = patches;
         let forced = self.patches.iter().map(|p| p.surfels.len() as u64).sum();
         (forced, with_friction)
     }
@@ -349,7 +402,14 @@ impl World {
                 }
                 let grid = self.phyxel_grids[k].as_ref().expect("grid built for pairs");
                 let h = DISTRIBUTION_SUPPORT * o.max_influence;
-                contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h);
+                contact::distribute(
+                    &patch.surfels,
+                    sign,
+                    &mut o.phyxels,
+                    grid,
+                    h,
+                    &mut self.distribute_scratch,
+                );
             }
         }
     }

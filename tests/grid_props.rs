@@ -98,6 +98,15 @@ fn check_knn(
     let grid = Grid::build(points.iter().copied(), cell);
     let mut out = Vec::new();
     for &x in queries {
+        // `nearest` agrees with the brute-force nearest distance (exact f32).
+        let near = grid.nearest(x);
+        let want = brute_knn(points, x, 1);
+        prop_assert_eq!(
+            near.map(|e| e.1.to_bits()),
+            want.first().map(|e| e.1.to_bits()),
+            "nearest, x = {:?}",
+            x
+        );
         for &k in ks {
             grid.k_nearest(x, k, &mut out);
             let want = brute_knn(points, x, k);
@@ -539,7 +548,7 @@ fn allocations() -> usize {
 
 /// After a first build, `rebuild` with as many or fewer points, range queries (small
 /// boxes, large boxes with the row filter, whole scans) and k-nearest with a reused
-/// output vector make no heap allocation.
+/// output vector and `nearest` make no heap allocation.
 #[test]
 fn rebuild_and_queries_do_not_allocate() {
     let cloud = |n: usize, s: f32| -> Vec<Vec3> {
@@ -568,7 +577,7 @@ fn rebuild_and_queries_do_not_allocate() {
                 grid.for_each_within(x, r, |_, _| found += 1);
             }
             grid.k_nearest(x, 16, &mut out);
-            found += out.len();
+            found += out.len() + grid.nearest(x).map_or(0, |e| e.0.min(1));
         }
     }
     let after = allocations();

@@ -37,6 +37,8 @@ pub struct MlsDynamics {
     /// `P_i` per phyxel (N per unit `d`).
     stress_force: Vec<Mat3>,
     internal: Vec3s,
+    /// Per-phyxel gather output, kept between steps (no allocation in the step).
+    gathered: Vec<Vec3>,
     /// Plastic strain per phyxel; empty for elastic materials (no plasticity work).
     plastic: Vec<Mat3>,
     max_strain: f32,
@@ -75,6 +77,7 @@ impl MlsDynamics {
             grad: vec![Mat3::ZERO; n],
             stress_force: vec![Mat3::ZERO; n],
             internal: Vec3s::zeros(n),
+            gathered: vec![Vec3::ZERO; n],
             plastic: if material.is_plastic() {
                 vec![Mat3::ZERO; n]
             } else {
@@ -234,18 +237,13 @@ impl MlsDynamics {
         let st = &self.stencil;
         let pf = &self.stress_force;
         let (in_off, incoming) = (&self.in_off, &self.incoming);
-        let n = st.len();
-        let forces: Vec<Vec3> = (0..n)
-            .into_par_iter()
-            .map(|j| {
-                let mut f = pf[j] * st.d_self[j];
-                for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
-                    f += pf[i as usize] * st.d[k as usize];
-                }
-                f
-            })
-            .collect();
-        for (j, f) in forces.into_iter().enumerate() {
+        self.gathered.par_iter_mut().enumerate().for_each(|(j, f)| {
+            *f = pf[j] * st.d_self[j];
+            for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
+                *f += pf[i as usize] * st.d[k as usize];
+            }
+        });
+        for (j, &f) in self.gathered.iter().enumerate() {
             self.internal.set(j, f);
         }
     }

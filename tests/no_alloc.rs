@@ -1,0 +1,87 @@
+//! No heap allocation in the steady state of a step (performance issue): a counting
+//! global allocator counts every allocation and reallocation, on every thread (rayon's
+//! workers included), while a warmed-up world steps.
+//!
+//! Reference: zero. Per-step buffers (grids, detections, contact patches, gathers) keep
+//! their capacity between steps and the step's flag lists live in a bumpalo arena reset
+//! each step, so once the buffers have grown to the contact's size a step allocates
+//! nothing. (Writing render surfaces for frames is output work and may allocate; it is
+//! off here, as in a run without `--out`.)
+
+use phyxel::scene::{BuildOptions, Scene};
+use phyxel::timing::Phase;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+struct Counting;
+
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc(layout) }
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.alloc_zeroed(layout) }
+    }
+
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+/// Steps `world` `n` times on a rayon pool thread, as `phyxel run` does, and returns
+/// the allocations made meanwhile. (Called from outside the pool, each parallel loop
+/// injects a job into rayon's global queue, which allocates a 1.5 kB block per 63
+/// injections: rayon's cost, not the step's.)
+fn allocations_over(world: &mut phyxel::World, n: usize) -> u64 {
+    rayon::scope(|_| {
+        let before = ALLOCATIONS.load(Ordering::SeqCst);
+        for _ in 0..n {
+            world.step();
+        }
+        ALLOCATIONS.load(Ordering::SeqCst) - before
+    })
+}
+
+/// One test (the counter is global, so nothing else may run in this binary):
+/// a falling body (dynamics, advection, broad phase) and a body resting on a plane
+/// (every contact phase, every step) allocate nothing after warm-up.
+#[test]
+fn steady_state_steps_do_not_allocate() {
+    let mut falling = Scene::builtin("falling-sphere")
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap();
+    allocations_over(&mut falling, 20);
+    assert_eq!(allocations_over(&mut falling, 100), 0, "falling-sphere");
+
+    let mut resting = Scene::builtin("sphere-on-plane")
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap();
+    allocations_over(&mut resting, 1500);
+    let forced = resting.times.work(Phase::Forces);
+    let n = 200;
+    let allocs = allocations_over(&mut resting, n);
+    let per_step = (resting.times.work(Phase::Forces) - forced) / n as u64;
+    assert!(
+        per_step > 50,
+        "the ball must rest on the plane ({per_step} contact surfels/step)"
+    );
+    assert_eq!(
+        allocs, 0,
+        "sphere-on-plane at rest, {per_step} contact surfels/step"
+    );
+}
