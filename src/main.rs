@@ -61,6 +61,13 @@ enum Command {
         /// Run even when dt exceeds the stable bound.
         #[arg(long)]
         allow_unstable: bool,
+        /// Surfels per deformable object (overrides the scene's sampling; the `scale`
+        /// scene is made for it).
+        #[arg(long, value_name = "N")]
+        surfels: Option<u32>,
+        /// Phyxels per deformable object (overrides the scene's sampling).
+        #[arg(long, value_name = "N")]
+        phyxel_count: Option<u32>,
         /// Profile the run (sampling, 997 Hz) and write a flamegraph SVG; the phases appear
         /// as frames named like the timing table (`phyxel::world::World::detect`, ...).
         #[arg(long, value_name = "FILE.svg")]
@@ -122,6 +129,8 @@ fn main() -> ExitCode {
             size,
             json,
             allow_unstable,
+            surfels,
+            phyxel_count,
             flamegraph,
         } => {
             let (width, height) = match parse_size(&size) {
@@ -142,6 +151,8 @@ fn main() -> ExitCode {
                     dt,
                     backend,
                     allow_unstable,
+                    surfels,
+                    phyxels: phyxel_count,
                 },
                 steps,
                 out,

@@ -26,6 +26,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("newtons-cradle", include_str!("scenes/newtons-cradle.toml")),
     ("incline", include_str!("scenes/incline.toml")),
     ("hertz", include_str!("scenes/hertz.toml")),
+    ("scale", include_str!("scenes/scale.toml")),
 ];
 
 /// The scene `phyxel run` uses without an argument.
@@ -149,6 +150,10 @@ pub struct BuildOptions {
     pub backend: Option<String>,
     /// Run even when dt exceeds the stable bound.
     pub allow_unstable: bool,
+    /// Target surfel count of every non-static object (overrides its spacing).
+    pub surfels: Option<u32>,
+    /// Target phyxel count of every non-static object (overrides its spacing).
+    pub phyxels: Option<u32>,
 }
 
 /// An error that names where in the input it comes from.
@@ -345,8 +350,23 @@ impl Scene {
         } else {
             &self.name
         };
+        for (flag, n) in [
+            ("--surfels", opts.surfels),
+            ("--phyxel-count", opts.phyxels),
+        ] {
+            if n == Some(0) {
+                return Err(SceneError(format!(
+                    "{origin}: {flag} 0: an object needs at least one sample"
+                )));
+            }
+        }
         let mut objects = Vec::with_capacity(self.objects.len());
         for (k, spec) in self.objects.iter().enumerate() {
+            let mut spec = spec.clone();
+            if !spec.is_static {
+                spec.surfels = opts.surfels.or(spec.surfels);
+                spec.phyxels = opts.phyxels.or(spec.phyxels);
+            }
             let backend = match (&opts.backend, spec.is_static) {
                 (_, true) => "static".to_string(),
                 (Some(b), false) => b.clone(),

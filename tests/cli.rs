@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BUILTINS: [&str; 9] = [
+const BUILTINS: [&str; 10] = [
     "cantilever",
     "falling-sphere",
     "two-spheres",
@@ -16,6 +16,7 @@ const BUILTINS: [&str; 9] = [
     "newtons-cradle",
     "incline",
     "hertz",
+    "scale",
 ];
 
 const PHASES: [&str; 10] = [
@@ -624,4 +625,37 @@ fn flamegraph_is_written() {
         &svg[..svg.len().min(200)]
     );
     std::fs::remove_file(&path).ok();
+}
+
+/// The scale family: `--surfels N --phyxel-count M` resample every deformable object of
+/// `scale` to about N surfels and M phyxels (reference: the requested counts; tolerance
+/// 5% for surfels, whose spiral hits the count closely, and 15% for the phyxel lattice,
+/// whose count jumps with the boundary rounding); 0 is refused with a message.
+#[test]
+fn scale_family_sets_sample_counts() {
+    let v = run_json(&[
+        "run",
+        "scale",
+        "--surfels",
+        "3000",
+        "--phyxel-count",
+        "120",
+        "--steps",
+        "2",
+        "--json",
+    ]);
+    let surfels = field(&v, "surfels").as_f64().unwrap();
+    let phyxels = field(&v, "phyxels").as_f64().unwrap();
+    assert!(
+        (surfels / 6000.0 - 1.0).abs() < 0.05,
+        "surfels {surfels} for 2 × 3000"
+    );
+    assert!(
+        (phyxels / 240.0 - 1.0).abs() < 0.15,
+        "phyxels {phyxels} for 2 × 120"
+    );
+    expect_error(
+        &["run", "scale", "--surfels", "0"],
+        &["--surfels 0", "at least one"],
+    );
 }
