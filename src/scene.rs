@@ -7,6 +7,7 @@ use crate::phyxels::Phyxels;
 use crate::render::Camera;
 use crate::shape::Shape;
 use crate::surfels::Surfels;
+use crate::topology::SelfCollision;
 use crate::world::World;
 use glam::{EulerRot, Quat, Vec3};
 use serde::{Deserialize, Serialize};
@@ -26,6 +27,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("newtons-cradle", include_str!("scenes/newtons-cradle.toml")),
     ("incline", include_str!("scenes/incline.toml")),
     ("hertz", include_str!("scenes/hertz.toml")),
+    (
+        "plastic-fracture",
+        include_str!("scenes/plastic-fracture.toml"),
+    ),
 ];
 
 /// The scene `phyxel run` uses without an argument.
@@ -126,6 +131,11 @@ pub struct ObjectSpec {
     /// Seconds over which `load` ramps up linearly from zero (0: applied at once).
     #[serde(default)]
     pub load_ramp: f32,
+    /// Self-collision (paper §8): phyxels of this object that come closer than their
+    /// spacing without being rest neighbours are pushed apart. Off by default: only
+    /// bodies that fold onto themselves need it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub self_collision: bool,
 }
 
 fn default_backend() -> String {
@@ -484,6 +494,9 @@ impl ObjectSpec {
         let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
         object.load = Vec3::from(self.load);
         object.load_ramp = self.load_ramp;
+        if self.self_collision && !self.is_static {
+            object.self_collision = Some(SelfCollision::new(&object.phyxels));
+        }
         Ok(object)
     }
 }
