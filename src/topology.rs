@@ -61,7 +61,8 @@ pub fn components(pos: &Vec3s, radius: &[f32]) -> Components {
             let h2 = radius[i] * radius[i];
             let mut e = Vec::new();
             grid.for_each_within(pos.get(i), radius[i], |j, d2| {
-                if j > i && d2 < h2 {
+                // Both ends query with their own radius: the edge exists when either sees the other.
+                if j != i && d2 < h2 {
                     e.push(j as u32);
                 }
             });
