@@ -31,6 +31,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "plastic-fracture",
         include_str!("scenes/plastic-fracture.toml"),
     ),
+    ("self-contact", include_str!("scenes/self-contact.toml")),
 ];
 
 /// The scene `phyxel run` uses without an argument.

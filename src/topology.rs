@@ -19,6 +19,7 @@
 use crate::backends;
 use crate::columns::Vec3s;
 use crate::grid::Grid;
+use crate::material::Material;
 use crate::object::Object;
 use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
@@ -260,11 +261,16 @@ fn crack_surfels(
     s
 }
 
-/// Penalty stiffness of the self-collision force, in units of `E · r` (Young's modulus
-/// times phyxel spacing: the stiffness of a bar of cross-section r² and length r). With
-/// a few such pairs per phyxel the contact frequency stays near `c/r`, below the MLS
-/// stencil's highest frequency, so the explicit step stays stable.
-pub const SELF_CONTACT_STIFFNESS: f32 = 1.0;
+/// Penalty stiffness of the self-collision force, in units of `contact_stiffness · E · r`
+/// (Young's modulus times phyxel spacing: the stiffness of a bar of cross-section r² and
+/// length r, scaled by the material's contact stiffness). Capped by
+/// [`SELF_CONTACT_MAX_RATE`]: a folding body hits itself at speed and must stop within
+/// about one spacing.
+pub const SELF_CONTACT_STIFFNESS: f32 = 25.0;
+
+/// Largest `ω dt` of one self-collision spring (`ω = √(k/m̄)`): a phyxel pressed by a few
+/// such springs stays well inside the explicit limit `ω dt < 2`.
+pub const SELF_CONTACT_MAX_RATE: f32 = 0.3;
 
 /// Self-collision of one object (paper §8): the rest neighbours within the influence
 /// radius, as sorted rows.
@@ -314,16 +320,19 @@ impl SelfCollision {
     /// Adds the penalty forces to `phyxels.force` (they act in the next step): pairs
     /// `i`, `j` closer than the mean of their spacings `r̄` that are not rest neighbours
     /// get `f_i = −f_j = (k (r̄ − d) − c v_n) n`, `n` from j to i, `v_n` the approach
-    /// speed, `k` = [`SELF_CONTACT_STIFFNESS`] `E r̄`, `c` = `2 ζ √(k m̄/2)` with
-    /// ζ = the material's `contact_damping` (at most 1). Returns the pairs pushed.
-    pub fn apply(&self, phyxels: &mut Phyxels, young: f32, damping_ratio: f32) -> u64 {
+    /// speed, `k` = min([`SELF_CONTACT_STIFFNESS`] · `contact_stiffness` · `E r̄`,
+    /// `m̄ (`[`SELF_CONTACT_MAX_RATE`]`/dt)²`), `c` = `2 ζ √(k m̄/2)` with ζ = the
+    /// material's `contact_damping` (at most 1). Returns the pairs pushed.
+    pub fn apply(&self, phyxels: &mut Phyxels, material: &Material, dt: f32) -> u64 {
         let n = phyxels.len();
         if n < 2 {
             return 0;
         }
         let r_max = phyxels.spacing[..n].iter().fold(0.0f32, |a, &b| a.max(b));
         let grid = Grid::build(phyxels.pos.iter(), r_max.max(1e-6));
-        let zeta = damping_ratio.clamp(0.0, 1.0);
+        let zeta = material.contact_damping.clamp(0.0, 1.0);
+        let k_material = SELF_CONTACT_STIFFNESS * material.contact_stiffness * material.young;
+        let rate2 = (SELF_CONTACT_MAX_RATE / dt.max(f32::MIN_POSITIVE)).powi(2);
         let p = &*phyxels;
         let pushes: Vec<(u32, u32, Vec3)> = (0..n)
             .into_par_iter()
@@ -344,8 +353,8 @@ impl SelfCollision {
                     } else {
                         Vec3::Y
                     };
-                    let k = SELF_CONTACT_STIFFNESS * young * rbar;
                     let m = 0.5 * (p.mass[i] + p.mass[j]);
+                    let k = (k_material * rbar).min(m * rate2);
                     let c = 2.0 * zeta * (k * 0.5 * m).sqrt();
                     let approach = (p.vel.get(i) - p.vel.get(j)).dot(dir);
                     let f = (k * (rbar - d) - c * approach).max(0.0);

@@ -403,7 +403,7 @@ impl World {
         for o in self.objects.iter_mut().filter(|o| !o.is_static()) {
             if let Some(sc) = &o.self_collision {
                 work += o.phyxels.len() as u64;
-                sc.apply(&mut o.phyxels, o.material.young, o.material.contact_damping);
+                sc.apply(&mut o.phyxels, &o.material, self.dt);
             }
         }
         let candidates: Vec<usize> = (0..self.objects.len())

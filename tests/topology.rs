@@ -201,3 +201,62 @@ fn elastic_bar_does_not_split() {
     assert_eq!(w.objects.len(), 2);
     assert!(w.all_finite());
 }
+
+/// Upper-arc phyxels of the `self-contact` ring that end inside the lower arc, after the
+/// run: the lower arc's surface is the implicit surface (eq. 2, `src/implicit.rs`) of the
+/// surfels whose rest position lies in the clamped bottom region (|x| < 0.06 m,
+/// y < −0.06 m); tested are the phyxels of the upper half (rest y > 0.06 m) that end over
+/// the middle of that patch (|x| < 0.05 m, y < 0 m), away from its cut edges.
+fn self_contact_intrusions(self_collision: bool) -> (usize, usize) {
+    use phyxel::grid::Grid;
+    use phyxel::implicit::{ImplicitSurface, grid_cell};
+    let mut scene = Scene::builtin("self-contact").unwrap();
+    scene.objects[0].self_collision = self_collision;
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    for _ in 0..scene.steps {
+        w.step();
+    }
+    assert!(w.all_finite());
+    let o = &w.objects[0];
+    let s = &o.surfels;
+    let lower: Vec<usize> = (0..s.len())
+        .filter(|&i| s.rest.x[i].abs() < 0.06 && s.rest.y[i] < -0.06)
+        .collect();
+    let patch = s.gather(&lower);
+    let r_max = patch.radius.iter().fold(0.0f32, |a, &b| a.max(b));
+    let grid = Grid::build(patch.pos.iter(), grid_cell(r_max));
+    let surface = ImplicitSurface::new(&patch.pos, &patch.normal, &patch.radius, &grid);
+    let p = &o.phyxels;
+    let tested: Vec<Vec3> = (0..p.len())
+        .filter(|&i| p.rest.y[i] > 0.06)
+        .map(|i| p.pos.get(i))
+        .filter(|x| x.x.abs() < 0.05 && x.y < 0.0)
+        .collect();
+    let inside = tested
+        .iter()
+        .filter(|&&x| surface.inside(x).is_some_and(|(inside, _)| inside))
+        .count();
+    (inside, tested.len())
+}
+
+/// `self-contact`: the ring collapses onto itself (upper-arc phyxels do come down over
+/// the lower arc); with the self-collision force none of them ends inside the lower arc,
+/// without it (same scene, `self_collision = false`) some do: the force is what prevents
+/// the interpenetration.
+#[test]
+fn self_collision_keeps_arcs_apart() {
+    let (inside_on, tested_on) = self_contact_intrusions(true);
+    let (inside_off, tested_off) = self_contact_intrusions(false);
+    eprintln!(
+        "with self-collision {inside_on}/{tested_on} inside, without {inside_off}/{tested_off}"
+    );
+    assert!(
+        tested_on > 0,
+        "the upper arc never came down over the lower arc"
+    );
+    assert_eq!(inside_on, 0, "upper-arc phyxels inside the lower arc");
+    assert!(
+        inside_off > 0,
+        "without self-collision the arcs should interpenetrate"
+    );
+}
