@@ -32,6 +32,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
         include_str!("scenes/plastic-fracture.toml"),
     ),
     ("self-contact", include_str!("scenes/self-contact.toml")),
+    ("plastic-pile", include_str!("scenes/plastic-pile.toml")),
 ];
 
 /// The scene `phyxel run` uses without an argument.
