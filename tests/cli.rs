@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BUILTINS: [&str; 9] = [
+const BUILTINS: [&str; 12] = [
     "cantilever",
     "falling-sphere",
     "two-spheres",
@@ -16,6 +16,9 @@ const BUILTINS: [&str; 9] = [
     "newtons-cradle",
     "incline",
     "hertz",
+    "plastic-fracture",
+    "self-contact",
+    "plastic-pile",
 ];
 
 const PHASES: [&str; 10] = [
@@ -271,6 +274,7 @@ fn run_json_default_scene_has_all_keys() {
         );
     }
     assert_eq!(field(&v, "finite"), true, "finite");
+    assert_eq!(field(&v, "fractures"), 0, "two elastic spheres never break");
     for key in ["momentum_initial", "momentum_final"] {
         let m = field(&v, key).as_array();
         assert!(
