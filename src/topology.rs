@@ -153,7 +153,6 @@ pub fn split(
     for (s, &c) in surfel_piece.iter().enumerate() {
         surfel_members[c as usize].push(s);
     }
-    let rest_grid = p.rest_grid();
     let parent_mass = p.total_mass();
     let mut event = SplitEvent {
         step,
@@ -176,7 +175,7 @@ pub fn split(
         surfels.rest = surfels.pos.clone();
         surfels.rest_normal = surfels.normal.clone();
         event.surfels_split += surfels.len();
-        let crack = crack_surfels(p, &comps.label, c as u32, idx, &surfels, &rest_grid);
+        let crack = crack_surfels(p, &comps.label, c as u32, idx, &surfels, &grid);
         event.crack_surfels += crack.len();
         let surfels = surfels.concat(&crack);
         let dynamics = backends::create(&name, &phyxels, &object.material)
@@ -217,18 +216,25 @@ fn radius_for_spacing(spacing: f32) -> f32 {
     spacing / std::f32::consts::FRAC_PI_2.sqrt()
 }
 
-/// Crack surfels of piece `c`: every phyxel of the piece that had a rest neighbour
-/// (within its influence radius) in another piece lies on the broken side. It gets a
-/// surfel half a spacing out along the mean direction to the lost neighbours, facing
-/// them, unless a surfel of the piece already lies within one spacing of that spot.
-/// Disk radius from the phyxel spacing (crack surfels are as far apart as phyxels).
+/// How far (in influence radii) a phyxel looks for phyxels of other pieces to find
+/// out that it lies on the broken side: a split is found only once the pieces are more
+/// than one influence radius apart.
+pub const CRACK_REACH: f32 = 2.0;
+
+/// Crack surfels of piece `c`: a phyxel of the piece with phyxels of other pieces within
+/// [`CRACK_REACH`] influence radii (current positions) lies on the broken side. It gets a
+/// surfel half a spacing out along the mean direction to them, facing them, unless a
+/// surfel of the piece already lies within one spacing of that spot (the old surface
+/// covers it) or another phyxel of the piece lies within ¾ spacing of it (the phyxel is
+/// not in the outer layer). Disk radius from the phyxel spacing (crack surfels are as far
+/// apart as phyxels).
 fn crack_surfels(
     p: &Phyxels,
     label: &[u32],
     c: u32,
     idx: &[usize],
     piece_surfels: &Surfels,
-    rest_grid: &Grid,
+    grid: &Grid,
 ) -> Surfels {
     let r_max = p.spacing[..p.len()].iter().fold(0.0f32, |a, &b| a.max(b));
     let have = Grid::build(piece_surfels.pos.iter(), r_max.max(1e-6));
@@ -237,9 +243,8 @@ fn crack_surfels(
         .filter_map(|&i| {
             let xi = p.pos.get(i);
             let mut away = Vec3::ZERO;
-            let h2 = p.radius[i] * p.radius[i];
-            rest_grid.for_each_within(p.rest.get(i), p.radius[i], |j, d2| {
-                if label[j] != c && d2 < h2 {
+            grid.for_each_within(xi, CRACK_REACH * p.radius[i], |j, _| {
+                if label[j] != c {
                     away += (p.pos.get(j) - xi).normalize_or_zero();
                 }
             });
@@ -248,6 +253,9 @@ fn crack_surfels(
             let at = xi + 0.5 * r * n;
             let mut covered = false;
             have.for_each_within(at, r, |_, _| covered = true);
+            grid.for_each_within(at, 0.75 * r, |j, _| {
+                covered |= j != i && label[j] == c;
+            });
             (!covered).then(|| (at, n, radius_for_spacing(r), p.vel.get(i)))
         })
         .collect();
