@@ -345,3 +345,39 @@ fn plastic_blobs_keep_their_dents() {
         "elastic blobs kept a dent: {elastic:?}"
     );
 }
+
+/// Bad input: `fracture = true` with plastic flow but no `plastic_max` (the strain at
+/// which the rest shape is renewed) is refused with a message naming the object, the
+/// field and the value; a wrongly typed `self_collision` names the key.
+#[test]
+fn bad_topology_keys_are_refused() {
+    let base = |material: &str, extra: &str| {
+        format!(
+            r#"
+            [[objects]]
+            shape = {{ type = "sphere", radius = 0.05 }}
+            spacing = 0.02
+            material = {{ {material} }}
+            {extra}
+            "#
+        )
+    };
+    let text = base(
+        "plastic_yield = 0.01, plastic_creep = 10.0, plastic_max = 0.0, fracture = true",
+        "",
+    );
+    let err = Scene::parse(&text, "bad.toml").unwrap_err().to_string();
+    for needle in [
+        "bad.toml",
+        "objects[0].material",
+        "plastic_max = 0",
+        "fracture",
+    ] {
+        assert!(err.contains(needle), "{needle:?} not in: {err}");
+    }
+    let text = base("", "self_collision = 3");
+    let err = Scene::parse(&text, "bad.toml").unwrap_err().to_string();
+    assert!(err.contains("self_collision"), "{err}");
+    // Elastic with fracture is valid: it splits only when pulled apart.
+    assert!(Scene::parse(&base("fracture = true", ""), "ok.toml").is_ok());
+}
