@@ -75,6 +75,18 @@ pub trait Dynamics: Send + Sync {
         false
     }
 
+    /// True when the backend's plastic flow asks for a new rest configuration (Desbrun–Cani
+    /// style time-varying connectivity). The object then replaces the rest positions of
+    /// its phyxels and surfels by the current ones, re-binds its surfels and calls
+    /// [`Dynamics::rest_replaced`]. Default: never.
+    fn wants_new_rest(&self) -> bool {
+        false
+    }
+
+    /// Called after the object replaced `phyxels.rest` by the current positions: rebuild
+    /// whatever depends on the rest state (stencil, plastic strain). Default: nothing.
+    fn rest_replaced(&mut self, _phyxels: &Phyxels, _material: &Material) {}
+
     /// True for backends that never move their phyxels (ground planes, fixed obstacles):
     /// the pipeline skips their step and advection.
     fn is_static(&self) -> bool {

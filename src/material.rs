@@ -38,8 +38,18 @@ pub struct Material {
     pub plastic_yield: f32,
     /// Plastic creep rate (1/s).
     pub plastic_creep: f32,
-    /// Largest Frobenius norm of the plastic strain.
+    /// Largest Frobenius norm of the plastic strain. With `fracture = true` it is instead
+    /// the plastic strain at which the rest configuration is renewed (plastic flow without
+    /// bound, see [`Material::fracture`]).
     pub plastic_max: f32,
+    /// The body may break apart (the topology phase splits it into separate objects when
+    /// its phyxels fall into groups farther than the influence radius from each other).
+    /// With plastic flow (finite `plastic_yield`, `plastic_creep > 0`), the MLS backend
+    /// also renews its rest configuration whenever a phyxel's plastic strain reaches
+    /// `plastic_max` (rest ← current, connectivity rebuilt within the influence radius),
+    /// so a plastic body can neck and tear. An elastic body with `fracture = true` keeps
+    /// its rest stencil and splits only if stretched apart beyond the influence radius.
+    pub fracture: bool,
     /// Coulomb friction coefficient μ (a pair uses the geometric mean of its two).
     pub friction: f32,
     /// Penalty spring stiffness per contact area in units of `E*/h` (E*: the pair's
@@ -65,6 +75,7 @@ impl Default for Material {
             plastic_yield: f32::INFINITY,
             plastic_creep: 0.0,
             plastic_max: 0.0,
+            fracture: false,
             friction: 0.0,
             contact_stiffness: 4.0,
             contact_damping: 0.2,
@@ -160,6 +171,13 @@ impl Material {
         }
         non_negative("plastic_creep", self.plastic_creep)?;
         non_negative("plastic_max", self.plastic_max)?;
+        if self.fracture && self.is_plastic() && self.plastic_max <= 0.0 {
+            return Err(format!(
+                "fracture = true with plastic flow needs plastic_max > 0 (the plastic strain \
+                 at which the rest configuration is renewed), got plastic_max = {}",
+                self.plastic_max
+            ));
+        }
         non_negative("friction", self.friction)?;
         positive("contact_stiffness", self.contact_stiffness)?;
         non_negative("contact_damping", self.contact_damping)?;

@@ -6,6 +6,7 @@ use crate::material::Material;
 use crate::mls::MlsStencil;
 use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
+use crate::topology::SelfCollision;
 use glam::Mat3;
 
 /// One simulated object.
@@ -30,6 +31,12 @@ pub struct Object {
     pub load: glam::Vec3,
     /// Ramp time of the load (s).
     pub load_ramp: f32,
+    /// For a fragment: the id of the object it broke off from. Fragments never merge
+    /// again; they meet only through the contact pipeline.
+    pub parent: Option<u32>,
+    /// Rest neighbours and penalty of the self-collision force (paper §8), for objects
+    /// whose scene asks for it (`self_collision = true`); `None`: no self-collision work.
+    pub self_collision: Option<SelfCollision>,
 }
 
 impl Object {
@@ -68,6 +75,24 @@ impl Object {
             max_influence,
             load: glam::Vec3::ZERO,
             load_ramp: 0.0,
+            parent: None,
+            self_collision: None,
+        }
+    }
+
+    /// Makes the current shape the rest shape: rest positions of phyxels and surfels
+    /// (and surfel rest normals) become the current ones, the surfels are bound anew and
+    /// the backend rebuilds its rest state ([`Dynamics::rest_replaced`]). Surfels stay
+    /// where they are: after it, displacements and gradients are zero.
+    pub fn renew_rest(&mut self) {
+        self.phyxels.rest = self.phyxels.pos.clone();
+        self.surfels.rest = self.surfels.pos.clone();
+        self.surfels.rest_normal = self.surfels.normal.clone();
+        self.binding = SurfelBinding::build(&self.surfels, &self.phyxels);
+        self.estimate = None;
+        self.dynamics.rest_replaced(&self.phyxels, &self.material);
+        if self.self_collision.is_some() {
+            self.self_collision = Some(SelfCollision::new(&self.phyxels));
         }
     }
 

@@ -58,6 +58,24 @@ impl Phyxels {
         }
     }
 
+    /// The phyxels at `idx`, in that order, every column copied (a fragment's phyxels).
+    pub fn gather(&self, idx: &[usize]) -> Self {
+        let col = |c: &[f32]| scalar_column(idx.iter().map(|&i| c[i]));
+        let mut fixed: Vec<u8> = idx.iter().map(|&i| self.fixed[i]).collect();
+        fixed.resize(crate::columns::padded_len(idx.len()), 0);
+        Self {
+            pos: self.pos.gather(idx),
+            rest: self.rest.gather(idx),
+            vel: self.vel.gather(idx),
+            force: self.force.gather(idx),
+            mass: col(&self.mass),
+            volume: col(&self.volume),
+            spacing: col(&self.spacing),
+            radius: col(&self.radius),
+            fixed,
+        }
+    }
+
     /// Number of phyxels.
     #[inline]
     pub fn len(&self) -> usize {

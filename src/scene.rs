@@ -7,6 +7,7 @@ use crate::phyxels::Phyxels;
 use crate::render::Camera;
 use crate::shape::Shape;
 use crate::surfels::Surfels;
+use crate::topology::SelfCollision;
 use crate::world::World;
 use glam::{EulerRot, Quat, Vec3};
 use serde::{Deserialize, Serialize};
@@ -27,6 +28,12 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ("incline", include_str!("scenes/incline.toml")),
     ("hertz", include_str!("scenes/hertz.toml")),
     ("scale", include_str!("scenes/scale.toml")),
+    (
+        "plastic-fracture",
+        include_str!("scenes/plastic-fracture.toml"),
+    ),
+    ("self-contact", include_str!("scenes/self-contact.toml")),
+    ("plastic-pile", include_str!("scenes/plastic-pile.toml")),
 ];
 
 /// The scene `phyxel run` uses without an argument.
@@ -127,6 +134,11 @@ pub struct ObjectSpec {
     /// Seconds over which `load` ramps up linearly from zero (0: applied at once).
     #[serde(default)]
     pub load_ramp: f32,
+    /// Self-collision (paper §8): phyxels of this object that come closer than their
+    /// spacing without being rest neighbours are pushed apart. Off by default: only
+    /// bodies that fold onto themselves need it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub self_collision: bool,
 }
 
 fn default_backend() -> String {
@@ -504,6 +516,9 @@ impl ObjectSpec {
         let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
         object.load = Vec3::from(self.load);
         object.load_ramp = self.load_ramp;
+        if self.self_collision && !self.is_static {
+            object.self_collision = Some(SelfCollision::new(&object.phyxels));
+        }
         Ok(object)
     }
 }

@@ -79,6 +79,9 @@ pub struct RunSummary {
     /// Largest signed penetration depth of a colliding surfel over the run (m).
     pub max_penetration: f32,
     pub frames_written: u64,
+    /// Objects that broke apart over the run (each split counts once, whatever the
+    /// number of pieces); `objects` is the final object count.
+    pub fractures: usize,
     pub bodies: Vec<BodySummary>,
 }
 
@@ -210,6 +213,7 @@ pub fn summarize(
             .sum(),
         max_penetration: world.max_penetration,
         frames_written: frames,
+        fractures: world.splits.len(),
         bodies,
     }
 }

@@ -32,6 +32,43 @@ impl Surfels {
         }
     }
 
+    /// The surfels at `idx`, in that order, every column copied.
+    pub fn gather(&self, idx: &[usize]) -> Self {
+        Self {
+            pos: self.pos.gather(idx),
+            rest: self.rest.gather(idx),
+            normal: self.normal.gather(idx),
+            rest_normal: self.rest_normal.gather(idx),
+            vel: self.vel.gather(idx),
+            radius: scalar_column(idx.iter().map(|&i| self.radius[i])),
+        }
+    }
+
+    /// These surfels followed by `more`'s (every column).
+    pub fn concat(&self, more: &Surfels) -> Self {
+        let (n, m) = (self.len(), more.len());
+        let join = |a: &Vec3s, b: &Vec3s| {
+            let mut p = a.to_vec();
+            p.extend(b.iter());
+            Vec3s::from_points(&p)
+        };
+        Self {
+            pos: join(&self.pos, &more.pos),
+            rest: join(&self.rest, &more.rest),
+            normal: join(&self.normal, &more.normal),
+            rest_normal: join(&self.rest_normal, &more.rest_normal),
+            vel: join(&self.vel, &more.vel),
+            radius: scalar_column(
+                self.radius[..n]
+                    .iter()
+                    .chain(&more.radius[..m])
+                    .copied()
+                    .collect::<Vec<f32>>()
+                    .into_iter(),
+            ),
+        }
+    }
+
     #[inline]
     pub fn len(&self) -> usize {
         self.pos.len()

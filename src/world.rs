@@ -10,6 +10,7 @@ use crate::grid::Grid;
 use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, grid_cell};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
+use crate::topology::{self, Components, SplitEvent};
 use bumpalo::Bump;
 use bumpalo::collections::Vec as BumpVec;
 use glam::Vec3;
@@ -54,6 +55,12 @@ pub struct World {
     /// Per-patch contact scratch, reused from step to step.
     patch_scratch: Vec<PatchScratch>,
     distribute_scratch: DistributeScratch,
+    /// Every split so far, in order (the run summary's `fractures`).
+    pub splits: Vec<SplitEvent>,
+    /// Rest configurations renewed by plastic flow so far (all objects).
+    pub rest_renewals: u64,
+    /// Id the next fragment gets.
+    next_id: u32,
 }
 
 /// The surfaces of the objects, for the phases that read pairs of them while writing
@@ -128,6 +135,7 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
 
 impl World {
     pub fn new(objects: Vec<Object>, gravity: Vec3, dt: f32) -> Self {
+        let objects_next_id = objects.iter().map(|o| o.id + 1).max().unwrap_or(0);
         Self {
             objects,
             gravity,
@@ -148,6 +156,9 @@ impl World {
             detect_scratch: Vec::new(),
             patch_scratch: Vec::new(),
             distribute_scratch: DistributeScratch::default(),
+            splits: Vec::new(),
+            rest_renewals: 0,
+            next_id: objects_next_id,
         }
     }
 
@@ -161,8 +172,16 @@ impl World {
             })
     }
 
-    /// One time step: dynamics, surfel advection, then contact handling.
+    /// One time step: dynamics, surfel advection, contact handling, then topology.
     pub fn step(&mut self) {
+        self.step_until_topology();
+        self.step_topology();
+    }
+
+    /// The step up to (not including) the topology phase; counts the step. With
+    /// [`World::step_topology`] it makes one [`World::step`] (split so that the state
+    /// just before a split can be inspected).
+    pub fn step_until_topology(&mut self) {
         let mut t = std::mem::take(&mut self.times);
         self.arena.reset();
         t.time(Phase::Dynamics, || self.dynamics());
@@ -182,9 +201,18 @@ impl World {
         t.add_work(Phase::Forces, forced);
         self.friction_work += rubbed;
         t.time(Phase::Distribute, || self.distribute());
-        t.time(Phase::Topology, || self.topology());
         self.times = t;
         self.steps += 1;
+    }
+
+    /// The topology phase of the step: self-collision forces and fracture. Returns the
+    /// number of objects that split.
+    pub fn step_topology(&mut self) -> usize {
+        let mut t = std::mem::take(&mut self.times);
+        let (work, splits) = t.time(Phase::Topology, || self.topology());
+        t.add_work(Phase::Topology, work);
+        self.times = t;
+        splits
     }
 
     fn moving_phyxels(&self) -> u64 {
@@ -218,6 +246,17 @@ impl World {
             .par_iter_mut()
             .filter(|o| !o.is_static())
             .for_each(|o| o.advect_surfels());
+        // Plastic flow that asked for a new rest shape gets it now that the surfels
+        // have followed this step's motion.
+        self.rest_renewals += self
+            .objects
+            .par_iter_mut()
+            .filter(|o| !o.is_static() && o.dynamics.wants_new_rest())
+            .map(|o| {
+                o.renew_rest();
+                1u64
+            })
+            .sum::<u64>();
     }
 
     /// Overlapping surfel bounding boxes and their intersection boxes.
@@ -414,9 +453,68 @@ impl World {
         }
     }
 
-    /// Fracture and self-collision. Lands with the topology issue.
+    /// Self-collision forces (objects with `self_collision`), then fracture of the objects
+    /// whose backend and material can break ([`crate::topology`]). Returns the work
+    /// (phyxels checked) and the number of objects that split; both zero when no object
+    /// uses either feature.
     #[inline(never)] // a named frame in flamegraphs
-    fn topology(&mut self) {}
+    fn topology(&mut self) -> (u64, usize) {
+        let mut work = 0;
+        for o in self.objects.iter_mut().filter(|o| !o.is_static()) {
+            if let Some(sc) = &o.self_collision {
+                work += o.phyxels.len() as u64;
+                sc.apply(&mut o.phyxels, &o.material, self.dt);
+            }
+        }
+        let candidates: Vec<usize> = (0..self.objects.len())
+            .filter(|&k| topology::may_fracture(&self.objects[k]))
+            .collect();
+        if candidates.is_empty() {
+            return (work, 0);
+        }
+        work += candidates
+            .iter()
+            .map(|&k| self.objects[k].phyxels.len() as u64)
+            .sum::<u64>();
+        let broken: Vec<(usize, Components)> = candidates
+            .par_iter()
+            .map(|&k| {
+                let p = &self.objects[k].phyxels;
+                (k, topology::components(&p.pos, &p.radius))
+            })
+            .filter(|(_, c)| c.count > 1)
+            .collect();
+        if broken.is_empty() {
+            return (work, 0);
+        }
+        // Pieces: the first takes the broken object's place (other objects keep their
+        // indices, so static objects keep their grids), the others are appended.
+        let mut objects: Vec<Option<Object>> = std::mem::take(&mut self.objects)
+            .into_iter()
+            .map(Some)
+            .collect();
+        let mut appended = Vec::new();
+        let mut splits = 0;
+        for (k, comps) in broken {
+            let o = objects[k].take().expect("each object splits once per step");
+            match topology::split(o, &comps, self.steps, &mut self.next_id) {
+                Ok((pieces, event)) => {
+                    let mut pieces = pieces.into_iter();
+                    objects[k] = pieces.next();
+                    appended.extend(pieces);
+                    self.splits.push(event);
+                    splits += 1;
+                }
+                Err(o) => objects[k] = Some(*o),
+            }
+        }
+        self.objects = objects.into_iter().flatten().collect();
+        self.objects.extend(appended);
+        // This step's detections and patches index the old objects' surfels.
+        self.detections.clear();
+        self.patches.clear();
+        (work, splits)
+    }
 
     /// Total linear momentum of all objects (kg·m/s).
     pub fn momentum(&self) -> [f64; 3] {

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BUILTINS: [&str; 10] = [
+const BUILTINS: [&str; 13] = [
     "cantilever",
     "falling-sphere",
     "two-spheres",
@@ -17,6 +17,9 @@ const BUILTINS: [&str; 10] = [
     "incline",
     "hertz",
     "scale",
+    "plastic-fracture",
+    "self-contact",
+    "plastic-pile",
 ];
 
 const PHASES: [&str; 10] = [
@@ -272,6 +275,7 @@ fn run_json_default_scene_has_all_keys() {
         );
     }
     assert_eq!(field(&v, "finite"), true, "finite");
+    assert_eq!(field(&v, "fractures"), 0, "two elastic spheres never break");
     for key in ["momentum_initial", "momentum_final"] {
         let m = field(&v, key).as_array();
         assert!(

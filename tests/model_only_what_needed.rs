@@ -16,8 +16,9 @@ fn run(name: &str, steps: usize, render: bool) -> phyxel::World {
 }
 
 /// `two-spheres` (μ = 0, elastic, no frames written): the spheres do touch (contact
-/// surfels forced), yet no friction is evaluated, no render surface is resampled, and the
-/// MLS backends keep no plastic state at all.
+/// surfels forced), yet no friction is evaluated, no render surface is resampled, the
+/// topology phase does nothing (no object can break, none asks for self-collision), and
+/// the MLS backends keep no plastic state at all.
 #[test]
 fn unused_features_do_no_work() {
     let w = run("two-spheres", 150, false);
@@ -30,6 +31,11 @@ fn unused_features_do_no_work() {
         w.times.work(Phase::Resample),
         0,
         "render resampling without frames"
+    );
+    assert_eq!(
+        w.times.work(Phase::Topology),
+        0,
+        "topology work (fracture check, self-collision) though no object can break or needs it"
     );
     for o in &w.objects {
         let mls = MlsDynamics::new(&o.phyxels, &o.material);

@@ -13,6 +13,7 @@
 use glam::{Mat3, Vec3};
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::{Diagnostics, Dynamics, StepContext, integrate_symplectic};
+use phyxel::kernel::poly6;
 use phyxel::material::{Material, StrainForm};
 use phyxel::mls::{MlsStencil, cofactor};
 use phyxel::phyxels::Phyxels;
@@ -25,6 +26,10 @@ const POWER_ITERATIONS: usize = 60;
 /// Fraction of the symplectic-Euler limit `2/ω_max` used as the stable bound: covers the
 /// power iteration's under-estimate and stiffening at finite strain.
 const STABILITY_MARGIN: f32 = 0.8;
+
+/// With `fracture`, the rest configuration is renewed once a phyxel's plastic strain
+/// reaches this fraction of `plastic_max` (just below the cap, where flow would stop).
+const RENEW_FRACTION: f32 = 0.99;
 
 /// MLS elasticity for one object.
 pub struct MlsDynamics {
@@ -42,6 +47,12 @@ pub struct MlsDynamics {
     /// Plastic strain per phyxel; empty for elastic materials (no plasticity work).
     plastic: Vec<Mat3>,
     max_strain: f32,
+    /// Largest Frobenius norm of the plastic strain at the last force evaluation.
+    max_plastic: f32,
+    /// Plastic flow asks for a new rest configuration (materials with `fracture`).
+    new_rest: bool,
+    /// Rest configurations renewed so far.
+    rest_updates: u64,
     /// Smallest phyxel spacing (m), for the default damping.
     r_min: f32,
     /// `ω²_max` (1/s²) of the rest stencil with the object's material;
@@ -53,23 +64,8 @@ impl MlsDynamics {
     /// Builds the rest stencil of `phyxels`.
     pub fn new(phyxels: &Phyxels, material: &Material) -> Self {
         let n = phyxels.len();
-        let stencil = MlsStencil::build_with(phyxels, material.gradient);
-        let mut count = vec![0u32; n + 1];
-        for &j in &stencil.neighbours {
-            count[j as usize + 1] += 1;
-        }
-        for j in 0..n {
-            count[j + 1] += count[j];
-        }
-        let in_off = count.clone();
-        let mut incoming = vec![(0u32, 0u32); stencil.neighbours.len()];
-        for i in 0..n {
-            for k in stencil.row(i) {
-                let j = stencil.neighbours[k] as usize;
-                incoming[count[j] as usize] = (i as u32, k as u32);
-                count[j] += 1;
-            }
-        }
+        let stencil = fracture_stencil(phyxels, material);
+        let (in_off, incoming) = incoming_of(&stencil);
         Self {
             stencil,
             in_off,
@@ -84,6 +80,9 @@ impl MlsDynamics {
                 Vec::new()
             },
             max_strain: 0.0,
+            max_plastic: 0.0,
+            new_rest: false,
+            rest_updates: 0,
             r_min: phyxels.spacing[..n]
                 .iter()
                 .fold(f32::INFINITY, |a, &b| a.min(b)),
@@ -228,6 +227,15 @@ impl MlsDynamics {
                 .reduce(|| 0.0, f32::max)
         };
         self.max_strain = max_strain;
+        if !self.plastic.is_empty() && material.fracture {
+            self.max_plastic = self
+                .plastic
+                .par_iter()
+                .map(|&ep| frobenius(ep))
+                .reduce(|| 0.0, f32::max);
+            // Flow has reached the cap: renew the rest state so that it can go on.
+            self.new_rest = self.max_plastic >= RENEW_FRACTION * material.plastic_max;
+        }
         self.gather_forces();
     }
 
@@ -274,10 +282,78 @@ impl MlsDynamics {
         material.damping_time(self.r_min, Self::wave_speed(material))
     }
 
+    /// Rest configurations renewed by plastic flow so far (`fracture` materials only).
+    pub fn rest_updates(&self) -> u64 {
+        self.rest_updates
+    }
+
     /// Internal forces of the last step (N).
     pub fn internal_forces(&self) -> &Vec3s {
         &self.internal
     }
+}
+
+/// Smallest isotropy `det A / (tr A / 3)³` of a moment matrix whose row is kept in a
+/// body that may break (1 for an isotropic neighbourhood, 0 for a flat or linear one).
+const MIN_ISOTROPY: f32 = 0.02;
+
+/// The rest stencil; for materials that may break, rows whose neighbourhood is
+/// (nearly) flat, linear or empty are emptied. Such rows appear in torn, stretched
+/// configurations and in small fragments; their weights `d_j` grow like the inverse of
+/// the smallest moment eigenvalue, and so would the highest frequency of the body (an
+/// explicit step that was stable would blow up). An emptied row exerts no stress of its
+/// own; the phyxel still takes part in its neighbours' rows.
+fn fracture_stencil(phyxels: &Phyxels, material: &Material) -> MlsStencil {
+    let mut st = MlsStencil::build_with(phyxels, material.gradient);
+    if !material.fracture {
+        return st;
+    }
+    for i in 0..st.len() {
+        let xi = phyxels.rest.get(i);
+        let h = phyxels.radius[i];
+        let mut a = Mat3::ZERO;
+        for k in st.row(i) {
+            let x = phyxels.rest.get(st.neighbours[k] as usize) - xi;
+            let w = poly6(x.length_squared(), h);
+            a += Mat3::from_cols(x * (x.x * w), x * (x.y * w), x * (x.z * w));
+        }
+        let tr = (a.x_axis.x + a.y_axis.y + a.z_axis.z) / 3.0;
+        let isotropy = if tr > 0.0 {
+            a.determinant() / (tr * tr * tr)
+        } else {
+            0.0
+        };
+        if st.ill_conditioned[i] || isotropy.is_nan() || isotropy < MIN_ISOTROPY {
+            for k in st.row(i) {
+                st.d[k] = Vec3::ZERO;
+            }
+            st.d_self[i] = Vec3::ZERO;
+        }
+    }
+    st
+}
+
+/// For every phyxel j, the stencil entries (i, k) that name it: the transpose of the
+/// stencil, so forces can be gathered per phyxel.
+fn incoming_of(stencil: &MlsStencil) -> (Vec<u32>, Vec<(u32, u32)>) {
+    let n = stencil.len();
+    let mut count = vec![0u32; n + 1];
+    for &j in &stencil.neighbours {
+        count[j as usize + 1] += 1;
+    }
+    for j in 0..n {
+        count[j + 1] += count[j];
+    }
+    let in_off = count.clone();
+    let mut incoming = vec![(0u32, 0u32); stencil.neighbours.len()];
+    for i in 0..n {
+        for k in stencil.row(i) {
+            let j = stencil.neighbours[k] as usize;
+            incoming[count[j] as usize] = (i as u32, k as u32);
+            count[j] += 1;
+        }
+    }
+    (in_off, incoming)
 }
 
 /// The constitutive law of a material, resolved once per step.
@@ -405,6 +481,39 @@ impl Dynamics for MlsDynamics {
 
     fn displacement_gradient(&self) -> Option<&[Mat3]> {
         Some(&self.grad)
+    }
+
+    /// Materials with `fracture = true` (see [`Material::fracture`]).
+    fn can_fracture(&self, material: &Material) -> bool {
+        material.fracture
+    }
+
+    fn wants_new_rest(&self) -> bool {
+        self.new_rest
+    }
+
+    /// Plastic flow with time-varying connectivity (Desbrun & Cani 1996; Müller et al.
+    /// 2004 §4.4 keep the stencil fixed): the current shape becomes the rest shape, the
+    /// stencil is rebuilt from the neighbours within the influence radius there (phyxels
+    /// that drifted apart lose their bond), and the plastic strain becomes
+    /// `ε_p − ε`, so the elastic strain `ε − ε_p` (hence the stress) carries over
+    /// (additive small-strain split; ε from the last force evaluation).
+    fn rest_replaced(&mut self, phyxels: &Phyxels, material: &Material) {
+        let law = Law::new(material, 0.0, 0.0);
+        for (ep, g) in self.plastic.iter_mut().zip(&self.grad) {
+            *ep -= law.strain(Mat3::IDENTITY + *g);
+            let norm = frobenius(*ep);
+            if norm > material.plastic_max {
+                *ep *= material.plastic_max / norm;
+            }
+        }
+        self.stencil = fracture_stencil(phyxels, material);
+        let (in_off, incoming) = incoming_of(&self.stencil);
+        self.in_off = in_off;
+        self.incoming = incoming;
+        self.grad.iter_mut().for_each(|g| *g = Mat3::ZERO);
+        self.new_rest = false;
+        self.rest_updates += 1;
     }
 
     fn diagnostics(&self, phyxels: &Phyxels, material: &Material) -> Diagnostics {

@@ -1,0 +1,387 @@
+//! Changing topology (Keiser et al. 2004, §4 and §8): fracture into separate objects and
+//! self-collision.
+//!
+//! **Fracture.** The phyxels of an object that may break ([`crate::dynamics::Dynamics::can_fracture`]) form
+//! a graph whose edges join phyxels closer than the influence radius `h_i` of either end
+//! (a time-varying connectivity graph, Desbrun & Cani 1996). When the graph falls into
+//! several connected components, each becomes its own [`Object`]: its phyxels (every
+//! column), the surfels nearest to them (each surfel to exactly one piece), the material,
+//! and a fresh backend of the same name. Pieces start stress-free in their current shape
+//! (rest ← current, for phyxels and surfels): a fresh backend has no plastic state, and
+//! the old rest shape would make a plastically deformed piece spring back. Mass and
+//! momentum are copied phyxel by phyxel, so they are kept exactly; then crack surfels
+//! close the new boundary ([`crack_surfels`]).
+//!
+//! **Self-collision.** An object stores the phyxel pairs within the influence radius at
+//! rest; two phyxels that come closer than their spacing without being rest neighbours
+//! are pushed apart by an equal and opposite penalty force ([`SelfCollision`]).
+
+use crate::backends;
+use crate::columns::Vec3s;
+use crate::grid::Grid;
+use crate::material::Material;
+use crate::object::Object;
+use crate::phyxels::Phyxels;
+use crate::surfels::Surfels;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Connected components of a phyxel set: `label[i]` in `0..count`, numbered in the order
+/// of their first phyxel (phyxel 0 is always in component 0).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Components {
+    pub label: Vec<u32>,
+    pub count: usize,
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let p = parent[parent[i as usize] as usize];
+        parent[i as usize] = p; // path halving
+        i = p;
+    }
+    i
+}
+
+/// Components of the graph joining points `i`, `j` with `|x_i − x_j| < max(h_i, h_j)`
+/// (`pos` and `radius` = `h`, as in [`Phyxels`]).
+pub fn components(pos: &Vec3s, radius: &[f32]) -> Components {
+    let n = pos.len();
+    if n == 0 {
+        return Components {
+            label: Vec::new(),
+            count: 0,
+        };
+    }
+    let h_max = radius[..n].iter().fold(0.0f32, |a, &b| a.max(b));
+    let grid = Grid::build(pos.iter(), if h_max > 0.0 { h_max } else { 1.0 });
+    // Edges found in parallel, joined serially (union-find).
+    let edges: Vec<Vec<u32>> = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let h2 = radius[i] * radius[i];
+            let mut e = Vec::new();
+            grid.for_each_within(pos.get(i), radius[i], |j, d2| {
+                // Both ends query with their own radius: the edge exists when either sees the other.
+                if j != i && d2 < h2 {
+                    e.push(j as u32);
+                }
+            });
+            e
+        })
+        .collect();
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    for (i, row) in edges.iter().enumerate() {
+        for &j in row {
+            let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j));
+            if a != b {
+                parent[a.max(b) as usize] = a.min(b);
+            }
+        }
+    }
+    let mut id = vec![u32::MAX; n];
+    let mut label = vec![0u32; n];
+    let mut count = 0;
+    for (i, l) in label.iter_mut().enumerate() {
+        let r = find(&mut parent, i as u32) as usize;
+        if id[r] == u32::MAX {
+            id[r] = count;
+            count += 1;
+        }
+        *l = id[r];
+    }
+    Components {
+        label,
+        count: count as usize,
+    }
+}
+
+/// What one split did (for the run summary, tests and reports).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SplitEvent {
+    /// Step after which the object split (1-based, as `World::steps`).
+    pub step: u64,
+    /// Id of the object that broke.
+    pub parent: u32,
+    /// Ids of its pieces.
+    pub pieces: Vec<u32>,
+    /// Phyxels per piece.
+    pub piece_phyxels: Vec<usize>,
+    /// Total mass before and after (kg, f64 sums of the same f32 masses).
+    pub mass_before: f64,
+    pub mass_after: f64,
+    /// Linear momentum before and after (kg·m/s).
+    pub momentum_before: [f64; 3],
+    pub momentum_after: [f64; 3],
+    /// Surfels of the object, and of all pieces before crack surfels were added.
+    pub surfels_before: usize,
+    pub surfels_split: usize,
+    /// Crack surfels added over all pieces.
+    pub crack_surfels: usize,
+}
+
+/// Splits `object` along `comps` (which must have ≥ 2 components). Piece `c` gets id
+/// `*next_id + c`. Gives the object back unchanged when its backend is not one
+/// [`backends::create`] knows (a custom backend cannot be rebuilt for a piece).
+pub fn split(
+    object: Object,
+    comps: &Components,
+    step: u64,
+    next_id: &mut u32,
+) -> Result<(Vec<Object>, SplitEvent), Box<Object>> {
+    let name = object.dynamics.name().to_string();
+    if backends::create(&name, &Phyxels::default(), &object.material).is_err() {
+        return Err(Box::new(object));
+    }
+    let p = &object.phyxels;
+    let n = p.len();
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); comps.count];
+    for i in 0..n {
+        members[comps.label[i] as usize].push(i);
+    }
+    // Each surfel goes to the piece of its nearest phyxel (current positions).
+    let grid = Grid::build(p.pos.iter(), object.max_influence.max(1e-6));
+    let surfel_piece: Vec<u32> = (0..object.surfels.len())
+        .into_par_iter()
+        .map(|s| {
+            let mut knn = Vec::with_capacity(1);
+            grid.k_nearest(object.surfels.pos.get(s), 1, &mut knn);
+            knn.first().map_or(0, |&(i, _)| comps.label[i])
+        })
+        .collect();
+    let mut surfel_members: Vec<Vec<usize>> = vec![Vec::new(); comps.count];
+    for (s, &c) in surfel_piece.iter().enumerate() {
+        surfel_members[c as usize].push(s);
+    }
+    let parent_mass = p.total_mass();
+    let mut event = SplitEvent {
+        step,
+        parent: object.id,
+        pieces: Vec::new(),
+        piece_phyxels: Vec::new(),
+        mass_before: parent_mass,
+        mass_after: 0.0,
+        momentum_before: p.momentum(),
+        momentum_after: [0.0; 3],
+        surfels_before: object.surfels.len(),
+        surfels_split: 0,
+        crack_surfels: 0,
+    };
+    let mut pieces = Vec::with_capacity(comps.count);
+    for (c, idx) in members.iter().enumerate() {
+        let mut phyxels = p.gather(idx);
+        phyxels.rest = phyxels.pos.clone();
+        let mut surfels = object.surfels.gather(&surfel_members[c]);
+        surfels.rest = surfels.pos.clone();
+        surfels.rest_normal = surfels.normal.clone();
+        event.surfels_split += surfels.len();
+        let crack = crack_surfels(p, &comps.label, c as u32, idx, &surfels, &grid);
+        event.crack_surfels += crack.len();
+        let surfels = surfels.concat(&crack);
+        let dynamics = backends::create(&name, &phyxels, &object.material)
+            .expect("backend name checked above");
+        let id = *next_id;
+        *next_id += 1;
+        let mass = phyxels.total_mass();
+        let q = phyxels.momentum();
+        event.mass_after += mass;
+        (0..3).for_each(|k| event.momentum_after[k] += q[k]);
+        event.pieces.push(id);
+        event.piece_phyxels.push(idx.len());
+        let self_collision = object
+            .self_collision
+            .as_ref()
+            .map(|_| SelfCollision::new(&phyxels));
+        let mut piece = Object::new(
+            id,
+            format!("{}.{c}", object.name),
+            surfels,
+            phyxels,
+            object.material.clone(),
+            dynamics,
+        );
+        // The load is a force on the whole body: each piece takes its share by mass.
+        piece.load = object.load * (mass / parent_mass.max(f64::MIN_POSITIVE)) as f32;
+        piece.load_ramp = object.load_ramp;
+        piece.parent = Some(object.id);
+        piece.self_collision = self_collision;
+        pieces.push(piece);
+    }
+    Ok((pieces, event))
+}
+
+/// `disk radius = spacing / √(π/2)`: the relation between surfel spacing and radius the
+/// objects use (`Object::surfel_spacing`).
+fn radius_for_spacing(spacing: f32) -> f32 {
+    spacing / std::f32::consts::FRAC_PI_2.sqrt()
+}
+
+/// How far (in influence radii) a phyxel looks for phyxels of other pieces to find
+/// out that it lies on the broken side: a split is found only once the pieces are more
+/// than one influence radius apart.
+pub const CRACK_REACH: f32 = 2.0;
+
+/// Crack surfels of piece `c`: a phyxel of the piece with phyxels of other pieces within
+/// [`CRACK_REACH`] influence radii (current positions) lies on the broken side. It gets a
+/// surfel half a spacing out along the mean direction to them, facing them, unless a
+/// surfel of the piece already lies within one spacing of that spot (the old surface
+/// covers it) or another phyxel of the piece lies within ¾ spacing of it (the phyxel is
+/// not in the outer layer). Disk radius from the phyxel spacing (crack surfels are as far
+/// apart as phyxels).
+fn crack_surfels(
+    p: &Phyxels,
+    label: &[u32],
+    c: u32,
+    idx: &[usize],
+    piece_surfels: &Surfels,
+    grid: &Grid,
+) -> Surfels {
+    let r_max = p.spacing[..p.len()].iter().fold(0.0f32, |a, &b| a.max(b));
+    let have = Grid::build(piece_surfels.pos.iter(), r_max.max(1e-6));
+    let new: Vec<(Vec3, Vec3, f32, Vec3)> = idx
+        .par_iter()
+        .filter_map(|&i| {
+            let xi = p.pos.get(i);
+            let mut away = Vec3::ZERO;
+            grid.for_each_within(xi, CRACK_REACH * p.radius[i], |j, _| {
+                if label[j] != c {
+                    away += (p.pos.get(j) - xi).normalize_or_zero();
+                }
+            });
+            let n = away.try_normalize()?;
+            let r = p.spacing[i];
+            let at = xi + 0.5 * r * n;
+            let mut covered = false;
+            have.for_each_within(at, r, |_, _| covered = true);
+            grid.for_each_within(at, 0.75 * r, |j, _| {
+                covered |= j != i && label[j] == c;
+            });
+            (!covered).then(|| (at, n, radius_for_spacing(r), p.vel.get(i)))
+        })
+        .collect();
+    let pos: Vec<Vec3> = new.iter().map(|e| e.0).collect();
+    let normal: Vec<Vec3> = new.iter().map(|e| e.1).collect();
+    let radius: Vec<f32> = new.iter().map(|e| e.2).collect();
+    let mut s = Surfels::at_rest(&pos, &normal, &radius);
+    for (k, e) in new.iter().enumerate() {
+        s.vel.set(k, e.3);
+    }
+    s
+}
+
+/// Penalty stiffness of the self-collision force, in units of `contact_stiffness · E · r`
+/// (Young's modulus times phyxel spacing: the stiffness of a bar of cross-section r² and
+/// length r, scaled by the material's contact stiffness). Capped by
+/// [`SELF_CONTACT_MAX_RATE`]: a folding body hits itself at speed and must stop within
+/// about one spacing.
+pub const SELF_CONTACT_STIFFNESS: f32 = 25.0;
+
+/// Largest `ω dt` of one self-collision spring (`ω = √(k/m̄)`): a phyxel pressed by a few
+/// such springs stays well inside the explicit limit `ω dt < 2`.
+pub const SELF_CONTACT_MAX_RATE: f32 = 0.3;
+
+/// Self-collision of one object (paper §8): the rest neighbours within the influence
+/// radius, as sorted rows.
+#[derive(Clone, Debug, Default)]
+pub struct SelfCollision {
+    offsets: Vec<u32>,
+    neighbours: Vec<u32>,
+}
+
+impl SelfCollision {
+    /// The pairs of `phyxels` closer than `max(h_i, h_j)` at rest.
+    pub fn new(phyxels: &Phyxels) -> Self {
+        let n = phyxels.len();
+        let grid = phyxels.rest_grid();
+        let rows: Vec<Vec<u32>> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let xi = phyxels.rest.get(i);
+                let mut row = Vec::new();
+                grid.for_each_within(xi, grid.cell(), |j, d2| {
+                    let h = phyxels.radius[i].max(phyxels.radius[j]);
+                    if j != i && d2 < h * h {
+                        row.push(j as u32);
+                    }
+                });
+                row.sort_unstable();
+                row
+            })
+            .collect();
+        let mut s = Self {
+            offsets: vec![0],
+            neighbours: Vec::new(),
+        };
+        for row in rows {
+            s.neighbours.extend_from_slice(&row);
+            s.offsets.push(s.neighbours.len() as u32);
+        }
+        s
+    }
+
+    /// True when `i` and `j` were within the influence radius at rest.
+    pub fn rest_neighbours(&self, i: usize, j: usize) -> bool {
+        let row = &self.neighbours[self.offsets[i] as usize..self.offsets[i + 1] as usize];
+        row.binary_search(&(j as u32)).is_ok()
+    }
+
+    /// Adds the penalty forces to `phyxels.force` (they act in the next step): pairs
+    /// `i`, `j` closer than the mean of their spacings `r̄` that are not rest neighbours
+    /// get `f_i = −f_j = (k (r̄ − d) − c v_n) n`, `n` from j to i, `v_n` the approach
+    /// speed, `k` = min([`SELF_CONTACT_STIFFNESS`] · `contact_stiffness` · `E r̄`,
+    /// `m̄ (`[`SELF_CONTACT_MAX_RATE`]`/dt)²`), `c` = `2 ζ √(k m̄/2)` with ζ = the
+    /// material's `contact_damping` (at most 1). Returns the pairs pushed.
+    pub fn apply(&self, phyxels: &mut Phyxels, material: &Material, dt: f32) -> u64 {
+        let n = phyxels.len();
+        if n < 2 {
+            return 0;
+        }
+        let r_max = phyxels.spacing[..n].iter().fold(0.0f32, |a, &b| a.max(b));
+        let grid = Grid::build(phyxels.pos.iter(), r_max.max(1e-6));
+        let zeta = material.contact_damping.clamp(0.0, 1.0);
+        let k_material = SELF_CONTACT_STIFFNESS * material.contact_stiffness * material.young;
+        let rate2 = (SELF_CONTACT_MAX_RATE / dt.max(f32::MIN_POSITIVE)).powi(2);
+        let p = &*phyxels;
+        let pushes: Vec<(u32, u32, Vec3)> = (0..n)
+            .into_par_iter()
+            .flat_map_iter(|i| {
+                let xi = p.pos.get(i);
+                let mut out = Vec::new();
+                grid.for_each_within(xi, r_max, |j, d2| {
+                    if j <= i {
+                        return;
+                    }
+                    let rbar = 0.5 * (p.spacing[i] + p.spacing[j]);
+                    if d2 >= rbar * rbar || self.rest_neighbours(i, j) {
+                        return;
+                    }
+                    let d = d2.sqrt();
+                    let dir = if d > 0.0 {
+                        (xi - p.pos.get(j)) / d
+                    } else {
+                        Vec3::Y
+                    };
+                    let m = 0.5 * (p.mass[i] + p.mass[j]);
+                    let k = (k_material * rbar).min(m * rate2);
+                    let c = 2.0 * zeta * (k * 0.5 * m).sqrt();
+                    let approach = (p.vel.get(i) - p.vel.get(j)).dot(dir);
+                    let f = (k * (rbar - d) - c * approach).max(0.0);
+                    out.push((i as u32, j as u32, dir * f));
+                });
+                out
+            })
+            .collect();
+        for &(i, j, f) in &pushes {
+            phyxels.force.add(i as usize, f);
+            phyxels.force.add(j as usize, -f);
+        }
+        pushes.len() as u64
+    }
+}
+
+/// True when `object` is checked for fracture after each step.
+pub fn may_fracture(object: &Object) -> bool {
+    !object.is_static()
+        && object.phyxels.len() > 1
+        && object.dynamics.can_fracture(&object.material)
+}

@@ -1,0 +1,383 @@
+//! Changing topology (Keiser et al. 2004 §4, §8; issue 5): fracture into separate
+//! objects, crack surfels, self-collision, plastic dents. Release build; each test states
+//! its reference and tolerance.
+
+use glam::Vec3;
+use phyxel::columns::Vec3s;
+use phyxel::scene::{BuildOptions, Scene};
+use phyxel::timing::Phase;
+use phyxel::topology::components;
+use std::collections::{HashMap, HashSet};
+
+/// Brute-force connected components (O(n²) BFS), labels in order of first member.
+fn brute_components(p: &[Vec3], h: &[f32]) -> Vec<u32> {
+    let n = p.len();
+    let mut label = vec![u32::MAX; n];
+    let mut next = 0;
+    for s in 0..n {
+        if label[s] != u32::MAX {
+            continue;
+        }
+        label[s] = next;
+        let mut stack = vec![s];
+        while let Some(i) = stack.pop() {
+            for j in 0..n {
+                let r = h[i].max(h[j]);
+                if label[j] == u32::MAX && (p[i] - p[j]).length_squared() < r * r {
+                    label[j] = next;
+                    stack.push(j);
+                }
+            }
+        }
+        next += 1;
+    }
+    label
+}
+
+/// Two jittered lattice clusters 3 h apart plus a few strays: the grid-based split
+/// equals the brute-force reference label for label (exact: same graph, same numbering).
+#[test]
+fn components_match_brute_force() {
+    let mut pts = Vec::new();
+    let mut seed = 12345u32;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+    };
+    for c in [Vec3::ZERO, Vec3::new(0.25, 0.05, 0.0)] {
+        for i in 0..5 {
+            for j in 0..5 {
+                for k in 0..5 {
+                    let jitter = Vec3::new(rnd(), rnd(), rnd()) * 0.004;
+                    pts.push(c + Vec3::new(i as f32, j as f32, k as f32) * 0.01 + jitter);
+                }
+            }
+        }
+    }
+    for _ in 0..20 {
+        pts.push(Vec3::new(rnd(), rnd(), rnd()) * 0.6);
+    }
+    let h: Vec<f32> = (0..pts.len())
+        .map(|i| 0.02 + 0.005 * (i % 3) as f32)
+        .collect();
+    let got = components(&Vec3s::from_points(&pts), &h);
+    let want = brute_components(&pts, &h);
+    assert_eq!(got.label, want);
+    assert_eq!(got.count, *want.iter().max().unwrap() as usize + 1);
+    assert!(got.count >= 2, "the two clusters are apart");
+    assert_ne!(
+        got.label[0], got.label[125],
+        "cluster 1 and cluster 2 split"
+    );
+}
+
+fn plastic_fracture(elastic: bool) -> Scene {
+    let mut scene = Scene::builtin("plastic-fracture").unwrap();
+    if elastic {
+        // Same load, same fracture check, no plastic flow.
+        scene.objects[1].material.plastic_yield = f32::INFINITY;
+    }
+    scene
+}
+
+fn total_mass(w: &phyxel::World) -> f64 {
+    w.objects.iter().map(|o| o.phyxels.total_mass()).sum()
+}
+
+/// `plastic-fracture`: the hanging plastic bar splits (at least once); across every split
+/// the total mass is unchanged exactly (the same f32 masses, equal in number), momentum
+/// just before and just after agrees to 1e-6 relative, every surfel of the broken object
+/// lands in exactly one piece (matched by its bit-exact position), pieces never merge
+/// again (the object count never drops and a broken id never comes back), and the
+/// falling piece comes to rest on the plane (|v| < 0.05 m/s, bottom within one phyxel
+/// spacing of the plane at y = -0.75 m).
+#[test]
+fn plastic_bar_breaks_and_conserves() {
+    let scene = plastic_fracture(false);
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    let m0 = total_mass(&w);
+    let (mut count, mut broken) = (w.objects.len(), HashSet::new());
+    for _ in 0..scene.steps {
+        w.step_until_topology();
+        let p_before = w.momentum();
+        let before: HashMap<u32, Vec<[u32; 3]>> = w
+            .objects
+            .iter()
+            .map(|o| {
+                let s = &o.surfels;
+                let keys = (0..s.len())
+                    .map(|i| s.pos.get(i).to_array().map(f32::to_bits))
+                    .collect();
+                (o.id, keys)
+            })
+            .collect();
+        let splits = w.step_topology();
+        if splits > 0 {
+            let p_after = w.momentum();
+            let scale = p_before
+                .iter()
+                .map(|c| c * c)
+                .sum::<f64>()
+                .sqrt()
+                .max(1e-12);
+            for k in 0..3 {
+                assert!(
+                    (p_after[k] - p_before[k]).abs() <= 1e-6 * scale,
+                    "momentum {p_before:?} -> {p_after:?} at step {}",
+                    w.steps
+                );
+            }
+            for e in &w.splits[w.splits.len() - splits..] {
+                broken.insert(e.parent);
+                let mut seen: HashMap<[u32; 3], usize> = HashMap::new();
+                for o in w.objects.iter().filter(|o| e.pieces.contains(&o.id)) {
+                    for i in 0..o.surfels.len() {
+                        let key = o.surfels.pos.get(i).to_array().map(f32::to_bits);
+                        *seen.entry(key).or_default() += 1;
+                    }
+                }
+                for key in &before[&e.parent] {
+                    assert_eq!(
+                        seen.get(key),
+                        Some(&1),
+                        "surfel of {} not in exactly one piece",
+                        e.parent
+                    );
+                }
+                assert_eq!(e.surfels_split, e.surfels_before);
+            }
+        }
+        assert_eq!(total_mass(&w), m0, "mass changed at step {}", w.steps);
+        assert!(
+            w.objects.len() >= count,
+            "objects merged at step {}",
+            w.steps
+        );
+        count = w.objects.len();
+        assert!(
+            w.objects.iter().all(|o| !broken.contains(&o.id)),
+            "a broken object came back"
+        );
+        assert!(w.all_finite());
+    }
+    assert!(!w.splits.is_empty(), "the plastic bar never broke");
+    eprintln!(
+        "splits at steps {:?}; objects at the end {}",
+        w.splits.iter().map(|e| e.step).collect::<Vec<_>>(),
+        w.objects.len()
+    );
+    // The biggest piece that fell is the one holding the bar's lowest phyxel at rest.
+    let fallen = w
+        .objects
+        .iter()
+        .filter(|o| !o.is_static() && o.phyxels.fixed[..o.phyxels.len()].iter().all(|&f| f == 0))
+        .max_by_key(|o| o.phyxels.len())
+        .unwrap();
+    let m = fallen.phyxels.total_mass();
+    let v = fallen.phyxels.momentum().map(|c| c / m);
+    let speed = v.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let bottom = (0..fallen.phyxels.len())
+        .map(|i| fallen.phyxels.pos.y[i])
+        .fold(f32::INFINITY, f32::min);
+    assert!(speed < 0.05, "fallen piece still moves at {speed} m/s");
+    assert!(
+        (bottom + 0.75).abs() < 0.015,
+        "fallen piece bottom at {bottom} m, plane at -0.75 m"
+    );
+}
+
+/// No false fractures: the same bar, elastic (`plastic_yield = inf`) but still checked
+/// for fracture every step (topology work > 0), stretches under its weight without ever
+/// splitting.
+#[test]
+fn elastic_bar_does_not_split() {
+    let scene = plastic_fracture(true);
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    for _ in 0..1500 {
+        w.step();
+    }
+    assert!(w.times.work(Phase::Topology) > 0, "the fracture check ran");
+    assert!(w.splits.is_empty(), "elastic bar split: {:?}", w.splits);
+    assert_eq!(w.objects.len(), 2);
+    assert!(w.all_finite());
+}
+
+/// Upper-arc phyxels of the `self-contact` ring that end inside the lower arc, after the
+/// run: the lower arc's surface is the implicit surface (eq. 2, `src/implicit.rs`) of the
+/// surfels whose rest position lies in the clamped bottom region (|x| < 0.06 m,
+/// y < −0.06 m); tested are the phyxels of the upper half (rest y > 0.06 m) that end over
+/// the middle of that patch (|x| < 0.05 m, y < 0 m), away from its cut edges.
+fn self_contact_intrusions(self_collision: bool) -> (usize, usize) {
+    use phyxel::grid::Grid;
+    use phyxel::implicit::{ImplicitSurface, grid_cell};
+    let mut scene = Scene::builtin("self-contact").unwrap();
+    scene.objects[0].self_collision = self_collision;
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    for _ in 0..scene.steps {
+        w.step();
+    }
+    assert!(w.all_finite());
+    let o = &w.objects[0];
+    let s = &o.surfels;
+    let lower: Vec<usize> = (0..s.len())
+        .filter(|&i| s.rest.x[i].abs() < 0.06 && s.rest.y[i] < -0.06)
+        .collect();
+    let patch = s.gather(&lower);
+    let r_max = patch.radius.iter().fold(0.0f32, |a, &b| a.max(b));
+    let grid = Grid::build(patch.pos.iter(), grid_cell(r_max));
+    let surface = ImplicitSurface::new(&patch.pos, &patch.normal, &patch.radius, &grid);
+    let p = &o.phyxels;
+    let tested: Vec<Vec3> = (0..p.len())
+        .filter(|&i| p.rest.y[i] > 0.06)
+        .map(|i| p.pos.get(i))
+        .filter(|x| x.x.abs() < 0.05 && x.y < 0.0)
+        .collect();
+    let inside = tested
+        .iter()
+        .filter(|&&x| surface.inside(x).is_some_and(|(inside, _)| inside))
+        .count();
+    (inside, tested.len())
+}
+
+/// `self-contact`: the ring collapses onto itself (upper-arc phyxels do come down over
+/// the lower arc); with the self-collision force none of them ends inside the lower arc,
+/// without it (same scene, `self_collision = false`) some do: the force is what prevents
+/// the interpenetration.
+#[test]
+fn self_collision_keeps_arcs_apart() {
+    let (inside_on, tested_on) = self_contact_intrusions(true);
+    let (inside_off, tested_off) = self_contact_intrusions(false);
+    eprintln!(
+        "with self-collision {inside_on}/{tested_on} inside, without {inside_off}/{tested_off}"
+    );
+    assert!(
+        tested_on > 0,
+        "the upper arc never came down over the lower arc"
+    );
+    assert_eq!(inside_on, 0, "upper-arc phyxels inside the lower arc");
+    assert!(
+        inside_off > 0,
+        "without self-collision the arcs should interpenetrate"
+    );
+}
+
+/// Largest change of a phyxel's distance from the centre of mass between `a` and `b`
+/// (m): a rigid motion changes nothing, a dent shows as its depth.
+fn shape_change(a: &[Vec3], b: &[Vec3]) -> f32 {
+    let c = |p: &[Vec3]| p.iter().copied().sum::<Vec3>() / p.len() as f32;
+    let (ca, cb) = (c(a), c(b));
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| ((*x - ca).length() - (*y - cb).length()).abs())
+        .fold(0.0, f32::max)
+}
+
+/// `plastic-pile` for `steps` steps, then every blob is lifted off the pile (moved 5 m
+/// apart, at rest, no gravity) and relaxes for [`RELAX`] under a velocity drag. Returns, per blob, the change of
+/// shape relative to its radius (0.05 m).
+/// Seconds the unloaded blobs relax.
+const RELAX: f32 = 0.2;
+
+fn pile_dents(plastic: bool, steps: u64) -> Vec<f32> {
+    let mut scene = Scene::builtin("plastic-pile").unwrap();
+    if !plastic {
+        for o in &mut scene.objects {
+            o.material.plastic_yield = f32::INFINITY;
+        }
+    }
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    let start: Vec<Vec<Vec3>> = w.objects.iter().map(|o| o.phyxels.pos.to_vec()).collect();
+    for _ in 0..steps {
+        w.step();
+    }
+    w.gravity = Vec3::ZERO;
+    for (k, o) in w
+        .objects
+        .iter_mut()
+        .enumerate()
+        .filter(|(_, o)| !o.is_static())
+    {
+        let lift = Vec3::new(0.0, 5.0 * k as f32, 0.0);
+        for i in 0..o.phyxels.len() {
+            let x = o.phyxels.pos.get(i);
+            o.phyxels.pos.set(i, x + lift);
+            o.phyxels.vel.set(i, Vec3::ZERO);
+        }
+    }
+    for _ in 0..(RELAX / w.dt) as usize {
+        w.step();
+        // Drag on every phyxel: damps the vibration of the unloaded blobs without moving
+        // their equilibrium shape (the rest shape, dented or not).
+        for o in w.objects.iter_mut() {
+            for v in [
+                &mut o.phyxels.vel.x,
+                &mut o.phyxels.vel.y,
+                &mut o.phyxels.vel.z,
+            ] {
+                v.iter_mut().for_each(|c| *c *= 0.99);
+            }
+        }
+    }
+    assert!(w.all_finite());
+    w.objects
+        .iter()
+        .zip(&start)
+        .filter(|(o, _)| !o.is_static())
+        .map(|(o, s)| shape_change(&o.phyxels.pos.to_vec(), s) / 0.05)
+        .collect()
+}
+
+/// `plastic-pile` (paper Fig. 6): after the blobs have hit the plane and each other
+/// (0.3 s) and are then unloaded, a plastic blob keeps a dent deeper than 5% of its
+/// radius, while the same blobs made elastic return to their shape within 1% of their
+/// radius.
+#[test]
+fn plastic_blobs_keep_their_dents() {
+    let plastic = pile_dents(true, 1500);
+    let elastic = pile_dents(false, 1500);
+    eprintln!("shape change / radius: plastic {plastic:?}, elastic {elastic:?}");
+    assert!(
+        plastic.iter().all(|&d| d > 0.05),
+        "plastic blobs lost their dents: {plastic:?}"
+    );
+    assert!(
+        elastic.iter().all(|&d| d < 0.01),
+        "elastic blobs kept a dent: {elastic:?}"
+    );
+}
+
+/// Bad input: `fracture = true` with plastic flow but no `plastic_max` (the strain at
+/// which the rest shape is renewed) is refused with a message naming the object, the
+/// field and the value; a wrongly typed `self_collision` names the key.
+#[test]
+fn bad_topology_keys_are_refused() {
+    let base = |material: &str, extra: &str| {
+        format!(
+            r#"
+            [[objects]]
+            shape = {{ type = "sphere", radius = 0.05 }}
+            spacing = 0.02
+            material = {{ {material} }}
+            {extra}
+            "#
+        )
+    };
+    let text = base(
+        "plastic_yield = 0.01, plastic_creep = 10.0, plastic_max = 0.0, fracture = true",
+        "",
+    );
+    let err = Scene::parse(&text, "bad.toml").unwrap_err().to_string();
+    for needle in [
+        "bad.toml",
+        "objects[0].material",
+        "plastic_max = 0",
+        "fracture",
+    ] {
+        assert!(err.contains(needle), "{needle:?} not in: {err}");
+    }
+    let text = base("", "self_collision = 3");
+    let err = Scene::parse(&text, "bad.toml").unwrap_err().to_string();
+    assert!(err.contains("self_collision"), "{err}");
+    // Elastic with fracture is valid: it splits only when pulled apart.
+    assert!(Scene::parse(&base("fracture = true", ""), "ok.toml").is_ok());
+}
