@@ -453,6 +453,112 @@ impl Grid {
         hits.len = 0;
     }
 
+    /// Point indices in the grid's sorted order (position `k` of [`Grid::sorted_points`]
+    /// is input point `sorted()[k]`). Kernels that keep their own columns in this order
+    /// read whole lanes with [`Grid::for_each_lanes_within`].
+    pub fn sorted(&self) -> &[u32] {
+        &self.sorted
+    }
+
+    /// The points' x, y, z in sorted order, each followed by `LANES − 1` padding entries.
+    pub fn sorted_points(&self) -> [&[f32]; 3] {
+        [&self.px, &self.py, &self.pz]
+    }
+
+    /// Visits the points within `r` of `x` a lane group at a time, in sorted order:
+    /// `f(at, mask, d2)` where bit `l` of `mask` is set for each sorted position
+    /// `at + l` within `r`, and lane `l` of `d2` is its squared distance (the same f32
+    /// value [`Grid::for_each_within`] reports). Every point within `r` is in exactly one
+    /// call with its bit set; lanes with a clear bit may be padding and must be ignored.
+    pub fn for_each_lanes_within(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, u32, f32x8)) {
+        let m = self.sorted.len();
+        if m == 0 || r.is_nan() || r < 0.0 || x.is_nan() {
+            return;
+        }
+        let r2 = r * r;
+        let reach = r * (1.0 + 1.0e-6) + 1.0e-20;
+        let lo = cell_of(x - Vec3::splat(reach), self.inv_cell);
+        let hi = cell_of(x + Vec3::splat(reach), self.inv_cell);
+        let nx = hi[0] as i64 - lo[0] as i64 + 1;
+        let ny = hi[1] as i64 - lo[1] as i64 + 1;
+        let nz = hi[2] as i64 - lo[2] as i64 + 1;
+        let cells = nx.saturating_mul(ny).saturating_mul(nz);
+        if r2 == f32::INFINITY || cells > m as i64 {
+            self.lanes::<false>(0, m as u32, 0, 0, x, r2, &mut f);
+            return;
+        }
+        let nx = nx as usize;
+        let (ny, nz) = (ny as usize, nz as usize);
+        let shared = !(ny <= SEP && nz <= SEP && nx <= self.row_sep[ny - 1][nz - 1] as usize);
+        let table = self.mask + 1;
+        for cz in lo[2]..=hi[2] {
+            for cy in lo[1]..=hi[1] {
+                let b0 = hash([lo[0], cy, cz], self.mask);
+                let b1 = b0 + nx;
+                let runs = if b1 <= table {
+                    [(self.start[b0], self.start[b1]), (0, 0)]
+                } else {
+                    [
+                        (self.start[b0], self.start[table]),
+                        (self.start[0], self.start[b1 - table]),
+                    ]
+                };
+                for (s, e) in runs {
+                    if shared {
+                        self.lanes::<true>(s, e, cy, cz, x, r2, &mut f);
+                    } else {
+                        self.lanes::<false>(s, e, cy, cz, x, r2, &mut f);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The lane groups of sorted positions `s..e` with their distance masks; with
+    /// `FILTER`, only points whose cell is in row `(cy, cz)` (rows sharing buckets).
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn lanes<const FILTER: bool>(
+        &self,
+        s: u32,
+        e: u32,
+        cy: i32,
+        cz: i32,
+        x: Vec3,
+        r2: f32,
+        f: &mut impl FnMut(usize, u32, f32x8),
+    ) {
+        let (s, e) = (s as usize, e as usize);
+        let (xs, ys, zs) = (f32x8::splat(x.x), f32x8::splat(x.y), f32x8::splat(x.z));
+        let r2s = f32x8::splat(r2);
+        let mut k = s;
+        while k < e {
+            let dx = load8(&self.px, k) - xs;
+            let dy = load8(&self.py, k) - ys;
+            let dz = load8(&self.pz, k) - zs;
+            let d2 = dx * dx + dy * dy + dz * dz;
+            let mut mask = d2.simd_le(r2s).to_bitmask();
+            if e - k < LANES {
+                mask &= (1u32 << (e - k)) - 1;
+            }
+            if FILTER {
+                for l in 0..LANES {
+                    let j = k + l;
+                    if mask & (1 << l) != 0
+                        && (floor_i32(self.py[j] * self.inv_cell) != cy
+                            || floor_i32(self.pz[j] * self.inv_cell) != cz)
+                    {
+                        mask &= !(1 << l);
+                    }
+                }
+            }
+            if mask != 0 {
+                f(k, mask, d2);
+            }
+            k += LANES;
+        }
+    }
+
     fn scan(&self, x: Vec3, r2: f32, f: &mut impl FnMut(usize, f32)) {
         for k in 0..self.sorted.len() {
             let dx = self.px[k] - x.x;

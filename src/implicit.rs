@@ -4,9 +4,10 @@
 //! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
-use crate::columns::Vec3s;
+use crate::columns::{LANES, Vec3s, load8};
 use crate::grid::Grid;
 use glam::Vec3;
+use wide::f32x8;
 
 /// Kernel width σ_k in units of the surfel's disk radius.
 pub const SIGMA_PER_RADIUS: f32 = 1.0;
@@ -21,6 +22,83 @@ thread_local! {
         std::cell::RefCell::new(Vec::new())
     };
 }
+/// Lane-wise partial kernel sums; [`LaneSums::total`] adds the lanes.
+#[derive(Default)]
+struct LaneSums {
+    w: f32x8,
+    s: [f32x8; 3],
+    n: [f32x8; 3],
+}
+
+impl LaneSums {
+    fn total(&self) -> (f32, Vec3, Vec3) {
+        let v = |c: &[f32x8; 3]| Vec3::new(c[0].reduce_add(), c[1].reduce_add(), c[2].reduce_add());
+        (self.w.reduce_add(), v(&self.s), v(&self.n))
+    }
+}
+
+/// `exp(−q)` lane-wise for `q ≥ 0` (lanes beyond ~87 give 0 or garbage that the caller
+/// masks): `n = round(−q log₂e)`, `r = −q − n ln2` with ln2 split in two (Cody–Waite, so
+/// r carries no rounding of the product), `e^r` by a degree-6 Taylor polynomial
+/// (|r| ≤ ln2/2: relative error < 2e-7) and `2ⁿ` from the exponent bits. Only adds,
+/// multiplies and bit operations: fast without SSE4.1 or FMA.
+#[inline(always)]
+pub fn exp_neg(q: f32x8) -> f32x8 {
+    use wide::bytemuck::cast;
+    use wide::i32x8;
+    const MAGIC: f32 = 12_582_912.0; // 1.5 · 2²³: adding it rounds to an integer
+    const LN2_HI: f32 = 0.693_359_4; // few mantissa bits: n · LN2_HI is exact
+    const LN2_LO: f32 = -2.121_944_4e-4;
+    let c = f32x8::splat;
+    let x = (-q).max(c(-87.0));
+    let t = x * c(std::f32::consts::LOG2_E) + c(MAGIC);
+    let n = t - c(MAGIC);
+    let r = (x - n * c(LN2_HI)) - n * c(LN2_LO);
+    let p = c(1.0)
+        + r * (c(1.0)
+            + r * (c(0.5)
+                + r * (c(1.0 / 6.0)
+                    + r * (c(1.0 / 24.0) + r * (c(1.0 / 120.0) + r * c(1.0 / 720.0))))));
+    // n sits in the low mantissa bits of t; 2ⁿ has the exponent field n + 127.
+    let n_bits = cast::<f32x8, i32x8>(t) - cast::<f32x8, i32x8>(c(MAGIC));
+    let scale: f32x8 = cast((n_bits + i32x8::splat(127)) << 23);
+    p * scale
+}
+
+/// The lane mask of the low `LANES` bits of `bits`.
+#[inline(always)]
+fn lane_mask(bits: u32) -> f32x8 {
+    use wide::bytemuck::cast;
+    let lane_bits = wide::i32x8::from([1, 2, 4, 8, 16, 32, 64, 128]);
+    let set = (wide::i32x8::splat(bits as i32) & lane_bits).simd_eq(lane_bits);
+    cast(set)
+}
+
+/// The surfel columns the SIMD kernel reads, permuted into the grid's sorted order and
+/// padded by `LANES − 1`, so that a lane group of the grid is a contiguous load.
+/// Rebuilt after each grid rebuild (normals move with the surfels); keeps its buffers.
+#[derive(Clone, Debug, Default)]
+pub struct SortedSurfels {
+    radius: Vec<f32>,
+    normal: [Vec<f32>; 3],
+}
+
+impl SortedSurfels {
+    /// Permutes `normal` and `radius` into `grid`'s sorted order.
+    pub fn rebuild(&mut self, grid: &Grid, normal: &Vec3s, radius: &[f32]) {
+        let order = grid.sorted();
+        let fill = |out: &mut Vec<f32>, col: &[f32]| {
+            out.clear();
+            out.extend(order.iter().map(|&i| col[i as usize]));
+            out.resize(order.len() + LANES - 1, 0.0);
+        };
+        fill(&mut self.radius, radius);
+        fill(&mut self.normal[0], &normal.x);
+        fill(&mut self.normal[1], &normal.y);
+        fill(&mut self.normal[2], &normal.z);
+    }
+}
+
 /// Iteration limit of the orthogonal projection.
 pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
 /// Convergence tolerance of the projection, in units of the smallest σ.
@@ -36,6 +114,8 @@ pub struct ImplicitSurface<'a> {
     /// Grid for points far from every kernel (a coarser grid of the same surfels keeps
     /// their nearest-surfel search short); `grid` unless set.
     far: &'a Grid,
+    /// Surfel columns in the grid's sorted order, for the SIMD kernel sums.
+    sorted: Option<&'a SortedSurfels>,
     /// Largest query radius: the widest kernel's cutoff.
     reach: f32,
     tolerance: f32,
@@ -100,6 +180,7 @@ impl<'a> ImplicitSurface<'a> {
             radius,
             grid,
             far: grid,
+            sorted: None,
             reach: grid_cell(r_max),
             tolerance: PROJECTION_TOLERANCE * SIGMA_PER_RADIUS * r_min.min(r_max),
         }
@@ -109,6 +190,13 @@ impl<'a> ImplicitSurface<'a> {
     /// every kernel.
     pub fn with_far_grid(mut self, coarse: &'a Grid) -> Self {
         self.far = coarse;
+        self
+    }
+
+    /// Evaluates the kernel sums with the SIMD kernel over `sorted` (rebuilt from this
+    /// surface's normals and radii after its grid's last rebuild).
+    pub fn with_sorted(mut self, sorted: &'a SortedSurfels) -> Self {
+        self.sorted = Some(sorted);
         self
     }
 
@@ -123,6 +211,40 @@ impl<'a> ImplicitSurface<'a> {
     }
 
     fn accumulate(&self, x: Vec3) -> (f32, Vec3, Vec3) {
+        self.weighted_sums(x)
+    }
+
+    /// `(Σθ_k, Σθ_k s_k, Σθ_k n_k)` at `x` over the surfels within reach: the kernel
+    /// sums of eq. 1. With [`ImplicitSurface::with_sorted`] they run eight kernels at a
+    /// time over contiguous lanes in the grid's sorted order (`wide`, no gathers);
+    /// otherwise they are the scalar reference.
+    pub fn weighted_sums(&self, x: Vec3) -> (f32, Vec3, Vec3) {
+        let Some(sorted) = self.sorted else {
+            return self.weighted_sums_scalar(x);
+        };
+        let [px, py, pz] = self.grid.sorted_points();
+        let cutoff = f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS);
+        let mut sums = LaneSums::default();
+        self.grid
+            .for_each_lanes_within(x, self.reach, |at, mask, d2| {
+                let sigma = load8(&sorted.radius, at) * f32x8::splat(SIGMA_PER_RADIUS);
+                let q = d2 / (sigma * sigma);
+                // Lanes outside the mask or the cutoff (and NaN from a zero radius) weigh 0.
+                let within = q.simd_lt(cutoff) & lane_mask(mask);
+                let w = within.select(exp_neg(q), f32x8::ZERO);
+                sums.w += w;
+                sums.s[0] += w * load8(px, at);
+                sums.s[1] += w * load8(py, at);
+                sums.s[2] += w * load8(pz, at);
+                sums.n[0] += w * load8(&sorted.normal[0], at);
+                sums.n[1] += w * load8(&sorted.normal[1], at);
+                sums.n[2] += w * load8(&sorted.normal[2], at);
+            });
+        sums.total()
+    }
+
+    /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches).
+    pub fn weighted_sums_scalar(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         self.grid.for_each_within(x, self.reach, |k, d2| {
             let sigma = SIGMA_PER_RADIUS * self.radius[k];

@@ -47,6 +47,23 @@ fn grid_within(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
     out
 }
 
+/// The lane-group range query, unpacked to `(index, d² bits)` sorted by index (a point
+/// in two calls, or a set bit on padding, makes the comparison fail).
+fn grid_lanes_within(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
+    let mut out = Vec::new();
+    let order = grid.sorted();
+    grid.for_each_lanes_within(x, r, |at, mask, d2| {
+        let d2 = d2.to_array();
+        for (l, d) in d2.iter().enumerate() {
+            if mask & (1 << l) != 0 {
+                out.push((order[at + l] as usize, d.to_bits()));
+            }
+        }
+    });
+    out.sort_unstable();
+    out
+}
+
 /// Brute-force k nearest: every point with a non-NaN distance, sorted by
 /// `(d², index)`, first `k` kept.
 fn brute_knn(points: &[Vec3], x: Vec3, k: usize) -> Vec<(usize, f32)> {
@@ -61,7 +78,8 @@ fn brute_knn(points: &[Vec3], x: Vec3, k: usize) -> Vec<(usize, f32)> {
     all
 }
 
-/// Checks every range query of `queries × radii` against brute force (exact).
+/// Checks every range query of `queries × radii`, per point and per lane group, against
+/// brute force (exact).
 fn check_range(
     points: &[Vec3],
     cell: f32,
@@ -72,10 +90,19 @@ fn check_range(
     prop_assert_eq!(grid.len(), points.len());
     for &x in queries {
         for &r in radii {
+            let want = brute_within(points, x, r);
             prop_assert_eq!(
                 grid_within(&grid, x, r),
-                brute_within(points, x, r),
+                want.clone(),
                 "x = {:?}, r = {}, cell = {}",
+                x,
+                r,
+                cell
+            );
+            prop_assert_eq!(
+                grid_lanes_within(&grid, x, r),
+                want,
+                "lanes: x = {:?}, r = {}, cell = {}",
                 x,
                 r,
                 cell
