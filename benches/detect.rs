@@ -1,6 +1,8 @@
-//! Collision detection at scale: two spheres of radius R = 0.1 m whose surfaces overlap
-//! by 1 cm (centres 0.19 m apart, at rest, no gravity), sampled with 10k, 100k and 1M
-//! surfels each (surfel spacing `√(4πR²/N)`) and phyxels at a fixed 0.02 m spacing.
+//! Collision detection and whole steps at scale: two spheres of radius R = 0.1 m whose
+//! surfaces overlap by 1 cm (centres 0.19 m apart, at rest, no gravity), sampled with
+//! 10k, 100k and 1M surfels each (surfel spacing `√(4πR²/N)`) and 390, 2,800 and 20,000
+//! phyxels each: the paper's size, the performance issue's 1M size, and their log-linear
+//! interpolation (the phyxel count grows with the resolution, `N^0.86`).
 //!
 //! Every measured step starts from the same state: before each step the phyxels and
 //! surfels are restored from a copy taken after building (outside the timed region), so
@@ -14,6 +16,8 @@
 //!   three phases count. Throughput is in candidate surfels (surfels of either sphere in
 //!   the broad phase's intersection box): µs per candidate = 1000 / (Kelem/s).
 //!
+//! - `threads_100k/1` and `/2`: the whole step at 100k in a 1- and a 2-thread rayon pool.
+//!
 //! After each size a table of per-phase medians over every step criterion ran (warm-up
 //! included) is printed to stderr, with the candidate and colliding counts, followed by
 //! a single-thread split of the candidates by path through detection (`paths`: near the
@@ -22,9 +26,9 @@
 //! 1M surfels per sphere is not a criterion bench: one step takes seconds (tens of
 //! seconds at the time of writing) and criterion needs at least 10 samples after a
 //! warm-up. After the criterion benches, `detect_1m` times a few steps one-shot from the
-//! same start state and prints each step and the per-phase medians
-//! (`PHYXEL_BENCH_1M_STEPS`, default 3; 0 skips it). The criterion filter does not
-//! apply to it.
+//! same start state, on 2 threads and then on 1, and prints each step and the per-phase
+//! medians (`PHYXEL_BENCH_1M_STEPS`, default 3; 0 skips it). The criterion filter does
+//! not apply to it.
 //!
 //! Run: `cargo bench --bench detect -- --warm-up-time 1 --measurement-time 5`
 //! (one criterion size: append `detect_100k`). Numbers go to docs/PERFORMANCE.md.
@@ -44,8 +48,12 @@ use std::time::{Duration, Instant};
 const R: f32 = 0.1;
 /// Overlap of the two surfaces (m): centres are `2R − OVERLAP` apart.
 const OVERLAP: f32 = 0.01;
-/// Phyxel spacing (m), the same at every size.
-const PHYXEL_SPACING: f32 = 0.02;
+/// Phyxels per sphere for `n` surfels per sphere: 390 at 10k (the paper), 20,000 at 1M
+/// (the performance issue), log-linear in between.
+fn phyxels_for(n: usize) -> u32 {
+    let slope = (20_000.0f64 / 390.0).ln() / 100.0f64.ln();
+    (390.0 * (n as f64 / 1.0e4).powf(slope)).round() as u32
+}
 
 /// The detection phases measured by the `phases` benches.
 const DETECTION: [Phase; 3] = [Phase::BroadPhase, Phase::SurfelGrid, Phase::Detect];
@@ -58,10 +66,11 @@ fn surfel_spacing(n: usize) -> f32 {
 fn scene_toml(n: usize) -> String {
     let x = 0.5 * (2.0 * R - OVERLAP);
     let s = surfel_spacing(n);
+    let phyxels = phyxels_for(n);
     let sphere = |name: &str, x: f32| {
         format!(
             "[[objects]]\nname = \"{name}\"\nshape = {{ type = \"sphere\", radius = {R} }}\n\
-             spacing = {PHYXEL_SPACING}\nsurfel_spacing = {s:e}\nposition = [{x}, 0.0, 0.0]\n\
+             phyxels = {phyxels}\nsurfel_spacing = {s:e}\nposition = [{x}, 0.0, 0.0]\n\
              velocity = [0.0, 0.0, 0.0]\n\
              material = {{ density = 1000.0, young = 1.0e5, poisson = 0.3 }}\n"
         )
@@ -279,7 +288,26 @@ fn detect(c: &mut Criterion) {
         g.finish();
         b.report(label, "criterion warm-up and samples");
         b.paths();
+        if n == 100_000 {
+            threads(c, "threads_100k", &mut b);
+        }
     }
+}
+
+/// Whole steps of `b` in a 1- and a 2-thread pool (the loop runs inside the pool, as
+/// `phyxel run` does).
+fn threads(c: &mut Criterion, label: &str, b: &mut Bench) {
+    let mut g = c.benchmark_group(label);
+    for n in [1, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .expect("thread pool");
+        g.bench_function(n.to_string(), |bn| {
+            bn.iter_custom(|iters| pool.install(|| (0..iters).map(|_| b.step().0).sum()))
+        });
+    }
+    g.finish();
 }
 
 /// Steps of the one-shot 1M-surfel timing: `PHYXEL_BENCH_1M_STEPS` (default 3; 0 skips).
@@ -299,16 +327,30 @@ fn detect_1m() {
         return;
     }
     let mut b = Bench::new(1_000_000);
-    for k in 0..steps {
-        let (whole, det) = b.step();
+    for threads in [2, 1] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        b.records.clear();
+        let mut wall = Vec::new();
+        for k in 0..steps {
+            let (whole, det) = pool.install(|| b.step());
+            wall.push(whole.as_secs_f64());
+            eprintln!(
+                "detect_1m one-shot, {threads} thread(s), step {}: {:.3} s, detection phases {:.3} s",
+                k + 1,
+                whole.as_secs_f64(),
+                det.as_secs_f64()
+            );
+        }
+        wall.sort_by(f64::total_cmp);
         eprintln!(
-            "detect_1m one-shot step {}: {:.3} s, detection phases {:.3} s",
-            k + 1,
-            whole.as_secs_f64(),
-            det.as_secs_f64()
+            "detect_1m {threads} thread(s): median whole step {:.3} s",
+            wall[wall.len() / 2]
         );
+        b.report(&format!("detect_1m ({threads} threads)"), "one-shot");
     }
-    b.report("detect_1m", "one-shot");
     b.paths();
 }
 
