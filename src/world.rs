@@ -54,7 +54,8 @@ pub struct World {
     detect_scratch: Vec<[DetectScratch; 2]>,
     /// Per-patch contact scratch, reused from step to step.
     patch_scratch: Vec<PatchScratch>,
-    distribute_scratch: DistributeScratch,
+    /// Per-object distribution scratch, reused from step to step.
+    distribute_scratch: Vec<DistributeScratch>,
     /// Every split so far, in order (the run summary's `fractures`).
     pub splits: Vec<SplitEvent>,
     /// Rest configurations renewed by plastic flow so far (all objects).
@@ -155,7 +156,7 @@ impl World {
             arena: Bump::new(),
             detect_scratch: Vec::new(),
             patch_scratch: Vec::new(),
-            distribute_scratch: DistributeScratch::default(),
+            distribute_scratch: Vec::new(),
             splits: Vec::new(),
             rest_renewals: 0,
             next_id: objects_next_id,
@@ -430,27 +431,31 @@ impl World {
     }
 
     /// Contact forces spread onto the phyxels of moving objects (their grids were built
-    /// this step with the surfel grids); they act at the next step.
+    /// this step with the surfel grids); they act at the next step. Parallel over
+    /// objects: each object takes its patches in patch order, so the sums do not depend
+    /// on the thread count.
     #[inline(never)] // a named frame in flamegraphs
     fn distribute(&mut self) {
-        for patch in &self.patches {
-            for (k, sign) in [(patch.a, 1.0f32), (patch.b, -1.0)] {
-                let o = &mut self.objects[k];
-                if o.is_static() {
-                    continue;
-                }
-                let grid = self.phyxel_grids[k].as_ref().expect("grid built for pairs");
+        let n = self.objects.len();
+        self.distribute_scratch.resize_with(n, Default::default);
+        let (patches, grids) = (&self.patches, &self.phyxel_grids);
+        self.objects
+            .par_iter_mut()
+            .zip(self.distribute_scratch.par_iter_mut())
+            .enumerate()
+            .filter(|(_, (o, _))| !o.is_static())
+            .for_each(|(k, (o, scratch))| {
                 let h = DISTRIBUTION_SUPPORT * o.max_influence;
-                contact::distribute(
-                    &patch.surfels,
-                    sign,
-                    &mut o.phyxels,
-                    grid,
-                    h,
-                    &mut self.distribute_scratch,
-                );
-            }
-        }
+                for patch in patches {
+                    let sign = match (patch.a == k, patch.b == k) {
+                        (true, _) => 1.0f32,
+                        (_, true) => -1.0,
+                        _ => continue,
+                    };
+                    let grid = grids[k].as_ref().expect("grid built for pairs");
+                    contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h, scratch);
+                }
+            });
     }
 
     /// Self-collision forces (objects with `self_collision`), then fracture of the objects
