@@ -462,21 +462,25 @@ impl Dynamics for SphDynamics {
         integrate_symplectic(phyxels, &self.internal, ctx);
     }
 
-    /// CFL bound `CFL · h / c · (√(1 + ζ²) − ζ) / (1 + α)` with the P-wave speed `c`,
-    /// the Kelvin–Voigt damping ratio `ζ = τ c / (CFL h)` of the fastest resolved mode
-    /// and the artificial viscosity α.
+    /// The smaller of the CFL bound `CFL · h / c` (P-wave speed `c`) and the
+    /// symplectic-Euler limit `2/ω (√(1 + ζ²) − ζ)` of the fastest lattice mode
+    /// `ω = 2√3 c / h` with the Kelvin–Voigt damping ratio `ζ = τ ω / 2`; divided by
+    /// `1 + α` for the artificial viscosity.
     fn stable_dt(&self, _phyxels: &Phyxels, m: &Material) -> f32 {
         let c = m.wave_speed().max((bulk_modulus(m) / m.density).sqrt());
         if c.is_nan() || c <= 0.0 {
             return f32::INFINITY;
         }
         let h = self.kernel.h;
+        let cfl = CFL * h / c;
+        let omega = 2.0 * 3f32.sqrt() * c / h;
         let zeta = if self.options.elasticity {
-            self.tau(m) * c / (CFL * h)
+            0.5 * self.tau(m) * omega
         } else {
             0.0
         };
-        CFL * h / c * ((1.0 + zeta * zeta).sqrt() - zeta) / (1.0 + self.options.alpha)
+        let damped = 2.0 / omega * ((1.0 + zeta * zeta).sqrt() - zeta);
+        cfl.min(damped) / (1.0 + self.options.alpha)
     }
 
     fn displacement_gradient(&self) -> Option<&[Mat3]> {
