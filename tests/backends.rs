@@ -7,7 +7,6 @@ use glam::Vec3;
 use phyxel::World;
 use phyxel::backends::lj::{BOND_STIFFNESS, LjDynamics};
 use phyxel::backends::sph::SphDynamics;
-use phyxel::dynamics::Dynamics;
 use phyxel::scene::{BuildOptions, Scene};
 
 const BACKENDS: [&str; 3] = ["mls", "sph", "lj"];
