@@ -45,6 +45,13 @@ pub const CFL: f32 = 0.3;
 /// usually one or two suffice).
 const POLAR_ITERATIONS: usize = 8;
 
+/// Current neighbours stored per phyxel between the density and the force pass (a
+/// cubic lattice has 26 within the support); a phyxel with more is searched again.
+const MAX_STORED: usize = 48;
+
+/// Marks a phyxel whose current neighbours did not fit in [`MAX_STORED`].
+const OVERFLOW: u32 = u32::MAX;
+
 /// Options of the SPH method.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SphOptions {
@@ -134,8 +141,17 @@ pub struct SphDynamics {
     off: Vec<u32>,
     nbr: Vec<u32>,
     d: Vec<Vec3>,
-    rev: Vec<u32>,
+    /// `d_in[k] = d[rev[k]]`: the gradient entry `d_ji` of the reverse bond, stored along
+    /// row i so the force gather reads memory in order.
+    d_in: Vec<Vec3>,
     d_self: Vec<Vec3>,
+    /// `I − Σ_j x⁰_ji d_ijᵀ` (zero where the correction is exact), so that
+    /// `F_i = I + ∇u_i = rest_offset_i + Σ_j x_ji d_ijᵀ` needs no rest positions.
+    rest_offset: Vec<Mat3>,
+    /// Current neighbours from the density pass, `MAX_STORED` slots per phyxel, and
+    /// their number ([`OVERFLOW`]: search again).
+    current: Vec<u32>,
+    current_len: Vec<u32>,
     /// Rotation of each phyxel (warm start of the polar decomposition).
     rotation: Vec<Quat>,
     /// `P_i = −V_i R_i σ_i` (N per unit `d`).
@@ -216,6 +232,15 @@ impl SphDynamics {
             }
             d_self[i] = -sum;
         }
+        let rest_offset: Vec<Mat3> = (0..n)
+            .map(|i| {
+                let mut m = Mat3::IDENTITY;
+                for k in off[i] as usize..off[i + 1] as usize {
+                    m -= outer(rest[nbr[k] as usize] - rest[i], d[k]);
+                }
+                m
+            })
+            .collect();
         let mut rev = vec![0u32; nbr.len()];
         for i in 0..n {
             for k in off[i] as usize..off[i + 1] as usize {
@@ -235,9 +260,12 @@ impl SphDynamics {
             pressure_term: vec![0.0; n],
             off,
             nbr,
+            d_in: rev.iter().map(|&r| d[r as usize]).collect(),
             d,
-            rev,
             d_self,
+            rest_offset,
+            current: vec![0; n * MAX_STORED],
+            current_len: vec![0; n],
             rotation: vec![Quat::IDENTITY; n],
             stress_force: vec![Mat3::ZERO; n],
             grad: vec![Mat3::ZERO; n],
@@ -297,6 +325,7 @@ impl SphDynamics {
         let grid = &self.grid;
         let rest_density = &self.rest_density;
         let (off, nbr, d) = (&self.off, &self.nbr, &self.d);
+        let rest_offset = &self.rest_offset;
         // Pass 1: density, pressure, and the elastic stress of each phyxel.
         let (energy, max_strain) = self
             .density
@@ -305,13 +334,27 @@ impl SphDynamics {
             .zip(self.stress_force.par_iter_mut())
             .zip(self.grad.par_iter_mut())
             .zip(self.rotation.par_iter_mut())
+            .zip(self.current.par_chunks_mut(MAX_STORED))
+            .zip(self.current_len.par_iter_mut())
             .enumerate()
-            .map(|(i, ((((rho_out, pt), pf), gr), q))| {
+            .map(|(i, ((((((rho_out, pt), pf), gr), q), slots), len))| {
                 let xi = pos.get(i);
                 let mut rho = 0.0f32;
+                let mut count = 0usize;
                 grid.for_each_within(xi, support, |j, r2| {
                     rho += mass[j] * kernel.w(r2);
+                    if j != i {
+                        if count < MAX_STORED {
+                            slots[count] = j as u32;
+                        }
+                        count += 1;
+                    }
                 });
+                *len = if count <= MAX_STORED {
+                    count as u32
+                } else {
+                    OVERFLOW
+                };
                 let ratio = rho / rest_density[i];
                 let p = b_tait * (ratio.powi(TAIT_GAMMA as i32) - 1.0);
                 *rho_out = rho;
@@ -320,13 +363,10 @@ impl SphDynamics {
                 let mut e = 0.5 * k_bulk * dv * dv * volume[i] as f64;
                 let mut strain_norm = (ratio - 1.0).abs();
                 if elastic {
-                    let (vi, mut f, mut fd) = (vel.get(i), Mat3::IDENTITY, Mat3::ZERO);
+                    let (vi, mut f, mut fd) = (vel.get(i), rest_offset[i], Mat3::ZERO);
                     for k in off[i] as usize..off[i + 1] as usize {
                         let j = nbr[k] as usize;
-                        f += outer(
-                            pos.get(j) - xi - (phyxels.rest.get(j) - phyxels.rest.get(i)),
-                            d[k],
-                        );
+                        f += outer(pos.get(j) - xi, d[k]);
                         fd += outer(vel.get(j) - vi, d[k]);
                     }
                     *q = polar_rotation(f, *q);
@@ -351,7 +391,8 @@ impl SphDynamics {
         let c = (bulk_modulus(material) / material.density).sqrt();
         let h = kernel.h;
         let (density, pt) = (&self.density, &self.pressure_term);
-        let (stress, d_self, rev) = (&self.stress_force, &self.d_self, &self.rev);
+        let (stress, d_self, d_in) = (&self.stress_force, &self.d_self, &self.d_in);
+        let (current, current_len) = (&self.current, &self.current_len);
         let Vec3s { x, y, z, .. } = &mut self.internal;
         x[..n]
             .par_iter_mut()
@@ -362,7 +403,7 @@ impl SphDynamics {
                 let (xi, vi) = (pos.get(i), vel.get(i));
                 let (mi, pti, rhoi) = (mass[i], pt[i], density[i]);
                 let mut f = Vec3::ZERO;
-                grid.for_each_within(xi, support, |j, r2| {
+                let mut pair = |j: usize, r2: f32| {
                     if j == i || r2 <= 0.0 {
                         return;
                     }
@@ -375,12 +416,20 @@ impl SphDynamics {
                         s += -alpha * c * mu_ij / (0.5 * (rhoi + density[j]));
                     }
                     f -= xij * (mi * mass[j] * s * kernel.grad_over_r(r2));
-                });
+                };
+                match current_len[i] {
+                    OVERFLOW => grid.for_each_within(xi, support, &mut pair),
+                    len => {
+                        for &j in &current[i * MAX_STORED..i * MAX_STORED + len as usize] {
+                            let j = j as usize;
+                            pair(j, (xi - pos.get(j)).length_squared());
+                        }
+                    }
+                }
                 if elastic {
                     f += stress[i] * d_self[i];
                     for k in off[i] as usize..off[i + 1] as usize {
-                        let j = nbr[k] as usize;
-                        f += stress[j] * d[rev[k] as usize];
+                        f += stress[nbr[k] as usize] * d_in[k];
                     }
                 }
                 *fx = f.x;
