@@ -489,6 +489,7 @@ fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
     for chunk in list.chunks(LANES) {
         // Gather: x y z, vx vy vz, m, p/ρ², ρ.
         let mut g = [[0.0f32; LANES]; 9];
+        #[allow(clippy::needless_range_loop)] // lane l of nine gathered columns
         for l in 0..LANES {
             let (p, v) = match chunk.get(l) {
                 Some(&j) => {
