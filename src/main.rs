@@ -539,9 +539,10 @@ fn print_comparison(runs: &[RunSummary]) {
         first.scene, first.objects, first.phyxels, first.surfels, first.steps
     );
     println!(
-        "{:<8} {:>10} {:>10} {:>14} {:>14} {:>12} {:>7} {:>6}",
+        "{:<8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>6}",
         "backend",
         "dt (s)",
+        "time (s)",
         "steps/s",
         "max pen. (m)",
         "|dp| (kg m/s)",
@@ -552,9 +553,11 @@ fn print_comparison(runs: &[RunSummary]) {
     for s in runs {
         // No scene reports an error figure against a reference in its summary yet.
         println!(
-            "{:<8} {:>10.3e} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>6}",
+            "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>6}",
             s.backend,
             s.dt,
+            // Each backend runs at its own stable dt: the same steps cover different times.
+            s.dt as f64 * s.steps as f64,
             s.steps_per_second,
             s.max_penetration,
             momentum_drift(s),
