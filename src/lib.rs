@@ -53,17 +53,27 @@ pub mod world;
 #[path = "../backends/mls/mod.rs"]
 pub mod mls_backend;
 
+#[doc(hidden)]
+#[path = "../backends/sph/mod.rs"]
+pub mod sph_backend;
+
+#[doc(hidden)]
+#[path = "../backends/lj/mod.rs"]
+pub mod lj_backend;
+
 /// The built-in dynamics backends, each stored under `backends/` and written only
 /// against the public API above.
 pub mod backends {
+    pub use super::lj_backend as lj;
     pub use super::mls_backend as mls;
+    pub use super::sph_backend as sph;
 
     use crate::dynamics::{Dynamics, StaticDynamics};
     use crate::material::Material;
     use crate::phyxels::Phyxels;
 
     /// Names accepted by `backend = "..."` in scenes and `--backend`.
-    pub const NAMES: &[&str] = &["mls"];
+    pub const NAMES: &[&str] = &["mls", "sph", "lj"];
 
     /// Creates backend `name` for `phyxels`, or explains which names exist.
     pub fn create(
@@ -73,6 +83,8 @@ pub mod backends {
     ) -> Result<Box<dyn Dynamics>, String> {
         match name {
             "mls" => Ok(Box::new(mls::MlsDynamics::new(phyxels, material))),
+            "sph" => Ok(Box::new(sph::SphDynamics::new(phyxels, material))),
+            "lj" => Ok(Box::new(lj::LjDynamics::new(phyxels, material))),
             "static" => Ok(Box::new(StaticDynamics)),
             other => Err(format!(
                 "unknown backend '{other}' (available: {})",

@@ -73,6 +73,21 @@ enum Command {
         #[arg(long, value_name = "FILE.svg")]
         flamegraph: Option<PathBuf>,
     },
+    /// Run a scene once per backend and compare speed, contact and conservation.
+    Compare {
+        /// Built-in scene name or path to a .toml scene file.
+        #[arg(default_value = DEFAULT_SCENE)]
+        scene: String,
+        /// Comma-separated backends; each run uses it for every deformable object.
+        #[arg(long, value_delimiter = ',', default_value = "mls,sph,lj")]
+        backends: Vec<String>,
+        /// Number of steps per run (default: the scene's).
+        #[arg(long)]
+        steps: Option<u64>,
+        /// Print the run summaries as one JSON array on stdout (the `run --json` objects).
+        #[arg(long)]
+        json: bool,
+    },
     /// Render a surfel frame (PLY) to a PNG image.
     Render {
         /// A surfel PLY frame (from `run --out`) or any PLY point cloud with x y z.
@@ -108,6 +123,12 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Scenes { show } => scenes(show),
+        Command::Compare {
+            scene,
+            backends,
+            steps,
+            json,
+        } => compare(&scene, &backends, steps, json),
         Command::Render {
             frame,
             out,
@@ -405,5 +426,168 @@ fn print_table(s: &RunSummary) {
             b.velocity[1],
             b.velocity[2]
         );
+    }
+}
+
+/// `phyxel compare`: the scene once per backend, like `run --backend B`.
+fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitCode {
+    for b in names {
+        if !backends::NAMES.contains(&b.as_str()) {
+            eprintln!(
+                "error: --backends: unknown backend '{b}' (available: {})",
+                backends::NAMES.join(", ")
+            );
+            return ExitCode::FAILURE;
+        }
+    }
+    if names.is_empty() {
+        eprintln!("error: --backends: give at least one backend");
+        return ExitCode::FAILURE;
+    }
+    let file_prefix = if Scene::builtin(arg).is_some() {
+        String::new()
+    } else {
+        format!("{arg}: ")
+    };
+    let scene = match Scene::resolve(arg) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let total = steps.unwrap_or(scene.steps);
+    let mut summaries = Vec::with_capacity(names.len());
+    for (k, b) in names.iter().enumerate() {
+        eprintln!(
+            "[{}/{}] {} with backend {b}: {total} steps",
+            k + 1,
+            names.len(),
+            scene.name
+        );
+        let opts = RunOptions {
+            build: BuildOptions {
+                backend: Some(b.clone()),
+                ..Default::default()
+            },
+            steps,
+            ..Default::default()
+        };
+        let bar = if std::io::stderr().is_terminal() {
+            let bar = ProgressBar::new(total);
+            bar.set_style(
+                ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} steps ({per_sec})")
+                    .expect("valid template")
+                    .progress_chars("=> "),
+            );
+            bar.set_message(b.clone());
+            bar
+        } else {
+            ProgressBar::hidden()
+        };
+        let result = run(&scene, &opts, |s| {
+            if s % 16 == 0 {
+                bar.set_position(s);
+            }
+        });
+        bar.finish_and_clear();
+        match result {
+            Ok((_, summary)) => summaries.push(summary),
+            Err(e) => {
+                eprintln!("error: backend {b}: {file_prefix}{e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summaries).expect("summaries serialise")
+        );
+    } else {
+        print_comparison(&summaries);
+    }
+    let blown: Vec<&str> = summaries
+        .iter()
+        .filter(|s| !s.finite)
+        .map(|s| s.backend.as_str())
+        .collect();
+    if blown.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "error: the state became non-finite (NaN or infinity) with backend(s) {}",
+            blown.join(", ")
+        );
+        ExitCode::FAILURE
+    }
+}
+
+/// Total energy at the end of a run (J): kinetic plus the elastic energy the backends
+/// report.
+fn end_energy(s: &RunSummary) -> f64 {
+    s.kinetic_energy
+        + s.bodies
+            .iter()
+            .filter_map(|b| b.elastic_energy)
+            .sum::<f64>()
+}
+
+/// Momentum drift `|p_end − p_start|` (kg·m/s).
+fn momentum_drift(s: &RunSummary) -> f64 {
+    (0..3)
+        .map(|k| (s.momentum_final[k] - s.momentum_initial[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+fn print_comparison(runs: &[RunSummary]) {
+    let Some(first) = runs.first() else {
+        return;
+    };
+    println!(
+        "scene {}  objects {}  phyxels {}  surfels {}  steps {}",
+        first.scene, first.objects, first.phyxels, first.surfels, first.steps
+    );
+    println!(
+        "{:<8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>6}",
+        "backend",
+        "dt (s)",
+        "time (s)",
+        "steps/s",
+        "max pen. (m)",
+        "|dp| (kg m/s)",
+        "energy (J)",
+        "finite",
+        "error"
+    );
+    for s in runs {
+        // No scene reports an error figure against a reference in its summary yet.
+        println!(
+            "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>6}",
+            s.backend,
+            s.dt,
+            // Each backend runs at its own stable dt: the same steps cover different times.
+            s.dt as f64 * s.steps as f64,
+            s.steps_per_second,
+            s.max_penetration,
+            momentum_drift(s),
+            end_energy(s),
+            s.finite,
+            "-"
+        );
+    }
+    print!("{:<16}", "ms/step");
+    for s in runs {
+        print!(" {:>10}", s.backend);
+    }
+    println!();
+    for p in Phase::ALL {
+        print!("{:<16}", p.name());
+        for s in runs {
+            let t = s.phase_seconds.get(p.name()).copied().unwrap_or(0.0);
+            print!(" {:>10.4}", 1e3 * t / s.steps.max(1) as f64);
+        }
+        println!();
     }
 }

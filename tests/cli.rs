@@ -663,3 +663,101 @@ fn scale_family_sets_sample_counts() {
         &["--surfels 0", "at least one"],
     );
 }
+
+/// `compare --json` prints one JSON array with a run summary per backend, in the order
+/// given; each summary has exactly the keys of `run --json`, names its backend, and ran
+/// the requested number of steps with finite state.
+#[test]
+fn compare_json_is_an_array_of_run_summaries() {
+    let args = [
+        "compare",
+        "two-spheres",
+        "--backends",
+        "mls,sph,lj",
+        "--steps",
+        "3",
+        "--json",
+    ];
+    let stdout = stdout_of(&args);
+    let v: Value = serde_json::from_str(&stdout)
+        .unwrap_or_else(|e| panic!("compare --json is not JSON ({e}):\n{stdout}"));
+    let runs = v.as_array().expect("a JSON array");
+    assert_eq!(runs.len(), 3);
+    let single = run_json(&["run", "two-spheres", "--steps", "3", "--json"]);
+    let keys = |v: &Value| -> Vec<String> {
+        let mut k: Vec<String> = v.as_object().expect("object").keys().cloned().collect();
+        k.sort();
+        k
+    };
+    for (r, name) in runs.iter().zip(["mls", "sph", "lj"]) {
+        assert_eq!(
+            keys(r),
+            keys(&single),
+            "summary keys differ from run --json"
+        );
+        assert_eq!(field(r, "backend"), name);
+        assert_eq!(field(r, "steps"), 3);
+        assert_eq!(field(r, "finite"), true);
+        for b in field(r, "bodies").as_array().unwrap() {
+            assert_eq!(field(b, "backend"), name);
+        }
+    }
+}
+
+/// The `compare` table has a row per backend, the error column ("-": the scene reports
+/// no error figure) and every phase of the step.
+#[test]
+fn compare_table_lists_backends_and_phases() {
+    let out = stdout_of(&[
+        "compare",
+        "falling-sphere",
+        "--backends",
+        "sph,lj",
+        "--steps",
+        "2",
+    ]);
+    for needle in ["backend", "steps/s", "max pen.", "|dp|", "energy", "error"] {
+        assert!(out.contains(needle), "table lacks {needle:?}:\n{out}");
+    }
+    for b in ["sph", "lj"] {
+        assert!(
+            out.lines()
+                .any(|l| l.starts_with(b) && l.trim_end().ends_with('-')),
+            "no row for {b}:\n{out}"
+        );
+    }
+    for p in PHASES {
+        assert!(out.contains(p), "table lacks phase {p}:\n{out}");
+    }
+}
+
+/// A bad name in `--backends` exits with 1 before running anything, naming the option,
+/// the value and the available backends.
+#[test]
+fn compare_unknown_backend_fails() {
+    expect_error(
+        &["compare", "two-spheres", "--backends", "mls,nope"],
+        &["--backends", "nope", "mls, sph, lj"],
+    );
+}
+
+/// `run --backend sph` and `--backend lj` override every deformable object's backend;
+/// the static ground stays static.
+#[test]
+fn run_with_sph_and_lj_backends() {
+    for b in ["sph", "lj"] {
+        let v = run_json(&[
+            "run",
+            "sphere-on-plane",
+            "--steps",
+            "3",
+            "--backend",
+            b,
+            "--json",
+        ]);
+        assert_eq!(field(&v, "backend"), b);
+        let bodies = field(&v, "bodies").as_array().unwrap();
+        assert_eq!(field(&bodies[0], "backend"), "static");
+        assert_eq!(field(&bodies[1], "backend"), b);
+    }
+}
