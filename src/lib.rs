@@ -46,6 +46,7 @@ pub mod shape;
 pub mod summary;
 pub mod surfels;
 pub mod timing;
+pub mod validate;
 pub mod world;
 
 #[doc(hidden)]
