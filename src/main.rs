@@ -469,6 +469,19 @@ fn validate(
     let mut rows = validate::run_accuracy(&backends, quick, only, report);
     rows.extend(validate::run_stability(&backends, quick, only, report));
     bar.finish_and_clear();
+    if rows.is_empty() {
+        let names: Vec<&str> = validate::CASES
+            .iter()
+            .map(|c| c.0)
+            .chain(validate::STABILITY_CASES.iter().copied())
+            .collect();
+        eprintln!(
+            "error: --case {}: no case matches (cases: {}, or `stability`)",
+            only.unwrap_or(""),
+            names.join(", ")
+        );
+        return ExitCode::FAILURE;
+    }
     eprintln!("validation took {:.1} s", t0.elapsed().as_secs_f64());
     if json {
         println!(
