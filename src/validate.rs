@@ -874,6 +874,7 @@ pub fn convergence(rows: &[Row]) -> Vec<(String, String, f64, f64)> {
             .filter(|r| r.case == *case)
             .map(|r| r.backend.as_str())
             .collect();
+        backends.sort_unstable();
         backends.dedup();
         for b in backends {
             let errs: Vec<f64> = rows
@@ -1282,12 +1283,12 @@ pub fn plot(rows: &[Row], dir: &std::path::Path) -> Result<Vec<String>, String> 
     if !font {
         notes.push("no system TTF font found (DejaVuSans.ttf): charts written as SVG only".into());
     }
-    let mut cases: Vec<&str> = rows
-        .iter()
-        .filter(|r| r.group == "accuracy")
-        .map(|r| r.case.as_str())
-        .collect();
-    cases.dedup();
+    let mut cases: Vec<&str> = Vec::new();
+    for r in rows.iter().filter(|r| r.group == "accuracy") {
+        if !cases.contains(&r.case.as_str()) {
+            cases.push(&r.case);
+        }
+    }
     for case in cases {
         let sel: Vec<&Row> = rows
             .iter()
@@ -1369,6 +1370,7 @@ where
     .label(format!("tolerance {}", rows[0].tolerance))
     .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
     let mut backends: Vec<&str> = rows.iter().map(|r| r.backend.as_str()).collect();
+    backends.sort_unstable();
     backends.dedup();
     for (k, b) in backends.iter().enumerate() {
         let color = [BLUE, GREEN, MAGENTA, CYAN, BLACK][k % 5].to_rgba();
