@@ -215,6 +215,36 @@ fn judged(mut r: Row, tolerance: f64) -> Row {
     r
 }
 
+/// One measurement of a sweep: the value, its reference, the run, a note, and the
+/// relative error where the reference is zero (otherwise `|m − r| / |r|`).
+struct Point {
+    measured: f64,
+    reference: f64,
+    run: RunInfo,
+    note: String,
+    rel_error: Option<f64>,
+}
+
+/// One judged row of `case` per knob value (spacing or dt).
+fn sweep<K: Copy>(
+    case: &str,
+    backend: &str,
+    tolerance: f64,
+    knobs: &[K],
+    mut measure: impl FnMut(K) -> Result<Point, String>,
+) -> Result<Vec<Row>, String> {
+    knobs
+        .iter()
+        .map(|&k| {
+            let p = measure(k)?;
+            let mut r = row(case, backend, p.run, p.measured, p.reference);
+            r.rel_error = p.rel_error.unwrap_or(r.rel_error);
+            r.note = p.note;
+            Ok(judged(r, tolerance))
+        })
+        .collect()
+}
+
 // ---------------------------------------------------------------------------------------
 // MLS consistency
 
@@ -276,16 +306,16 @@ pub fn case_mls_consistency(backend: &str, quick: bool) -> Result<Vec<Row>, Stri
     } else {
         &[0.04, 0.02, 0.01]
     };
-    Ok(spacings
-        .iter()
-        .map(|&s| {
-            let (err, g, b, info) = mls_consistency(s);
-            let mut r = row("mls-consistency", backend, info, g, b);
-            r.rel_error = err;
-            r.note = format!("box 0.2×0.1×0.15 m, spacing {s} m");
-            judged(r, 1e-4)
+    sweep("mls-consistency", backend, 1e-4, spacings, |s| {
+        let (err, g, b, run) = mls_consistency(s);
+        Ok(Point {
+            measured: g,
+            reference: b,
+            run,
+            note: format!("box 0.2×0.1×0.15 m, spacing {s} m"),
+            rel_error: Some(err),
         })
-        .collect())
+    })
 }
 
 // ---------------------------------------------------------------------------------------
@@ -453,15 +483,18 @@ pub fn case_hertz(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     } else {
         &[0.025, 0.02, 1.0 / 60.0]
     };
-    let mut rows = Vec::new();
     let mut at_5n = Vec::new();
-    for &s in spacings {
-        let (d, h, info) = hertz_indentation(5.0, s, backend)?;
-        at_5n.push((d, info));
-        let mut r = row("hertz-indentation", backend, info, d, h);
-        r.note = format!("spacing {s:.4} m, F = 5 N");
-        rows.push(judged(r, 0.2));
-    }
+    let mut rows = sweep("hertz-indentation", backend, 0.2, spacings, |s| {
+        let (d, h, run) = hertz_indentation(5.0, s, backend)?;
+        at_5n.push((d, run));
+        Ok(Point {
+            measured: d,
+            reference: h,
+            run,
+            note: format!("spacing {s:.4} m, F = 5 N"),
+            rel_error: None,
+        })
+    })?;
     let s = spacings[1];
     let mut pts = Vec::new();
     let mut total = RunInfo::default();
@@ -525,14 +558,16 @@ pub fn case_hertz_impact(backend: &str, quick: bool) -> Result<Vec<Row>, String>
     } else {
         &[0.025, 0.02, 1.0 / 60.0]
     };
-    let mut rows = Vec::new();
-    for &s in spacings {
-        let (d, h, info) = hertz_impact(s, 0.1, backend)?;
-        let mut r = row("hertz-impact", backend, info, d, h);
-        r.note = format!("spacing {s:.4} m, closing speed 0.2 m/s");
-        rows.push(judged(r, 0.25));
-    }
-    Ok(rows)
+    sweep("hertz-impact", backend, 0.25, spacings, |s| {
+        let (d, h, run) = hertz_impact(s, 0.1, backend)?;
+        Ok(Point {
+            measured: d,
+            reference: h,
+            run,
+            note: format!("spacing {s:.4} m, closing speed 0.2 m/s"),
+            rel_error: None,
+        })
+    })
 }
 
 // ---------------------------------------------------------------------------------------
@@ -610,22 +645,28 @@ pub fn case_incline(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     } else {
         (0.4, 0.5, 0.005)
     };
-    let mut rows = Vec::new();
-    for &dt in dts {
-        let (disp, _, info) = incline(20.0, 0.5, dt, settle, time, ss, backend)?;
-        let mut r = row("incline-stick", backend, info, disp, 0.0);
-        r.rel_error = disp.abs() / 0.1;
-        r.note = format!("20°, μ 0.5, creep over {time} s");
-        rows.push(judged(r, 0.01));
-    }
+    let mut rows = sweep("incline-stick", backend, 0.01, dts, |dt| {
+        let (disp, _, run) = incline(20.0, 0.5, dt, settle, time, ss, backend)?;
+        Ok(Point {
+            measured: disp,
+            reference: 0.0,
+            run,
+            note: format!("20°, μ 0.5, creep over {time} s"),
+            rel_error: Some(disp.abs() / 0.1),
+        })
+    })?;
     let th = 30f64.to_radians();
     let want = 9.81 * (th.sin() - 0.3 * th.cos());
-    for &dt in dts {
-        let (_, acc, info) = incline(30.0, 0.3, dt, settle, time, ss, backend)?;
-        let mut r = row("incline-slide", backend, info, acc, want);
-        r.note = format!("30°, μ 0.3, fit over {time} s");
-        rows.push(judged(r, 0.1));
-    }
+    rows.extend(sweep("incline-slide", backend, 0.1, dts, |dt| {
+        let (_, acc, run) = incline(30.0, 0.3, dt, settle, time, ss, backend)?;
+        Ok(Point {
+            measured: acc,
+            reference: want,
+            run,
+            note: format!("30°, μ 0.3, fit over {time} s"),
+            rel_error: None,
+        })
+    })?);
     Ok(rows)
 }
 
@@ -719,26 +760,34 @@ pub fn case_conservation(backend: &str, quick: bool) -> Result<Vec<Row>, String>
     } else {
         &[1.0 / 30.0, 0.025, 0.02]
     };
-    let mut rows = Vec::new();
-    for &s in spacings {
-        let (worst, scale, touched, info) = collision_momentum(s, backend)?;
-        let mut r = row("momentum-collision", backend, info, worst, 0.0);
-        r.rel_error = worst / scale;
-        r.note = format!("spacing {s:.4} m, collided: {touched}");
-        let mut r = judged(r, 1e-4);
-        if !touched {
-            r.pass = false;
-            r.status = "fail".into();
-        }
-        rows.push(r);
-    }
-    for frac in [0.9f32, 0.45, 0.225] {
-        let time = if quick { 0.2 } else { 0.5 };
-        let (last, first, info) = free_energy(frac, time, backend)?;
-        let mut r = row("energy-free-body", backend, info, last, first);
-        r.note = format!("dt = {frac} × stable bound, {time} s");
-        rows.push(judged(r, 0.03));
-    }
+    let mut rows = sweep("momentum-collision", backend, 1e-4, spacings, |s| {
+        let (worst, scale, touched, run) = collision_momentum(s, backend)?;
+        Ok(Point {
+            measured: worst,
+            reference: 0.0,
+            run,
+            note: format!("spacing {s:.4} m, collided: {touched}"),
+            // No collision, no test: NaN fails the row.
+            rel_error: Some(if touched { worst / scale } else { f64::NAN }),
+        })
+    })?;
+    let time = if quick { 0.2 } else { 0.5 };
+    rows.extend(sweep(
+        "energy-free-body",
+        backend,
+        0.03,
+        &[0.9f32, 0.45, 0.225],
+        |frac| {
+            let (last, first, run) = free_energy(frac, time, backend)?;
+            Ok(Point {
+                measured: last,
+                reference: first,
+                run,
+                note: format!("dt = {frac} × stable bound, {time} s"),
+                rel_error: None,
+            })
+        },
+    )?);
     Ok(rows)
 }
 
@@ -768,14 +817,16 @@ pub fn case_cradle(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     } else {
         &[0.02, 1.0 / 60.0, 0.0125]
     };
-    let mut rows = Vec::new();
-    for &s in spacings {
-        let (p, p_in, info) = cradle(s, 0.3, backend)?;
-        let mut r = row("newtons-cradle", backend, info, p, p_in);
-        r.note = format!("spacing {s:.4} m, after 0.3 s");
-        rows.push(judged(r, 0.5));
-    }
-    Ok(rows)
+    sweep("newtons-cradle", backend, 0.5, spacings, |s| {
+        let (p, p_in, run) = cradle(s, 0.3, backend)?;
+        Ok(Point {
+            measured: p,
+            reference: p_in,
+            run,
+            note: format!("spacing {s:.4} m, after 0.3 s"),
+            rel_error: None,
+        })
+    })
 }
 
 // ---------------------------------------------------------------------------------------
@@ -813,6 +864,15 @@ pub fn check_backend(name: &str) -> Result<(), String> {
     }
 }
 
+/// `list`, or every backend of [`backends::NAMES`] when it is empty.
+fn backend_names(list: &[String]) -> Vec<String> {
+    if list.is_empty() {
+        backends::NAMES.iter().map(|s| s.to_string()).collect()
+    } else {
+        list.to_vec()
+    }
+}
+
 /// Runs every accuracy case for each of `backends_to_run` (all of [`backends::NAMES`]
 /// when empty), calling `progress(label)` before each runner. Errors (a build refused,
 /// no oscillation found) become failing rows that carry the message.
@@ -822,11 +882,7 @@ pub fn run_accuracy(
     only: Option<&str>,
     mut progress: impl FnMut(&str),
 ) -> Vec<Row> {
-    let names: Vec<String> = if backends_to_run.is_empty() {
-        backends::NAMES.iter().map(|s| s.to_string()).collect()
-    } else {
-        backends_to_run.to_vec()
-    };
+    let names = backend_names(backends_to_run);
     let mut rows = Vec::new();
     for b in &names {
         for (cases, run) in RUNNERS {
@@ -1227,11 +1283,7 @@ pub fn run_stability(
     only: Option<&str>,
     mut progress: impl FnMut(&str),
 ) -> Vec<Row> {
-    let names: Vec<String> = if backends_to_run.is_empty() {
-        backends::NAMES.iter().map(|s| s.to_string()).collect()
-    } else {
-        backends_to_run.to_vec()
-    };
+    let names = backend_names(backends_to_run);
     let mut rows = Vec::new();
     for b in &names {
         rows.extend(stability(b, quick, only, &mut progress));

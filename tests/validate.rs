@@ -6,25 +6,9 @@
 use phyxel::validate::{self, CASES, Row};
 use std::time::Instant;
 
-fn failures(rows: &[Row]) -> Vec<String> {
-    rows.iter()
-        .filter(|r| !r.pass)
-        .map(|r| {
-            format!(
-                "{} ({}, {} phyxels, dt {:.2e}): measured {:.4e} vs {:.4e}, error {:.3e} > {:.1e} [{}] {}",
-                r.case,
-                r.backend,
-                r.phyxels,
-                r.dt,
-                r.measured,
-                r.reference,
-                r.rel_error,
-                r.tolerance,
-                r.status,
-                r.note
-            )
-        })
-        .collect()
+/// The failing rows as a table (empty when none fails).
+fn failures(rows: &[Row]) -> Vec<Row> {
+    rows.iter().filter(|r| !r.pass).cloned().collect()
 }
 
 /// One test for the whole quick suite, so the two-minute budget is measured end to end.
@@ -59,7 +43,11 @@ fn quick_suite_within_tolerance_and_converging() {
         );
     }
     let failed = failures(&rows);
-    assert!(failed.is_empty(), "rows failed:\n{}", failed.join("\n"));
+    assert!(
+        failed.is_empty(),
+        "rows failed:\n{}",
+        validate::table(&failed)
+    );
 
     let conv = validate::convergence(&rows);
     assert!(!conv.is_empty());
