@@ -198,7 +198,8 @@ fn newtons_cradle_passes_momentum() {
     );
 }
 
-/// Hertz at three resolutions (phyxel spacing 25, 20 and 16.7 mm, F = 5 N): the
+/// Hertz at three resolutions (phyxel spacing 25, 20 and 16.7 mm, surfel spacing a fifth
+/// of it, F = 5 N): the
 /// indentation stays within 20% of Hertz at each (the error table of docs/ACCURACY.md).
 #[test]
 fn hertz_at_three_resolutions() {
