@@ -13,11 +13,11 @@ use crate::phyxels::Phyxels;
 use crate::scene::{BuildOptions, Scene};
 use crate::shape::Shape;
 use glam::{DMat3, DVec3, Mat3, Vec3};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::time::Instant;
 
 /// One line of the report.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
 pub struct Row {
     /// Case name, e.g. `cantilever-deflection`.
     pub case: String,
@@ -1417,7 +1417,7 @@ where
     c.configure_mesh()
         .x_desc("wall seconds per step")
         .y_desc("relative error")
-        .x_label_formatter(&|x| format!("{x:.1e}"))
+        .x_label_formatter(&|x| format!("{x:.0e}"))
         .y_label_formatter(&|y| format!("{y:.0e}"))
         .label_style(("sans-serif", 14))
         .draw()
