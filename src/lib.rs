@@ -47,6 +47,7 @@ pub mod summary;
 pub mod surfels;
 pub mod timing;
 pub mod topology;
+pub mod validate;
 pub mod world;
 
 #[doc(hidden)]

@@ -111,6 +111,25 @@ enum Command {
         #[arg(long, default_value_t = 35.0)]
         fov: f32,
     },
+    /// Run the validation suite: every case against its reference at several resolutions,
+    /// with seconds per step against relative error, then the hard (stability) cases.
+    Validate {
+        /// Coarse resolutions and short runs (under two minutes).
+        #[arg(long)]
+        quick: bool,
+        /// Validate only this backend (default: every backend).
+        #[arg(long)]
+        backend: Option<String>,
+        /// Print the rows as a JSON array on stdout.
+        #[arg(long)]
+        json: bool,
+        /// Write speed-against-error charts (SVG and PNG, one per case) to this directory.
+        #[arg(long, value_name = "DIR")]
+        plot: Option<PathBuf>,
+        /// Run only the cases whose name starts with this (e.g. `hertz`, `stability`).
+        #[arg(long)]
+        case: Option<String>,
+    },
     /// List the built-in scenes, or print one as TOML.
     Scenes {
         /// Print this built-in scene as TOML (runnable with `phyxel run FILE.toml`).
@@ -123,6 +142,13 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Scenes { show } => scenes(show),
+        Command::Validate {
+            quick,
+            backend,
+            json,
+            plot,
+            case,
+        } => validate(quick, backend, json, plot.as_deref(), case.as_deref()),
         Command::Compare {
             scene,
             backends,
@@ -589,5 +615,101 @@ fn print_comparison(runs: &[RunSummary]) {
             print!(" {:>10.4}", 1e3 * t / s.steps.max(1) as f64);
         }
         println!();
+    }
+}
+
+/// `phyxel validate`: runs the suite, prints the table (or JSON), writes the charts;
+/// fails when a row fails.
+fn validate(
+    quick: bool,
+    backend: Option<String>,
+    json: bool,
+    plot: Option<&Path>,
+    only: Option<&str>,
+) -> ExitCode {
+    use phyxel::validate;
+    if let Some(b) = &backend
+        && let Err(e) = validate::check_backend(b)
+    {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
+    if let Some(dir) = plot
+        && let Err(e) = std::fs::create_dir_all(dir)
+    {
+        eprintln!(
+            "error: --plot {}: cannot create the directory: {e}",
+            dir.display()
+        );
+        return ExitCode::FAILURE;
+    }
+    let bar = if std::io::stderr().is_terminal() {
+        let b = ProgressBar::new_spinner();
+        b.set_style(
+            ProgressStyle::with_template("{spinner} [{elapsed}] {msg}").expect("valid template"),
+        );
+        b.enable_steady_tick(std::time::Duration::from_millis(200));
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    let t0 = std::time::Instant::now();
+    let report = |label: &str| {
+        bar.set_message(label.to_string());
+        if !std::io::stderr().is_terminal() {
+            eprintln!("[{:6.1} s] {label}", t0.elapsed().as_secs_f64());
+        }
+    };
+    let backends: Vec<String> = backend.into_iter().collect();
+    let mut rows = validate::run_accuracy(&backends, quick, only, report);
+    rows.extend(validate::run_stability(&backends, quick, only, report));
+    bar.finish_and_clear();
+    if rows.is_empty() {
+        let names: Vec<&str> = validate::CASES
+            .iter()
+            .map(|c| c.0)
+            .chain(validate::STABILITY_CASES.iter().copied())
+            .collect();
+        eprintln!(
+            "error: --case {}: no case matches (cases: {}, or `stability`)",
+            only.unwrap_or(""),
+            names.join(", ")
+        );
+        return ExitCode::FAILURE;
+    }
+    eprintln!("validation took {:.1} s", t0.elapsed().as_secs_f64());
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&rows).expect("rows serialise")
+        );
+    } else {
+        print!("{}", validate::table(&rows));
+        for (case, b, first, last) in validate::convergence(&rows) {
+            println!(
+                "{case} ({b}): error {first:.3e} at the coarsest, {last:.3e} at the finest resolution{}",
+                if last < first { "" } else { "  (NOT falling)" }
+            );
+        }
+    }
+    if let Some(dir) = plot {
+        match validate::plot(&rows, dir) {
+            Ok(notes) => {
+                for n in notes {
+                    eprintln!("{n}");
+                }
+            }
+            Err(e) => {
+                eprintln!("error: --plot {}: {e}", dir.display());
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let failed = rows.iter().filter(|r| !r.pass).count();
+    if failed == 0 {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!("error: {failed} of {} rows failed", rows.len());
+        ExitCode::FAILURE
     }
 }

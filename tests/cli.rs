@@ -761,3 +761,65 @@ fn run_with_sph_and_lj_backends() {
         assert_eq!(field(&bodies[1], "backend"), b);
     }
 }
+
+/// `validate --backend nope` is refused before anything runs: it names the option and
+/// the value and lists the available backends.
+#[test]
+fn validate_unknown_backend() {
+    let out = phyxel(&["validate", "--quick", "--backend", "nope"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    for want in ["--backend", "nope", "mls"] {
+        assert!(err.contains(want), "stderr lacks '{want}':\n{err}");
+    }
+}
+
+/// `validate --case NAME` that matches nothing names the value and lists the cases.
+#[test]
+fn validate_unknown_case() {
+    let out = phyxel(&["validate", "--quick", "--case", "nope"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = text(&out.stderr);
+    for want in ["--case", "nope", "mls-consistency", "stability"] {
+        assert!(err.contains(want), "stderr lacks '{want}':\n{err}");
+    }
+}
+
+/// `validate --quick --json` prints an array of rows with the documented snake_case keys
+/// (the cheap MLS consistency case only; tests/validate.rs runs the whole quick suite).
+#[test]
+fn validate_json_rows() {
+    let v: Value = serde_json::from_str(&stdout_of(&[
+        "validate",
+        "--quick",
+        "--json",
+        "--case",
+        "mls-consistency",
+    ]))
+    .expect("stdout is a JSON array");
+    let rows = v.as_array().expect("an array of rows");
+    assert_eq!(rows.len(), 3, "three resolutions: {v}");
+    let keys = [
+        "case",
+        "backend",
+        "phyxels",
+        "surfels",
+        "dt",
+        "seconds_per_step",
+        "measured",
+        "reference",
+        "rel_error",
+        "tolerance",
+        "pass",
+    ];
+    for r in rows {
+        for k in keys {
+            assert!(r.get(k).is_some(), "row lacks '{k}': {r}");
+        }
+        assert_eq!(r["case"], "mls-consistency");
+        assert_eq!(r["backend"], "mls");
+        assert_eq!(r["pass"], true, "{r}");
+        assert!(r["phyxels"].as_u64().unwrap() > 0);
+        assert!(r["rel_error"].as_f64().unwrap() < r["tolerance"].as_f64().unwrap());
+    }
+}

@@ -4,6 +4,7 @@
 use glam::Vec3;
 use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};
+use phyxel::validate;
 
 fn build(scene: &Scene) -> World {
     scene.build(&BuildOptions::default()).unwrap()
@@ -114,29 +115,10 @@ fn sphere_comes_to_rest_on_plane() {
 }
 
 /// Hertz (1882): two equal spheres pressed by F: `δ = (9F²/(16 E*² R*))^{1/3}`. Returns
-/// the measured approach of the centres after the quasi-static ramp.
+/// the measured approach of the centres after the quasi-static ramp, and Hertz's δ.
 fn hertz_indentation(force: f32, spacing: f32) -> (f32, f32) {
-    let mut scene = Scene::builtin("hertz").unwrap();
-    for (k, o) in scene.objects.iter_mut().enumerate() {
-        o.load = [if k == 0 { force } else { -force }, 0.0, 0.0];
-        o.spacing = spacing;
-    }
-    let mut w = build(&scene);
-    let steps = (0.45 / w.dt) as usize;
-    let avg_from = (0.35 / w.dt) as usize;
-    let (mut sum, mut n) = (0.0f32, 0);
-    for s in 0..steps {
-        w.step();
-        if s >= avg_from {
-            sum += 0.2 - (com(&w, 1) - com(&w, 0)).length();
-            n += 1;
-        }
-    }
-    let m = &scene.objects[0].material;
-    let e_star = m.young / (2.0 * (1.0 - m.poisson * m.poisson));
-    let r_star = 0.05f32;
-    let hertz = (9.0 * force * force / (16.0 * e_star * e_star * r_star)).cbrt();
-    (sum / n as f32, hertz)
+    let (d, h, _) = validate::hertz_indentation(force, spacing, "mls").unwrap();
+    (d as f32, h as f32)
 }
 
 /// Hertz: at the default resolution the indentation is within 20% of Hertz at 2.5, 5 and
@@ -154,59 +136,17 @@ fn hertz_force_indentation() {
         assert!((d / h - 1.0).abs() < 0.2, "F = {f}: δ {d} vs Hertz {h}");
         pts.push(((d as f64).ln(), (f as f64).ln()));
     }
-    let n = pts.len() as f64;
-    let (mx, my) = (
-        pts.iter().map(|p| p.0).sum::<f64>() / n,
-        pts.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let slope = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
-        / pts.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    let slope = validate::slope(&pts);
     println!("hertz: fitted exponent {slope:.3}");
     assert!((slope - 1.5).abs() < 0.15, "fitted exponent {slope}");
 }
 
-/// The incline scene with a chosen angle (degrees) and friction coefficient: returns
-/// the block's displacement along the slope over `time` s after a 0.4 s settling, and
-/// its acceleration along the slope (m/s²) from a least-squares fit over that time.
-/// The first 0.4 s let the block land and settle (it starts 0.5 mm above the slope).
+/// The incline scene with a chosen angle (degrees) and friction coefficient at the
+/// scene's dt (0.1 ms) and surfel spacing (5 mm): the block's displacement along the slope
+/// over `time` s after a 0.4 s landing, and its acceleration (m/s²) fitted over that time.
 fn incline(angle: f32, mu: f32, time: f32) -> (f32, f32) {
-    let mut scene = Scene::builtin("incline").unwrap();
-    let th = angle.to_radians();
-    let n = Vec3::new(-th.sin(), th.cos(), 0.0);
-    for o in scene.objects.iter_mut() {
-        o.rotation = [0.0, 0.0, angle];
-        o.material.friction = mu;
-    }
-    scene.objects[1].position = (n * 0.0255).to_array();
-    let mut w = build(&scene);
-    let down = Vec3::new(-th.cos(), -th.sin(), 0.0);
-    for _ in 0..(0.4 / w.dt) as usize {
-        w.step();
-    }
-    let x0 = com(&w, 1).dot(down);
-    let steps = (time / w.dt) as usize;
-    // Least-squares fit of s(t) = s0 + v0 t + a t²/2.
-    let (mut st, mut rows) = (0.0f32, Vec::new());
-    for k in 0..steps {
-        w.step();
-        st += w.dt;
-        rows.push((st as f64, (com(&w, 1).dot(down) - x0) as f64));
-        let _ = k;
-    }
-    let disp = rows.last().unwrap().1 as f32;
-    let mut ata = [[0.0f64; 3]; 3];
-    let mut atb = [0.0f64; 3];
-    for &(t, s) in &rows {
-        let basis = [1.0, t, 0.5 * t * t];
-        for i in 0..3 {
-            atb[i] += basis[i] * s;
-            for j in 0..3 {
-                ata[i][j] += basis[i] * basis[j];
-            }
-        }
-    }
-    let a = glam::DMat3::from_cols_array_2d(&ata).inverse() * glam::DVec3::from(atb);
-    (disp, a.z as f32)
+    let (d, a, _) = validate::incline(angle, mu, 1.0e-4, 0.4, time, 0.005, "mls").unwrap();
+    (d as f32, a as f32)
 }
 
 /// Coulomb friction, stick: with tan θ < μ (20°, μ = 0.5) the block stays, sliding less
@@ -258,7 +198,8 @@ fn newtons_cradle_passes_momentum() {
     );
 }
 
-/// Hertz at three resolutions (phyxel spacing 25, 20 and 16.7 mm, F = 5 N): the
+/// Hertz at three resolutions (phyxel spacing 25, 20 and 16.7 mm, surfel spacing a fifth
+/// of it, F = 5 N): the
 /// indentation stays within 20% of Hertz at each (the error table of docs/ACCURACY.md).
 #[test]
 fn hertz_at_three_resolutions() {

@@ -1,0 +1,70 @@
+//! The quick validation suite (`phyxel validate --quick`) through the library: every
+//! case within its tolerance, the error falling from the coarsest to the finest
+//! resolution where it is resolution-driven, every hard case stable or refused; the
+//! quick suite's wall time (budget: two minutes in release) is printed, not asserted.
+
+use phyxel::validate::{self, CASES, Row};
+use std::time::Instant;
+
+/// The failing rows as a table (empty when none fails).
+fn failures(rows: &[Row]) -> Vec<Row> {
+    rows.iter().filter(|r| !r.pass).cloned().collect()
+}
+
+/// One test for the whole quick suite, so its wall time is measured end to end.
+///
+/// Resolution-driven cases (the `true` entries of [`CASES`]): the cantilever's deflection
+/// and frequency (quadrature and clamp errors, O(spacing)), the incline's creep (∝ dt) and
+/// the free body's energy departure (symplectic Euler, falls with dt). The others are
+/// not: MLS consistency is exact up to f32 round-off, the Hertz approach includes the
+/// bulk compression of body-loaded spheres, momentum is conserved to round-off at
+/// every resolution, and the cradle hands on momentum at every resolution.
+#[test]
+fn quick_suite_within_tolerance_and_converging() {
+    let t0 = Instant::now();
+    let mut rows = validate::run_accuracy(&[], true, None, |l| eprintln!("validate: {l}"));
+    rows.extend(validate::run_stability(&[], true, None, |l| {
+        eprintln!("validate: {l}")
+    }));
+    let took = t0.elapsed().as_secs_f64();
+    print!("{}", validate::table(&rows));
+    println!("quick suite: {took:.1} s");
+
+    for (case, _, _) in CASES {
+        assert!(
+            rows.iter().any(|r| r.case == *case),
+            "case {case} produced no row"
+        );
+    }
+    for case in validate::STABILITY_CASES {
+        assert!(
+            rows.iter().any(|r| r.case == *case),
+            "stability case {case} produced no row"
+        );
+    }
+    let failed = failures(&rows);
+    assert!(
+        failed.is_empty(),
+        "rows failed:\n{}",
+        validate::table(&failed)
+    );
+
+    let conv = validate::convergence(&rows);
+    assert!(!conv.is_empty());
+    for (case, backend, first, last) in &conv {
+        println!("{case} ({backend}): {first:.3e} -> {last:.3e}");
+        assert!(
+            last < first,
+            "{case} ({backend}): error does not fall from the coarsest ({first:.3e}) to the finest ({last:.3e}) resolution"
+        );
+    }
+    assert!(
+        rows.iter()
+            .filter(|r| r.group == "stability")
+            .any(|r| r.status == "refused" && r.note.contains("--dt")),
+        "dt above the bound must be refused with the remedy"
+    );
+    // The two-minute budget is reported, not asserted: wall times on a shared machine
+    // are noise (docs/ACCURACY.md records the measured time).
+    println!("quick suite took {took:.1} s (budget 120 s)");
+}
