@@ -290,30 +290,44 @@ impl World {
             needed[p.b] = true;
         }
         let objects = &self.objects;
-        let mut built = 0;
-        for (k, ((g, pg), fg)) in self
-            .grids
-            .iter_mut()
-            .zip(&mut self.phyxel_grids)
-            .zip(&mut self.far_grids)
+        let needed = &needed[..];
+        // Objects in parallel, and each object's three grids in parallel: a grid's
+        // counting sort is serial, so this is where the cores share the phase.
+        self.grids
+            .par_iter_mut()
+            .zip(self.phyxel_grids.par_iter_mut())
+            .zip(self.far_grids.par_iter_mut())
             .enumerate()
-        {
-            let o = &objects[k];
-            if needed[k] && (g.is_none() || !o.is_static()) {
+            .map(|(k, ((g, pg), fg))| {
+                let o = &objects[k];
+                if !(needed[k] && (g.is_none() || !o.is_static())) {
+                    return 0;
+                }
                 let r_max = o.surfels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
                 let cell = grid_cell(r_max).max(1e-6);
+                let phyxel_cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
                 // Rebuilt in place: the grids keep their buffers between steps.
-                g.get_or_insert_default()
-                    .rebuild(o.surfels.pos.iter(), cell);
-                fg.get_or_insert_default()
-                    .rebuild(o.surfels.pos.iter(), FAR_GRID_FACTOR * cell);
-                let cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
-                pg.get_or_insert_default()
-                    .rebuild(o.phyxels.pos.iter(), cell);
-                built += (o.surfels.len() + o.phyxels.len()) as u64;
-            }
-        }
-        built
+                rayon::join(
+                    || {
+                        g.get_or_insert_default()
+                            .rebuild(o.surfels.pos.iter(), cell)
+                    },
+                    || {
+                        rayon::join(
+                            || {
+                                fg.get_or_insert_default()
+                                    .rebuild(o.surfels.pos.iter(), FAR_GRID_FACTOR * cell)
+                            },
+                            || {
+                                pg.get_or_insert_default()
+                                    .rebuild(o.phyxels.pos.iter(), phyxel_cell)
+                            },
+                        )
+                    },
+                );
+                (o.surfels.len() + o.phyxels.len()) as u64
+            })
+            .sum()
     }
 
     /// Colliding surfels of every pair: surfels in the intersection box that are inside
