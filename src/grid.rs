@@ -71,6 +71,23 @@ pub struct Grid {
     bucket_of: Vec<u32>,
 }
 
+/// What a range query reads (see [`Grid::plan`]).
+enum Query {
+    /// Nothing can match (empty grid, NaN input, negative radius).
+    Nothing,
+    /// Every point: the box would cover more cells than there are points.
+    Scan { r2: f32 },
+    /// The rows `(cy, cz)` of the cell box `lo..=hi`, `nx` cells each; `shared` when two
+    /// rows may share a bucket (points are then reported only from their own row).
+    Rows {
+        lo: [i32; 3],
+        hi: [i32; 3],
+        nx: usize,
+        shared: bool,
+        r2: f32,
+    },
+}
+
 /// Capacity of the per-query hit buffer (a power of two, at least 2 × LANES).
 const HITS: usize = 128;
 
@@ -315,9 +332,51 @@ impl Grid {
     /// NaN point. Does not allocate.
     #[inline]
     pub fn for_each_within(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, f32)) {
+        let (lo, hi, nx, shared, r2) = match self.plan(x, r) {
+            Query::Nothing => return,
+            Query::Scan { r2 } => {
+                self.scan(x, r2, &mut f);
+                return;
+            }
+            Query::Rows {
+                lo,
+                hi,
+                nx,
+                shared,
+                r2,
+            } => (lo, hi, nx, shared, r2),
+        };
+        let mut hits = Hits::new();
+        if !shared {
+            // No two rows of this box share a bucket: every point is met at most once.
+            for cz in lo[2]..=hi[2] {
+                for cy in lo[1]..=hi[1] {
+                    for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
+                        self.run::<false>(s, e, cy, cz, x, r2, &mut hits, &mut f);
+                    }
+                }
+            }
+            self.flush::<false>(&mut hits, x, 0, 0, &mut f);
+        } else {
+            // Rows may share buckets: report a point only from the row of its own cell.
+            for cz in lo[2]..=hi[2] {
+                for cy in lo[1]..=hi[1] {
+                    for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
+                        self.run::<true>(s, e, cy, cz, x, r2, &mut hits, &mut f);
+                    }
+                    self.flush::<true>(&mut hits, x, cy, cz, &mut f);
+                }
+            }
+        }
+    }
+
+    /// What a query of radius `r` around `x` reads: nothing, a scan of every point, or
+    /// the rows of a box of cells.
+    #[inline(always)]
+    fn plan(&self, x: Vec3, r: f32) -> Query {
         let m = self.sorted.len();
         if m == 0 || r.is_nan() || r < 0.0 || x.is_nan() {
-            return;
+            return Query::Nothing;
         }
         let r2 = r * r;
         // The box searched is widened past `r` by more than the f32 round-off of the
@@ -333,60 +392,53 @@ impl Grid {
         if r2 == f32::INFINITY || cells > m as i64 {
             // The query box covers more cells than there are points: a scan is cheaper.
             // (An infinite `r²` accepts points at any distance, so the box is no bound.)
-            self.scan(x, r2, &mut f);
-            return;
+            return Query::Scan { r2 };
         }
         // Here nx ≤ cells ≤ m < table size, so one row never reaches a bucket twice.
         let nx = nx as usize;
-        let mut hits = Hits::new();
         let (ny, nz) = (ny as usize, nz as usize);
-        if ny <= SEP && nz <= SEP && nx <= self.row_sep[ny - 1][nz - 1] as usize {
-            // No two rows of this box share a bucket: every point is met at most once.
-            for cz in lo[2]..=hi[2] {
-                for cy in lo[1]..=hi[1] {
-                    self.row::<false>(lo[0], nx, cy, cz, x, r2, &mut hits, &mut f);
-                }
-            }
-            self.flush::<false>(&mut hits, x, 0, 0, &mut f);
-        } else {
-            // Rows may share buckets: report a point only from the row of its own cell.
-            for cz in lo[2]..=hi[2] {
-                for cy in lo[1]..=hi[1] {
-                    self.row::<true>(lo[0], nx, cy, cz, x, r2, &mut hits, &mut f);
-                    self.flush::<true>(&mut hits, x, cy, cz, &mut f);
-                }
-            }
+        let shared = !(ny <= SEP && nz <= SEP && nx <= self.row_sep[ny - 1][nz - 1] as usize);
+        Query::Rows {
+            lo,
+            hi,
+            nx,
+            shared,
+            r2,
         }
     }
 
-    /// Collects the points of row `(cy, cz)`, cells `x0..x0 + nx`, that pass the distance
-    /// test into `hits`, flushing it when full. The row's cells are the consecutive
-    /// buckets `b0..b0 + nx` (mod table size), so their points are one or two runs.
+    /// The sorted-position runs of row `(cy, cz)`, cells `x0..x0 + nx`: the row's cells
+    /// are the consecutive buckets `b0..b0 + nx` (mod table size), so one or two runs
+    /// (the second empty when the row does not wrap).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn row<const FILTER: bool>(
-        &self,
-        x0: i32,
-        nx: usize,
-        cy: i32,
-        cz: i32,
-        x: Vec3,
-        r2: f32,
-        hits: &mut Hits,
-        f: &mut impl FnMut(usize, f32),
-    ) {
+    fn row_runs(&self, x0: i32, nx: usize, cy: i32, cz: i32) -> [(u32, u32); 2] {
         let table = self.mask + 1;
         let b0 = hash([x0, cy, cz], self.mask);
         let b1 = b0 + nx;
         if b1 <= table {
-            let (s, e) = (self.start[b0], self.start[b1]);
-            self.run::<FILTER>(s, e, cy, cz, x, r2, hits, f);
+            [(self.start[b0], self.start[b1]), (0, 0)]
         } else {
-            let (s, e) = (self.start[b0], self.start[table]);
-            self.run::<FILTER>(s, e, cy, cz, x, r2, hits, f);
-            let (s, e) = (self.start[0], self.start[b1 - table]);
-            self.run::<FILTER>(s, e, cy, cz, x, r2, hits, f);
+            [
+                (self.start[b0], self.start[table]),
+                (self.start[0], self.start[b1 - table]),
+            ]
         }
+    }
+
+    /// Squared distances of the lane group at sorted position `k` to `x` (splat in
+    /// `xs`), and the bit mask of the lanes within `r²` that lie before `e`. The
+    /// coordinate arrays are padded by `LANES − 1`, so lanes past `e` exist.
+    #[inline(always)]
+    fn lane_distances(&self, k: usize, e: usize, xs: [f32x8; 3], r2s: f32x8) -> (u32, f32x8) {
+        let dx = load8(&self.px, k) - xs[0];
+        let dy = load8(&self.py, k) - xs[1];
+        let dz = load8(&self.pz, k) - xs[2];
+        let d2 = dx * dx + dy * dy + dz * dz;
+        let mut mask = d2.simd_le(r2s).to_bitmask();
+        if e - k < LANES {
+            mask &= (1u32 << (e - k)) - 1;
+        }
+        (mask, d2)
     }
 
     /// Collects the sorted positions `s..e` that pass the distance test into `hits`
@@ -405,20 +457,11 @@ impl Grid {
         f: &mut impl FnMut(usize, f32),
     ) {
         let (s, e) = (s as usize, e as usize);
-        let (xs, ys, zs) = (f32x8::splat(x.x), f32x8::splat(x.y), f32x8::splat(x.z));
+        let xs = [x.x, x.y, x.z].map(f32x8::splat);
         let r2s = f32x8::splat(r2);
         let mut k = s;
         while k < e {
-            // The coordinate arrays are padded by LANES - 1, so lanes past `e` exist; they
-            // are masked off below.
-            let dx = load8(&self.px, k) - xs;
-            let dy = load8(&self.py, k) - ys;
-            let dz = load8(&self.pz, k) - zs;
-            let d2 = dx * dx + dy * dy + dz * dz;
-            let mut mask = d2.simd_le(r2s).to_bitmask();
-            if e - k < LANES {
-                mask &= (1u32 << (e - k)) - 1;
-            }
+            let (mask, _) = self.lane_distances(k, e, xs, r2s);
             if hits.len > HITS - LANES {
                 self.flush::<FILTER>(hits, x, cy, cz, f);
             }
@@ -471,43 +514,27 @@ impl Grid {
     /// value [`Grid::for_each_within`] reports). Every point within `r` is in exactly one
     /// call with its bit set; lanes with a clear bit may be padding and must be ignored.
     pub fn for_each_lanes_within(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, u32, f32x8)) {
-        let m = self.sorted.len();
-        if m == 0 || r.is_nan() || r < 0.0 || x.is_nan() {
-            return;
-        }
-        let r2 = r * r;
-        let reach = r * (1.0 + 1.0e-6) + 1.0e-20;
-        let lo = cell_of(x - Vec3::splat(reach), self.inv_cell);
-        let hi = cell_of(x + Vec3::splat(reach), self.inv_cell);
-        let nx = hi[0] as i64 - lo[0] as i64 + 1;
-        let ny = hi[1] as i64 - lo[1] as i64 + 1;
-        let nz = hi[2] as i64 - lo[2] as i64 + 1;
-        let cells = nx.saturating_mul(ny).saturating_mul(nz);
-        if r2 == f32::INFINITY || cells > m as i64 {
-            self.lanes::<false>(0, m as u32, 0, 0, x, r2, &mut f);
-            return;
-        }
-        let nx = nx as usize;
-        let (ny, nz) = (ny as usize, nz as usize);
-        let shared = !(ny <= SEP && nz <= SEP && nx <= self.row_sep[ny - 1][nz - 1] as usize);
-        let table = self.mask + 1;
-        for cz in lo[2]..=hi[2] {
-            for cy in lo[1]..=hi[1] {
-                let b0 = hash([lo[0], cy, cz], self.mask);
-                let b1 = b0 + nx;
-                let runs = if b1 <= table {
-                    [(self.start[b0], self.start[b1]), (0, 0)]
-                } else {
-                    [
-                        (self.start[b0], self.start[table]),
-                        (self.start[0], self.start[b1 - table]),
-                    ]
-                };
-                for (s, e) in runs {
-                    if shared {
-                        self.lanes::<true>(s, e, cy, cz, x, r2, &mut f);
-                    } else {
-                        self.lanes::<false>(s, e, cy, cz, x, r2, &mut f);
+        match self.plan(x, r) {
+            Query::Nothing => {}
+            Query::Scan { r2 } => {
+                self.lanes::<false>(0, self.sorted.len() as u32, 0, 0, x, r2, &mut f)
+            }
+            Query::Rows {
+                lo,
+                hi,
+                nx,
+                shared,
+                r2,
+            } => {
+                for cz in lo[2]..=hi[2] {
+                    for cy in lo[1]..=hi[1] {
+                        for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
+                            if shared {
+                                self.lanes::<true>(s, e, cy, cz, x, r2, &mut f);
+                            } else {
+                                self.lanes::<false>(s, e, cy, cz, x, r2, &mut f);
+                            }
+                        }
                     }
                 }
             }
@@ -529,18 +556,11 @@ impl Grid {
         f: &mut impl FnMut(usize, u32, f32x8),
     ) {
         let (s, e) = (s as usize, e as usize);
-        let (xs, ys, zs) = (f32x8::splat(x.x), f32x8::splat(x.y), f32x8::splat(x.z));
+        let xs = [x.x, x.y, x.z].map(f32x8::splat);
         let r2s = f32x8::splat(r2);
         let mut k = s;
         while k < e {
-            let dx = load8(&self.px, k) - xs;
-            let dy = load8(&self.py, k) - ys;
-            let dz = load8(&self.pz, k) - zs;
-            let d2 = dx * dx + dy * dy + dz * dz;
-            let mut mask = d2.simd_le(r2s).to_bitmask();
-            if e - k < LANES {
-                mask &= (1u32 << (e - k)) - 1;
-            }
+            let (mut mask, d2) = self.lane_distances(k, e, xs, r2s);
             if FILTER {
                 for l in 0..LANES {
                     let j = k + l;
