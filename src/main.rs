@@ -354,20 +354,7 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         }
     };
     let steps = opts.steps.unwrap_or(scene.steps);
-    let bar = if std::io::stderr().is_terminal() {
-        let b = ProgressBar::new(steps);
-        b.set_style(
-            ProgressStyle::with_template(
-                "{msg} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})",
-            )
-            .expect("valid template")
-            .progress_chars("=> "),
-        );
-        b.set_message(scene.name.clone());
-        b
-    } else {
-        ProgressBar::hidden()
-    };
+    let bar = step_bar(steps, &scene.name);
     let profiler = match flamegraph.map(start_profiler).transpose() {
         Ok(p) => p,
         Err(e) => {
@@ -455,6 +442,22 @@ fn print_table(s: &RunSummary) {
     }
 }
 
+/// A progress bar over `steps` steps labelled `label`, on stderr when it is a terminal
+/// (hidden otherwise, so that piped output stays clean).
+fn step_bar(steps: u64, label: &str) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(steps);
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(label.to_string());
+    bar
+}
+
 /// `phyxel compare`: the scene once per backend, like `run --backend B`.
 fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitCode {
     for b in names {
@@ -499,18 +502,7 @@ fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitC
             steps,
             ..Default::default()
         };
-        let bar = if std::io::stderr().is_terminal() {
-            let bar = ProgressBar::new(total);
-            bar.set_style(
-                ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} steps ({per_sec})")
-                    .expect("valid template")
-                    .progress_chars("=> "),
-            );
-            bar.set_message(b.clone());
-            bar
-        } else {
-            ProgressBar::hidden()
-        };
+        let bar = step_bar(total, b);
         let result = run(&scene, &opts, |s| {
             if s % 16 == 0 {
                 bar.set_position(s);
