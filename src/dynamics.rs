@@ -116,6 +116,13 @@ impl Dynamics for StaticDynamics {
     }
 }
 
+/// Largest stable step (s) of symplectic Euler for an oscillator of angular frequency
+/// `omega` (1/s) with damping ratio `zeta`: `2/ω · (√(1 + ζ²) − ζ)` (2/ω undamped; a
+/// dashpot integrated explicitly lowers it). Backends scale it by their own margin.
+pub fn damped_euler_limit(omega: f32, zeta: f32) -> f32 {
+    2.0 / omega * ((1.0 + zeta * zeta).sqrt() - zeta)
+}
+
 /// Symplectic (semi-implicit) Euler over SoA columns:
 /// `v ← v + dt (f_int + f_ext)/m + dt g`, `x ← x + dt v`; fixed phyxels keep position and
 /// zero velocity; `phyxels.force` is cleared. Shared by every backend.

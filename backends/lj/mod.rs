@@ -31,7 +31,9 @@
 
 use glam::Vec3;
 use phyxel::columns::Vec3s;
-use phyxel::dynamics::{Diagnostics, Dynamics, StepContext, integrate_symplectic};
+use phyxel::dynamics::{
+    Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
+};
 use phyxel::grid::Grid;
 use phyxel::material::Material;
 use phyxel::phyxels::Phyxels;
@@ -234,7 +236,7 @@ impl Dynamics for LjDynamics {
             return f32::INFINITY;
         }
         let zeta = 0.5 * self.tau(m) * omega;
-        STABILITY_MARGIN * 2.0 / omega * ((1.0 + zeta * zeta).sqrt() - zeta)
+        STABILITY_MARGIN * damped_euler_limit(omega, zeta)
     }
 
     fn diagnostics(&self, _phyxels: &Phyxels, _material: &Material) -> Diagnostics {

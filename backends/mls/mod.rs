@@ -12,7 +12,9 @@
 
 use glam::{Mat3, Vec3};
 use phyxel::columns::Vec3s;
-use phyxel::dynamics::{Diagnostics, Dynamics, StepContext, integrate_symplectic};
+use phyxel::dynamics::{
+    Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
+};
 use phyxel::kernel::poly6;
 use phyxel::material::{Material, StrainForm};
 use phyxel::mls::{MlsStencil, cofactor};
@@ -476,7 +478,7 @@ impl Dynamics for MlsDynamics {
             return f32::INFINITY;
         }
         let zeta = 0.5 * self.tau(m) * omega;
-        STABILITY_MARGIN * 2.0 / omega * ((1.0 + zeta * zeta).sqrt() - zeta)
+        STABILITY_MARGIN * damped_euler_limit(omega, zeta)
     }
 
     fn displacement_gradient(&self) -> Option<&[Mat3]> {

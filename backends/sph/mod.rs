@@ -28,7 +28,9 @@
 
 use glam::{Mat3, Quat, Vec3};
 use phyxel::columns::{LANES, Vec3s};
-use phyxel::dynamics::{Diagnostics, Dynamics, StepContext, integrate_symplectic};
+use phyxel::dynamics::{
+    Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
+};
 use phyxel::grid::Grid;
 use phyxel::material::Material;
 use phyxel::phyxels::Phyxels;
@@ -626,7 +628,7 @@ impl Dynamics for SphDynamics {
         } else {
             0.0
         };
-        let damped = 2.0 / omega * ((1.0 + zeta * zeta).sqrt() - zeta);
+        let damped = damped_euler_limit(omega, zeta);
         cfl.min(damped) / (1.0 + self.options.alpha)
     }
 
