@@ -108,11 +108,9 @@ impl SurfelBinding {
                 (surfels.rest.get(s) + u, n, v)
             };
         });
-        for (s, &(x, n, v)) in out.iter().enumerate() {
-            surfels.pos.set(s, x);
-            surfels.normal.set(s, n);
-            surfels.vel.set(s, v);
-        }
+        surfels.pos.par_set_from(&out, |o| o.0);
+        surfels.normal.par_set_from(&out, |o| o.1);
+        surfels.vel.par_set_from(&out, |o| o.2);
         self.scratch = out;
     }
 }

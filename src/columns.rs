@@ -5,6 +5,7 @@
 //! chunks without a scalar tail and without changing sums.
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// SIMD width of the hot loops (`wide::f32x8`).
 pub const LANES: usize = 8;
@@ -66,6 +67,24 @@ impl Vec3s {
         self.x[i] = v.x;
         self.y[i] = v.y;
         self.z[i] = v.z;
+    }
+
+    /// Sets entry `i` to `get(&src[i])` for every `i < src.len()` (at most `len`), in
+    /// parallel chunks: the write-back of kernels that compute one `Vec3` per point.
+    pub fn par_set_from<T: Sync>(&mut self, src: &[T], get: impl Fn(&T) -> Vec3 + Sync) {
+        const CHUNK: usize = 4096;
+        let n = src.len().min(self.len);
+        self.x[..n]
+            .par_chunks_mut(CHUNK)
+            .zip(self.y[..n].par_chunks_mut(CHUNK))
+            .zip(self.z[..n].par_chunks_mut(CHUNK))
+            .zip(src[..n].par_chunks(CHUNK))
+            .for_each(|(((x, y), z), src)| {
+                for (k, s) in src.iter().enumerate() {
+                    let v = get(s);
+                    (x[k], y[k], z[k]) = (v.x, v.y, v.z);
+                }
+            });
     }
 
     #[inline]

@@ -253,9 +253,7 @@ impl MlsDynamics {
                 *f += pf[i as usize] * st.d[k as usize];
             }
         });
-        for (j, &f) in self.gathered.iter().enumerate() {
-            self.internal.set(j, f);
-        }
+        self.internal.par_set_from(&self.gathered, |&f| f);
     }
 
     /// Stress `σ = C(ε − ε_p)` of phyxel i at the last force evaluation (Pa).
