@@ -523,7 +523,7 @@ fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitC
             serde_json::to_string_pretty(&summaries).expect("summaries serialise")
         );
     } else {
-        print_comparison(&summaries);
+        print_comparison(&scene, &summaries);
     }
     let blown: Vec<&str> = summaries
         .iter()
@@ -559,7 +559,7 @@ fn momentum_drift(s: &RunSummary) -> f64 {
         .sqrt()
 }
 
-fn print_comparison(runs: &[RunSummary]) {
+fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
     let Some(first) = runs.first() else {
         return;
     };
@@ -568,7 +568,7 @@ fn print_comparison(runs: &[RunSummary]) {
         first.scene, first.objects, first.phyxels, first.surfels, first.steps
     );
     println!(
-        "{:<8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>6}",
+        "{:<8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>9}",
         "backend",
         "dt (s)",
         "time (s)",
@@ -580,9 +580,11 @@ fn print_comparison(runs: &[RunSummary]) {
         "error"
     );
     for s in runs {
-        // No scene reports an error figure against a reference in its summary yet.
+        // The scene's error against its reference, where it has one (Hertz).
+        let error = phyxel::validate::scene_error(scene, s)
+            .map_or_else(|| "-".to_string(), |e| format!("{e:.3e}"));
         println!(
-            "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>6}",
+            "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
             s.backend,
             s.dt,
             // Each backend runs at its own stable dt: the same steps cover different times.
@@ -592,7 +594,7 @@ fn print_comparison(runs: &[RunSummary]) {
             momentum_drift(s),
             end_energy(s),
             s.finite,
-            "-"
+            error
         );
     }
     print!("{:<16}", "ms/step");

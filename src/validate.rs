@@ -552,6 +552,42 @@ pub fn case_hertz(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     Ok(rows)
 }
 
+/// The scene's own error figure, where it has one: for two equal spheres of one
+/// material pressed together by equal and opposite loads without gravity (the `hertz`
+/// scene), the relative error of the centres' approach at the end of the run against
+/// Hertz `δ = (9F²/(16E*²R*))^{1/3}` (as `hertz-indentation`, which averages over the
+/// last 0.1 s instead). `None` for other scenes, or when the run ended before the load
+/// ramp did.
+pub fn scene_error(scene: &Scene, summary: &crate::summary::RunSummary) -> Option<f64> {
+    let [a, b] = &scene.objects[..] else {
+        return None;
+    };
+    let (Shape::Sphere { radius: ra }, Shape::Sphere { radius: rb }) = (&a.shape, &b.shape) else {
+        return None;
+    };
+    let load = Vec3::from(a.load);
+    let time = summary.steps as f64 * summary.dt as f64;
+    if ra != rb
+        || a.material != b.material
+        || a.is_static
+        || b.is_static
+        || scene.gravity != [0.0; 3]
+        || load == Vec3::ZERO
+        || Vec3::from(b.load) != -load
+        || time < a.load_ramp.max(b.load_ramp) as f64
+        || summary.bodies.len() != 2
+    {
+        return None;
+    }
+    let f = load.length() as f64;
+    let r = *ra as f64;
+    let es = e_star(&a.material);
+    let hertz = (9.0 * f * f / (16.0 * es * es * (0.5 * r))).cbrt();
+    let c = |k: usize| DVec3::from(summary.bodies[k].com);
+    let approach = 2.0 * r - (c(1) - c(0)).length();
+    Some(rel(approach, hertz))
+}
+
 /// Two spheres of the `two-spheres` scene (R = 0.1 m, E = 1e5 Pa, ν = 0.3, default
 /// damping) flying at each other at `speed` each at phyxel spacing `spacing` (surfel
 /// spacing `spacing / 5`): the largest approach of the centres (m) and Hertz's impact

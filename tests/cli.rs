@@ -823,3 +823,21 @@ fn validate_json_rows() {
         assert!(r["rel_error"].as_f64().unwrap() < r["tolerance"].as_f64().unwrap());
     }
 }
+
+/// `compare hertz` reports the scene's own error figure: the centres' approach against
+/// Hertz `δ = (9F²/(16E*²R*))^{1/3}` once the 0.3 s load ramp is over (within 30%: the
+/// approach also holds the bulk compression, docs/ACCURACY.md), and `-` before it.
+#[test]
+fn compare_hertz_reports_the_hertz_error() {
+    let error_of = |steps: &str| -> String {
+        let out = stdout_of(&["compare", "hertz", "--backends", "mls", "--steps", steps]);
+        let row = out
+            .lines()
+            .find(|l| l.starts_with("mls"))
+            .unwrap_or_else(|| panic!("no mls row:\n{out}"));
+        row.split_whitespace().last().unwrap().to_string()
+    };
+    assert_eq!(error_of("10"), "-", "the load is still ramping");
+    let e: f64 = error_of("2000").parse().expect("a number after the ramp");
+    assert!(e.is_finite() && e < 0.3, "Hertz error {e}");
+}
