@@ -4,26 +4,10 @@ use phyxel::frame::{Format, Frame};
 use phyxel::import::read_frame;
 use phyxel::output::surface_frame;
 use phyxel::scene::Scene;
-use std::path::PathBuf;
 use std::process::Command;
 
-/// A fresh temp directory, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(label: &str) -> Self {
-        let p = std::env::temp_dir().join(format!("phyxel-import-{label}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Self(p)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::TempDir;
 
 /// The render surface of two-spheres mid-collision (contact surfels present).
 fn colliding_frame() -> Frame {
@@ -38,7 +22,7 @@ fn colliding_frame() -> Frame {
 
 #[test]
 fn ply_round_trip_is_exact() {
-    let dir = TempDir::new("ply");
+    let dir = TempDir::new("import", "ply");
     let frame = colliding_frame();
     assert!(frame.len() > 1000);
     assert!(
@@ -54,7 +38,7 @@ fn ply_round_trip_is_exact() {
 
 #[test]
 fn run_out_frames_read_back() {
-    let dir = TempDir::new("run");
+    let dir = TempDir::new("import", "run");
     let o = Command::new(env!("CARGO_BIN_EXE_phyxel"))
         .args(["run", "falling-sphere", "--steps", "10", "--out"])
         .arg(&dir.0)
@@ -84,7 +68,7 @@ fn vtp_array(text: &str, name: &str) -> Vec<f64> {
 
 #[test]
 fn vtk_export_has_the_same_point_data() {
-    let dir = TempDir::new("vtk");
+    let dir = TempDir::new("import", "vtk");
     let frame = colliding_frame();
     let path = dir.0.join("f.vtp");
     frame.write(&path, Format::Vtk).unwrap();
@@ -113,7 +97,7 @@ fn vtk_export_has_the_same_point_data() {
 
 #[test]
 fn run_format_vtk_writes_vtp_frames() {
-    let dir = TempDir::new("runvtk");
+    let dir = TempDir::new("import", "runvtk");
     let o = Command::new(env!("CARGO_BIN_EXE_phyxel"))
         .args([
             "run",
@@ -144,7 +128,7 @@ fn run_format_vtk_writes_vtp_frames() {
 
 #[test]
 fn truncated_binary_ply_names_file_and_element() {
-    let dir = TempDir::new("trunc");
+    let dir = TempDir::new("import", "trunc");
     let frame = colliding_frame();
     let path = dir.0.join("cut.ply");
     frame.write_ply(&path).unwrap();
@@ -164,7 +148,7 @@ fn truncated_binary_ply_names_file_and_element() {
 
 #[test]
 fn missing_and_malformed_frames_are_errors() {
-    let dir = TempDir::new("bad");
+    let dir = TempDir::new("import", "bad");
     let err = read_frame(&dir.0.join("none.ply")).unwrap_err();
     assert!(
         err.contains("none.ply") && err.contains("cannot open"),

@@ -9,22 +9,8 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(label: &str) -> Self {
-        let p = std::env::temp_dir().join(format!("phyxel-mesh-{label}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Self(p)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::TempDir;
 
 type Raw = (Vec<Vec3>, Vec<[u32; 3]>);
 
@@ -176,7 +162,7 @@ fn within(count: usize, target: f32, tol: f32) -> bool {
 
 #[test]
 fn icosphere_in_every_format_samples_a_sphere() {
-    let dir = TempDir::new("ico");
+    let dir = TempDir::new("mesh", "ico");
     let r = 0.1;
     let mesh = icosphere(r, 4);
     let (spacing, surfel) = (0.01, 0.004);
@@ -226,7 +212,7 @@ fn icosphere_in_every_format_samples_a_sphere() {
 
 #[test]
 fn torus_mesh_samples_a_torus() {
-    let dir = TempDir::new("torus");
+    let dir = TempDir::new("mesh", "torus");
     let (big, small) = (0.07, 0.03);
     write_obj(&dir.0.join("torus.obj"), &torus(big, small, 96, 48));
     let (spacing, surfel) = (0.0075, 0.003);
@@ -277,7 +263,7 @@ fn scale_and_inside_out_meshes() {
     for t in &mut f {
         t.swap(1, 2); // wound inward: turned outward on load
     }
-    let dir = TempDir::new("scale");
+    let dir = TempDir::new("mesh", "scale");
     let p = dir.0.join("inv.obj");
     write_obj(&p, &(v, f));
     let m = TriMesh::load(&p, 0.05).unwrap();
@@ -301,7 +287,7 @@ fn scene_error(dir: &Path, file: &str) -> String {
 
 #[test]
 fn bad_meshes_give_clear_errors() {
-    let dir = TempDir::new("bad");
+    let dir = TempDir::new("mesh", "bad");
     let d = &dir.0;
     let e = scene_error(d, "missing.obj");
     assert!(
@@ -414,7 +400,7 @@ fn write_cloud(path: &Path, r: f32, n: usize, binary: bool) {
 
 #[test]
 fn oriented_point_cloud_samples_a_sphere() {
-    let dir = TempDir::new("cloud");
+    let dir = TempDir::new("mesh", "cloud");
     let r = 0.1;
     let (spacing, surfel) = (0.01, 0.004);
     for (file, binary) in [("cloud.ply", false), ("cloud_bin.ply", true)] {

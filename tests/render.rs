@@ -4,26 +4,11 @@ use glam::Vec3;
 use phyxel::frame::Frame;
 use phyxel::import::read_frame;
 use phyxel::render::{BACKGROUND, Camera, Image, RenderOptions, render};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
-/// A fresh temp directory, removed on drop.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(label: &str) -> Self {
-        let p = std::env::temp_dir().join(format!("phyxel-render-{label}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).unwrap();
-        Self(p)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::TempDir;
 
 fn phyxel(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_phyxel"))
@@ -54,7 +39,7 @@ fn check_object_at_centre(img: &Image, frame: &Frame, cam: &Camera) {
 
 #[test]
 fn run_png_writes_one_image_per_frame() {
-    let dir = TempDir::new("run");
+    let dir = TempDir::new("render", "run");
     let out = dir.0.to_str().unwrap();
     let o = phyxel(&[
         "run",
@@ -83,7 +68,7 @@ fn run_png_writes_one_image_per_frame() {
 
 #[test]
 fn render_command_draws_a_frame() {
-    let dir = TempDir::new("cmd");
+    let dir = TempDir::new("render", "cmd");
     let out = dir.0.to_str().unwrap();
     let o = phyxel(&["run", "falling-sphere", "--steps", "1", "--out", out]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
@@ -183,7 +168,7 @@ fn nearer_splats_hide_farther_ones() {
 
 #[test]
 fn png_round_trip() {
-    let dir = TempDir::new("png");
+    let dir = TempDir::new("render", "png");
     let img = Image {
         width: 3,
         height: 2,
@@ -222,7 +207,7 @@ fn contact_shows_through_the_object_in_front() {
 
 #[test]
 fn scene_camera_is_used_and_checked() {
-    let dir = TempDir::new("cam");
+    let dir = TempDir::new("render", "cam");
     let scene = dir.0.join("cam.toml");
     let body = "steps = 1\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\n\
                 spacing = 0.025\nposition = [0.5, 0.0, 0.0]\n";
