@@ -340,18 +340,8 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         );
         return ExitCode::FAILURE;
     }
-    // Errors from building a scene file name the scene; prefix the file so they name it too.
-    let file_prefix = if Scene::builtin(arg).is_some() {
-        String::new()
-    } else {
-        format!("{arg}: ")
-    };
-    let scene = match Scene::resolve(arg) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
+    let Some((scene, file_prefix)) = resolve_scene(arg) else {
+        return ExitCode::FAILURE;
     };
     let steps = opts.steps.unwrap_or(scene.steps);
     let bar = step_bar(steps, &scene.name);
@@ -442,6 +432,24 @@ fn print_table(s: &RunSummary) {
     }
 }
 
+/// The scene `arg` names (built-in or file) and the prefix for errors from building it:
+/// errors from a scene file name the scene, so the file is prefixed to name it too.
+/// `None` after printing the error.
+fn resolve_scene(arg: &str) -> Option<(Scene, String)> {
+    let file_prefix = if Scene::builtin(arg).is_some() {
+        String::new()
+    } else {
+        format!("{arg}: ")
+    };
+    match Scene::resolve(arg) {
+        Ok(s) => Some((s, file_prefix)),
+        Err(e) => {
+            eprintln!("error: {e}");
+            None
+        }
+    }
+}
+
 /// A progress bar over `steps` steps labelled `label`, on stderr when it is a terminal
 /// (hidden otherwise, so that piped output stays clean).
 fn step_bar(steps: u64, label: &str) -> ProgressBar {
@@ -473,17 +481,8 @@ fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitC
         eprintln!("error: --backends: give at least one backend");
         return ExitCode::FAILURE;
     }
-    let file_prefix = if Scene::builtin(arg).is_some() {
-        String::new()
-    } else {
-        format!("{arg}: ")
-    };
-    let scene = match Scene::resolve(arg) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
+    let Some((scene, file_prefix)) = resolve_scene(arg) else {
+        return ExitCode::FAILURE;
     };
     let total = steps.unwrap_or(scene.steps);
     let mut summaries = Vec::with_capacity(names.len());
