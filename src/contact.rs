@@ -5,7 +5,7 @@
 use crate::brent::brent;
 use crate::detect::{Colliding, PairDetection};
 use crate::grid::Grid;
-use crate::implicit::ImplicitSurface;
+use crate::implicit::{ImplicitSurface, SurfaceSample};
 use crate::kernel::poly6;
 use crate::mls::sym_eigen;
 use crate::phyxels::Phyxels;
@@ -32,6 +32,11 @@ pub struct ContactSurfel {
     pub area: f32,
     /// Contact force on object a (N); object b receives the opposite.
     pub force: Vec3,
+    /// The implicit surfaces of a and b sampled at `pos` when the contact surface was
+    /// found (`None` where no kernel reaches `pos`, or for inserted surfels): the force
+    /// pass starts its projections from them instead of sampling `pos` again.
+    pub sample_a: Option<SurfaceSample>,
+    pub sample_b: Option<SurfaceSample>,
 }
 
 /// The contact surface of one pair and its forces.
@@ -93,6 +98,15 @@ impl PairSurfaces<'_> {
     }
 }
 
+/// One side of the segment field at a point: `f` and its normal, and the implicit
+/// surface's sample there (`None` where the anchor's extension stood in).
+#[derive(Clone, Copy, Debug, Default)]
+struct Side {
+    f: f32,
+    normal: Vec3,
+    sample: Option<SurfaceSample>,
+}
+
 /// `f_a`, `f_b` along one colliding surfel's segment: the implicit surfaces where a
 /// surfel kernel reaches, else the first-order extension `n·(x − p)` of the signed
 /// distance from the segment's anchor point p on that surface. Deep inside an overlap the
@@ -102,33 +116,56 @@ struct SegmentField<'a, 'b> {
     s: &'a PairSurfaces<'b>,
     anchor_a: (Vec3, Vec3),
     anchor_b: (Vec3, Vec3),
+    /// The segment's start and its own surface's `sample_near` there (already taken
+    /// for the anchor's normal); `from_a` says which surface that is.
+    start: Vec3,
+    start_own: Option<SurfaceSample>,
+    from_a: bool,
 }
 
 impl SegmentField<'_, '_> {
-    fn side(surface: &ImplicitSurface<'_>, (p, n): (Vec3, Vec3), x: Vec3) -> (f32, Vec3) {
-        match surface.sample_near(x) {
-            Some(s) => (s.f, s.normal),
-            None => (n.dot(x - p), n),
+    fn side((p, n): (Vec3, Vec3), near: Option<SurfaceSample>, x: Vec3) -> Side {
+        match near {
+            Some(s) => Side {
+                f: s.f,
+                normal: s.normal,
+                sample: Some(s),
+            },
+            None => Side {
+                f: n.dot(x - p),
+                normal: n,
+                sample: None,
+            },
         }
     }
 
-    fn f_a(&self, x: Vec3) -> (f32, Vec3) {
-        Self::side(&self.s.a, self.anchor_a, x)
+    /// `sample_near` of one side at `x`, reusing the start's.
+    fn near(&self, surface: &ImplicitSurface<'_>, own: bool, x: Vec3) -> Option<SurfaceSample> {
+        if own && x == self.start {
+            self.start_own
+        } else {
+            surface.sample_near(x)
+        }
     }
 
-    fn f_b(&self, x: Vec3) -> (f32, Vec3) {
-        Self::side(&self.s.b, self.anchor_b, x)
+    fn f_a(&self, x: Vec3) -> Side {
+        let near = self.near(&self.s.a, self.from_a, x);
+        Self::side(self.anchor_a, near, x)
     }
 
-    /// `F(x) = λ_a f_a(x) − λ_b f_b(x)` (paper eq. 3).
-    fn contact_function(&self, p: &ContactParams, x: Vec3) -> Option<f32> {
-        Some(p.lambda_a * self.f_a(x).0 - p.lambda_b * self.f_b(x).0)
+    fn f_b(&self, x: Vec3) -> Side {
+        let near = self.near(&self.s.b, !self.from_a, x);
+        Self::side(self.anchor_b, near, x)
     }
 }
 
+/// Most field evaluations remembered per segment (Brent's two brackets and 40 steps).
+const SEGMENT_EVALUATIONS: usize = 42;
+
 /// Moves every colliding surfel onto Φ: the root of F on the segment from the surfel to
 /// its projection onto the other surface, by Brent's method; surfels whose root leaves
-/// the intersection volume are dropped (paper §6).
+/// the intersection volume are dropped (paper §6). The root's samples are taken from
+/// Brent's evaluations, not recomputed.
 pub fn contact_surface(
     det: &PairDetection,
     s: &PairSurfaces<'_>,
@@ -142,7 +179,8 @@ pub fn contact_surface(
     let place = |c: &Colliding, own: &Surfels, from_a: bool, object: usize| {
         let start = own.pos.get(c.surfel as usize);
         let own_surface = if from_a { &s.a } else { &s.b };
-        let own_normal = own_surface.sample(start)?.normal;
+        let start_own = own_surface.sample_near(start);
+        let own_normal = own_surface.sample_given(start, start_own)?.normal;
         let (anchor_a, anchor_b) = if from_a {
             ((start, own_normal), (c.projection, c.normal))
         } else {
@@ -152,31 +190,50 @@ pub fn contact_surface(
             s,
             anchor_a,
             anchor_b,
+            start,
+            start_own,
+            from_a,
         };
         let seg = c.projection - start;
         let len = seg.length();
-        let x = if len < 1e-4 * p.spacing {
-            start
+        let (x, a, b) = if len < 1e-4 * p.spacing {
+            (start, field.f_a(start), field.f_b(start))
         } else {
+            let mut seen = [(0.0f32, Side::default(), Side::default()); SEGMENT_EVALUATIONS];
+            let mut n_seen = 0;
             let t = brent(
-                |t| field.contact_function(p, start + t * seg),
+                |t| {
+                    let x = start + t * seg;
+                    let (a, b) = (field.f_a(x), field.f_b(x));
+                    if n_seen < SEGMENT_EVALUATIONS {
+                        seen[n_seen] = (t, a, b);
+                        n_seen += 1;
+                    }
+                    // `F(x) = λ_a f_a(x) − λ_b f_b(x)` (paper eq. 3).
+                    Some(p.lambda_a * a.f - p.lambda_b * b.f)
+                },
                 0.0,
                 1.0,
                 1e-3 * p.spacing / len,
                 40,
             )?;
-            start + t * seg
+            let x = start + t * seg;
+            match seen[..n_seen].iter().find(|e| e.0 == t) {
+                Some(&(_, a, b)) => (x, a, b),
+                None => (x, field.f_a(x), field.f_b(x)),
+            }
         };
-        let ((fa, na), (fb, nb)) = (field.f_a(x), field.f_b(x));
-        if fa > tol || fb > tol {
+        if a.f > tol || b.f > tol {
             return None;
         }
         Some(ContactSurfel {
             pos: x,
-            normal: (p.lambda_a * na - p.lambda_b * nb).try_normalize()?,
+            normal: (p.lambda_a * a.normal - p.lambda_b * b.normal).try_normalize()?,
             object,
             area: 0.0,
             force: Vec3::ZERO,
+            sample_a: a.sample,
+            sample_b: b.sample,
         })
     };
     let n_a = det.a_in_b.len();
@@ -289,6 +346,8 @@ fn fill_holes(
                     object,
                     area: 0.0,
                     force: Vec3::ZERO,
+                    sample_a: None,
+                    sample_b: None,
                 });
             }
         }
@@ -411,8 +470,11 @@ pub fn forces(
     scratch: &mut PatchScratch,
 ) {
     areas(&mut patch.surfels, p.spacing, scratch);
-    let side = |own: &ImplicitSurface<'_>, x: Vec3| -> Option<(Vec3, Vec3)> {
-        let proj = own.project(x)?;
+    let side = |own: &ImplicitSurface<'_>, x: Vec3, near: Option<SurfaceSample>| {
+        let proj = match near {
+            Some(_) => own.project_given(x, near),
+            None => own.project(x),
+        }?;
         // Φ outside this object: its surface is not displaced here.
         (proj.signed_distance <= 0.0).then_some((proj.point - x, proj.point))
     };
@@ -441,8 +503,8 @@ pub fn forces(
         }
     };
     patch.surfels.par_iter_mut().for_each(|c| {
-        let (da, pa) = side(&s.a, c.pos).unwrap_or((Vec3::ZERO, c.pos));
-        let (db, pb) = side(&s.b, c.pos).unwrap_or((Vec3::ZERO, c.pos));
+        let (da, pa) = side(&s.a, c.pos, c.sample_a).unwrap_or((Vec3::ZERO, c.pos));
+        let (db, pb) = side(&s.b, c.pos, c.sample_b).unwrap_or((Vec3::ZERO, c.pos));
         let va = velocity(s.surfels_a, s.grid_a, pa);
         let vb = velocity(s.surfels_b, s.grid_b, pb);
         let fa = one_side(da, c.normal, va - vb);

@@ -98,10 +98,11 @@ pub fn colliding_surfels(
         .for_each(|(slots, chunk)| {
             for (slot, &s) in slots.iter_mut().zip(chunk) {
                 let x = surfels.pos.get(s as usize);
-                *slot = if other.sample_near(x).is_none() && !volume.contains(x) {
+                let near = other.sample_near(x);
+                *slot = if near.is_none() && !volume.contains(x) {
                     None
                 } else {
-                    other.inside(x).and_then(|(inside, p)| {
+                    other.inside_given(x, near).and_then(|(inside, p)| {
                         inside.then_some(Colliding {
                             surfel: s,
                             projection: p.point,

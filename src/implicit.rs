@@ -261,10 +261,17 @@ impl<'a> ImplicitSurface<'a> {
 
     /// `f`, `n`, `a` at `x`; `None` only when the surface has no surfels.
     pub fn sample(&self, x: Vec3) -> Option<SurfaceSample> {
-        if let Some(s) = self.sample_near(x) {
-            return Some(s);
-        }
-        // Far from every kernel: weight the nearest surfels on their own scale.
+        self.sample_near(x).or_else(|| self.sample_far(x))
+    }
+
+    /// [`ImplicitSurface::sample`] at a point where [`ImplicitSurface::sample_near`] gave
+    /// `near` (a caller that already has it saves the grid query).
+    pub fn sample_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<SurfaceSample> {
+        near.or_else(|| self.sample_far(x))
+    }
+
+    /// Far from every kernel: weight the nearest surfels on their own scale.
+    fn sample_far(&self, x: Vec3) -> Option<SurfaceSample> {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         // One scratch list per thread: the step stays free of heap allocation.
         KNN_SCRATCH.with_borrow_mut(|near| {
@@ -285,8 +292,14 @@ impl<'a> ImplicitSurface<'a> {
     /// Orthogonal projection onto the surface: `x ← x − f(x) n(x)` until
     /// `|f| < tolerance` or [`MAX_PROJECTION_ITERATIONS`].
     pub fn project(&self, x: Vec3) -> Option<Projection> {
+        self.project_given(x, self.sample_near(x))
+    }
+
+    /// [`ImplicitSurface::project`] where [`ImplicitSurface::sample_near`] at `x` gave
+    /// `near`: the same result without sampling `x` again.
+    pub fn project_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<Projection> {
         let mut p = x;
-        let mut s = self.sample(p)?;
+        let mut s = self.sample_given(x, near)?;
         let mut iterations = 0;
         let mut converged = s.f.abs() < self.tolerance;
         while !converged && iterations < MAX_PROJECTION_ITERATIONS {
@@ -306,7 +319,12 @@ impl<'a> ImplicitSurface<'a> {
 
     /// Eq. (2): is `x` inside the surface? Also returns the projection.
     pub fn inside(&self, x: Vec3) -> Option<(bool, Projection)> {
-        let p = self.project(x)?;
+        self.inside_given(x, self.sample_near(x))
+    }
+
+    /// [`ImplicitSurface::inside`] given [`ImplicitSurface::sample_near`] at `x`.
+    pub fn inside_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<(bool, Projection)> {
+        let p = self.project_given(x, near)?;
         Some((p.signed_distance < 0.0, p))
     }
 }
