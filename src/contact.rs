@@ -6,7 +6,7 @@ use crate::brent::brent;
 use crate::detect::{Colliding, PairDetection};
 use crate::grid::Grid;
 use crate::implicit::{ImplicitSurface, SurfaceSample};
-use crate::kernel::poly6;
+use crate::kernel::poly6_shape;
 use crate::mls::sym_eigen;
 use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
@@ -32,11 +32,14 @@ pub struct ContactSurfel {
     pub area: f32,
     /// Contact force on object a (N); object b receives the opposite.
     pub force: Vec3,
-    /// The implicit surfaces of a and b sampled at `pos` when the contact surface was
-    /// found (`None` where no kernel reaches `pos`, or for inserted surfels): the force
-    /// pass starts its projections from them instead of sampling `pos` again.
-    pub sample_a: Option<SurfaceSample>,
-    pub sample_b: Option<SurfaceSample>,
+    /// Where the colliding surfel's segment meets the original surfaces of a and b (the
+    /// surfel and its projection onto the other surface): the ends of `d₁` and `d₂`.
+    /// `pos` where Φ lies outside that object (its surface is not displaced there), and
+    /// for inserted render surfels.
+    pub anchor_a: Vec3,
+    pub anchor_b: Vec3,
+    /// Velocity of surface a relative to surface b at the anchors (m/s).
+    pub velocity: Vec3,
 }
 
 /// The contact surface of one pair and its forces.
@@ -98,13 +101,11 @@ impl PairSurfaces<'_> {
     }
 }
 
-/// One side of the segment field at a point: `f` and its normal, and the implicit
-/// surface's sample there (`None` where the anchor's extension stood in).
+/// One side of the segment field at a point: `f` and its normal.
 #[derive(Clone, Copy, Debug, Default)]
 struct Side {
     f: f32,
     normal: Vec3,
-    sample: Option<SurfaceSample>,
 }
 
 /// `f_a`, `f_b` along one colliding surfel's segment: the implicit surfaces where a
@@ -129,12 +130,10 @@ impl SegmentField<'_, '_> {
             Some(s) => Side {
                 f: s.f,
                 normal: s.normal,
-                sample: Some(s),
             },
             None => Side {
                 f: n.dot(x - p),
                 normal: n,
-                sample: None,
             },
         }
     }
@@ -226,14 +225,29 @@ pub fn contact_surface(
         if a.f > tol || b.f > tol {
             return None;
         }
+        // The surfel's own velocity, and the other surface's nearest surfel's.
+        let v_own = own.vel.get(c.surfel as usize);
+        let (other_surfels, other_grid) = if from_a {
+            (s.surfels_b, s.grid_b)
+        } else {
+            (s.surfels_a, s.grid_a)
+        };
+        let v_other = other_grid
+            .nearest(c.projection)
+            .map_or(Vec3::ZERO, |(k, _)| other_surfels.vel.get(k));
         Some(ContactSurfel {
             pos: x,
             normal: (p.lambda_a * a.normal - p.lambda_b * b.normal).try_normalize()?,
             object,
             area: 0.0,
             force: Vec3::ZERO,
-            sample_a: a.sample,
-            sample_b: b.sample,
+            anchor_a: if a.f <= 0.0 { anchor_a.0 } else { x },
+            anchor_b: if b.f <= 0.0 { anchor_b.0 } else { x },
+            velocity: if from_a {
+                v_own - v_other
+            } else {
+                v_other - v_own
+            },
         })
     };
     let n_a = det.a_in_b.len();
@@ -346,8 +360,9 @@ fn fill_holes(
                     object,
                     area: 0.0,
                     force: Vec3::ZERO,
-                    sample_a: None,
-                    sample_b: None,
+                    anchor_a: x,
+                    anchor_b: x,
+                    velocity: Vec3::ZERO,
                 });
             }
         }
@@ -456,32 +471,20 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScr
 /// Penalty and friction force on each contact surfel (paper eqs. 3–7), with Newton's
 /// third law and the factor ½, times the surfel's area.
 ///
-/// `d₁ = s₁ − s_c` runs from Φ to the original surface of object a, with `s₁` the
-/// orthogonal projection of `s_c` onto that surface (more accurate than the paper's
-/// closest surfel when the penetration is below a surfel spacing); `d₂` likewise for b.
+/// `d₁ = s₁ − s_c` runs from Φ to the original surface of object a, `d₂` likewise for b.
+/// `s₁`, `s₂` are the ends of the colliding surfel's segment (the surfel and its
+/// orthogonal projection onto the other surface): `s_c` lies on that segment, which is
+/// the other surface's normal line, so its end there is `s_c`'s orthogonal projection,
+/// and the surfel's own end is too up to the (second-order) angle between the two
+/// normals, which the projection onto Φ's normal below removes to first order. This is
+/// more accurate than the paper's closest surfel when the penetration is below a surfel
+/// spacing, and costs no implicit-surface sample (docs/ARCHITECTURE.md).
 /// Only the component of `d` along Φ's normal is kept: a frictionless contact must push
 /// along the contact normal, and the tangential part of `d` is sampling noise (rim
 /// surfels of a curved body) that would make a resting body drift; friction alone acts
 /// tangentially.
-pub fn forces(
-    patch: &mut ContactPatch,
-    s: &PairSurfaces<'_>,
-    p: &ContactParams,
-    scratch: &mut PatchScratch,
-) {
+pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchScratch) {
     areas(&mut patch.surfels, p.spacing, scratch);
-    let side = |own: &ImplicitSurface<'_>, x: Vec3, near: Option<SurfaceSample>| {
-        let proj = match near {
-            Some(_) => own.project_given(x, near),
-            None => own.project(x),
-        }?;
-        // Φ outside this object: its surface is not displaced here.
-        (proj.signed_distance <= 0.0).then_some((proj.point - x, proj.point))
-    };
-    let velocity = |surfels: &Surfels, grid: &Grid, x: Vec3| {
-        grid.nearest(x)
-            .map_or(Vec3::ZERO, |(k, _)| surfels.vel.get(k))
-    };
     let one_side = |d: Vec3, n: Vec3, v_rel: Vec3| -> Vec3 {
         let d = d.dot(n) * n;
         let len = d.length();
@@ -503,12 +506,8 @@ pub fn forces(
         }
     };
     patch.surfels.par_iter_mut().for_each(|c| {
-        let (da, pa) = side(&s.a, c.pos, c.sample_a).unwrap_or((Vec3::ZERO, c.pos));
-        let (db, pb) = side(&s.b, c.pos, c.sample_b).unwrap_or((Vec3::ZERO, c.pos));
-        let va = velocity(s.surfels_a, s.grid_a, pa);
-        let vb = velocity(s.surfels_b, s.grid_b, pb);
-        let fa = one_side(da, c.normal, va - vb);
-        let fb = one_side(db, c.normal, vb - va);
+        let fa = one_side(c.anchor_a - c.pos, c.normal, c.velocity);
+        let fb = one_side(c.anchor_b - c.pos, c.normal, -c.velocity);
         c.force = 0.5 * (fa - fb) * c.area;
     });
 }
@@ -537,14 +536,18 @@ pub fn distribute(
             near.clear();
             near.extend_from_slice(knn);
         }
-        near.sort_unstable_by_key(|e| e.0);
-        let total: f32 = near.iter().map(|&(_, d2)| poly6(d2, support)).sum();
+        // Weights in place of the squared distances; the grid's order is deterministic.
+        let mut total = 0.0f32;
+        for e in near.iter_mut() {
+            e.1 = poly6_shape(e.1, support);
+            total += e.1;
+        }
         if total <= 0.0 {
             continue;
         }
-        let f = sign * c.force;
-        for &(i, d2) in near.iter() {
-            phyxels.force.add(i, f * (poly6(d2, support) / total));
+        let f = (sign / total) * c.force;
+        for &(i, w) in near.iter() {
+            phyxels.force.add(i, w * f);
         }
     }
 }

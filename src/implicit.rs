@@ -200,6 +200,11 @@ impl<'a> ImplicitSurface<'a> {
         self
     }
 
+    /// Largest distance at which a surfel's kernel still weighs (m).
+    pub fn reach(&self) -> f32 {
+        self.reach
+    }
+
     /// `f`, `n`, `a` at `x` from the surfels within their kernels' reach; `None` when
     /// `x` is farther than that from every surfel (cheap: one grid query).
     pub fn sample_near(&self, x: Vec3) -> Option<SurfaceSample> {

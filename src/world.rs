@@ -432,7 +432,7 @@ impl World {
             .zip(self.patch_scratch.par_iter_mut())
             .map(|(patch, scratch)| {
                 let p = view.params(patch.a, patch.b, dt);
-                contact::forces(patch, &view.pair(patch.a, patch.b), &p, scratch);
+                contact::forces(patch, &p, scratch);
                 if p.friction > 0.0 {
                     patch.surfels.len() as u64
                 } else {

@@ -164,6 +164,49 @@ fn inside_test_matches_analytic_shapes() {
     }
 }
 
+/// The detection's early out ([`phyxel::detect::OUTSIDE_FRACTION`]): every point near a
+/// sphere's and a box's surface (within two kernel reaches, where `sample_near` answers)
+/// whose implicit `f` exceeds that fraction of the reach is outside by the full inside
+/// test (eq. 2, projection). Reference: the projection; tolerance: none (all agree), and
+/// the early out must fire for a good share of the points.
+#[test]
+fn early_outside_agrees_with_the_inside_test() {
+    let shapes = [
+        Shape::Sphere { radius: R },
+        Shape::Box {
+            size: [0.2, 0.1, 0.15],
+        },
+    ];
+    for shape in shapes {
+        let sampled = Sampled::new(&shape, 0.005);
+        let surf = sampled.surface();
+        let limit = phyxel::detect::OUTSIDE_FRACTION * surf.reach();
+        let mut rng = Rng(11);
+        let half = shape.half_extents();
+        let (mut tested, mut early) = (0, 0);
+        while tested < 4000 {
+            let x = Vec3::new(rng.next(), rng.next(), rng.next()) * half * 1.3;
+            if shape.sdf(x).abs() > 2.0 * surf.reach() {
+                continue;
+            }
+            let Some(near) = surf.sample_near(x) else {
+                continue;
+            };
+            tested += 1;
+            if near.f > limit {
+                early += 1;
+                let (inside, p) = surf.inside(x).unwrap();
+                assert!(
+                    !inside,
+                    "{shape:?}: {x} has f = {} but is inside ({p:?})",
+                    near.f
+                );
+            }
+        }
+        assert!(early > 1000, "{shape:?}: early outs {early} of {tested}");
+    }
+}
+
 fn two_spheres(gap: f32) -> phyxel::World {
     let text = format!(
         r#"
