@@ -46,6 +46,9 @@ pub struct MlsDynamics {
     internal: Vec3s,
     /// Per-phyxel gather output, kept between steps (no allocation in the step).
     gathered: Vec<Vec3>,
+    /// Displacement and velocity packed per phyxel for the stencil gathers.
+    disp: Vec<Vec3>,
+    vel: Vec<Vec3>,
     /// Plastic strain per phyxel; empty for elastic materials (no plasticity work).
     plastic: Vec<Mat3>,
     max_strain: f32,
@@ -76,6 +79,8 @@ impl MlsDynamics {
             stress_force: vec![Mat3::ZERO; n],
             internal: Vec3s::zeros(n),
             gathered: vec![Vec3::ZERO; n],
+            disp: vec![Vec3::ZERO; n],
+            vel: Vec::new(),
             plastic: if material.is_plastic() {
                 vec![Mat3::ZERO; n]
             } else {
@@ -193,14 +198,27 @@ impl MlsDynamics {
     /// `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let st = &self.stencil;
-        st.displacement_gradients(&phyxels.pos, &phyxels.rest, &mut self.grad);
+        let n = st.len();
+        self.disp.resize(n, Vec3::ZERO);
+        self.disp
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, u)| *u = phyxels.pos.get(i) - phyxels.rest.get(i));
+        st.gradients(&self.disp, &mut self.grad);
         let law = Law::new(material, dt, self.tau(material));
+        if law.tau > 0.0 {
+            self.vel.resize(n, Vec3::ZERO);
+            self.vel
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(i, v)| *v = phyxels.vel.get(i));
+        }
         let grad = &self.grad;
-        let vel = &phyxels.vel;
+        let vel = &self.vel;
         let volume = &phyxels.volume;
         let stress_at = |i: usize, plastic: Option<&mut Mat3>| {
             let strain_rate_grad = if law.tau > 0.0 {
-                Some(st.gradient_of(i, |j| vel.get(j)))
+                Some(st.gradient_of(i, |j| vel[j]))
             } else {
                 None
             };
