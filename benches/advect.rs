@@ -1,7 +1,8 @@
 //! Surfel advection: the fast path (affine table, direct column writes) against the
-//! scalar reference sum, on a deformed sphere of 20k phyxels with 10k and 1M surfels,
+//! scalar reference sum, on a deformed sphere with 10k surfels on 400 phyxels and 1M
+//! surfels on 20k phyxels (the `scale` scene's proportions per object),
 //! on rayon's default pool (as `World::advect` runs it).
-//! Run: `cargo bench --bench advect -- --warm-up-time 1 --measurement-time 5`.
+//! Run: `cargo bench --bench advect -- --warm-up-time 1 --measurement-time 5 --noplot`.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat3, Quat, Vec3};
@@ -39,8 +40,8 @@ fn deformed_ball(phyxels: usize, surfels: usize) -> (Surfels, Phyxels, Vec<Mat3>
 }
 
 fn advect(c: &mut Criterion) {
-    for (label, surfels) in [("10k", 10_000), ("1M", 1_000_000)] {
-        let (mut s, p, grad) = deformed_ball(20_000, surfels);
+    for (label, phyxels, surfels) in [("10k", 400, 10_000), ("1M", 20_000, 1_000_000)] {
+        let (mut s, p, grad) = deformed_ball(phyxels, surfels);
         let mut binding = SurfelBinding::build(&s, &p);
         let mut g = c.benchmark_group(format!("advect_{label}"));
         g.throughput(Throughput::Elements(s.len() as u64));

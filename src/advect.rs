@@ -144,10 +144,22 @@ impl SurfelBinding {
             .zip(vel.par_chunks_mut(CHUNK))
             .enumerate()
             .for_each(|(c, ((p, n), v))| {
-                for k in 0..p.0.len() {
-                    let s = c * CHUNK + k;
+                let first = c * CHUNK;
+                let len = p.0.len();
+                let offsets = &offsets[first..=first + len];
+                let (rx, ry, rz) = (
+                    &rest.x[first..first + len],
+                    &rest.y[first..first + len],
+                    &rest.z[first..first + len],
+                );
+                let (nx, ny, nz) = (
+                    &rest_normal.x[first..first + len],
+                    &rest_normal.y[first..first + len],
+                    &rest_normal.z[first..first + len],
+                );
+                for k in 0..len {
                     let (mut a, mut b) = (f32x8::ZERO, f32x8::ZERO);
-                    for &(i, w) in &entries[offsets[s] as usize..offsets[s + 1] as usize] {
+                    for &(i, w) in &entries[offsets[k] as usize..offsets[k + 1] as usize] {
                         let row = &table[i as usize];
                         let w = f32x8::splat(w);
                         a += w * row[0];
@@ -157,15 +169,15 @@ impl SurfelBinding {
                     let g = Mat3::from_cols_array(&[
                         a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3],
                     ]);
-                    let s0 = rest.get(s);
+                    let s0 = Vec3::new(rx[k], ry[k], rz[k]);
                     let u = Vec3::new(a[0], a[1], a[2]) + g * (s0 - o);
                     let p_new = s0 + u;
                     // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
                     let cof = cofactor(Mat3::IDENTITY + g);
-                    let n_old = Vec3::new(n.0[k], n.1[k], n.2[k]);
-                    let n_new = (cof * rest_normal.get(s)).try_normalize().unwrap_or(n_old);
+                    if let Some(n_new) = (cof * Vec3::new(nx[k], ny[k], nz[k])).try_normalize() {
+                        (n.0[k], n.1[k], n.2[k]) = (n_new.x, n_new.y, n_new.z);
+                    }
                     (p.0[k], p.1[k], p.2[k]) = (p_new.x, p_new.y, p_new.z);
-                    (n.0[k], n.1[k], n.2[k]) = (n_new.x, n_new.y, n_new.z);
                     (v.0[k], v.1[k], v.2[k]) = (b[4], b[5], b[6]);
                 }
             });
