@@ -10,6 +10,7 @@
 //! point `o` is the phyxels' rest centroid, so `c_i` stays small (no f32 cancellation) for
 //! objects far from the origin.
 
+use crate::columns::{LANES, load8, store8};
 use crate::grid::Grid;
 use crate::kernel::poly6_shape;
 use crate::mls::cofactor;
@@ -47,6 +48,19 @@ pub struct SurfelBinding {
     /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
     /// does not allocate.
     table: Vec<AffineRow>,
+}
+
+/// Weighted sum of the table rows of one surfel's binding entries, in entry order.
+#[inline]
+fn row_sum(table: &[AffineRow], entries: &[(u32, f32)]) -> (f32x8, f32x8) {
+    let (mut a, mut b) = (f32x8::ZERO, f32x8::ZERO);
+    for &(i, w) in entries {
+        let row = &table[i as usize];
+        let w = f32x8::splat(w);
+        a += w * row[0];
+        b += w * row[1];
+    }
+    (a, b)
 }
 
 impl SurfelBinding {
@@ -157,14 +171,64 @@ impl SurfelBinding {
                     &rest_normal.y[first..first + len],
                     &rest_normal.z[first..first + len],
                 );
-                for k in 0..len {
-                    let (mut a, mut b) = (f32x8::ZERO, f32x8::ZERO);
-                    for &(i, w) in &entries[offsets[k] as usize..offsets[k + 1] as usize] {
-                        let row = &table[i as usize];
-                        let w = f32x8::splat(w);
-                        a += w * row[0];
-                        b += w * row[1];
+                let row = |k: usize| {
+                    row_sum(
+                        table,
+                        &entries[offsets[k] as usize..offsets[k + 1] as usize],
+                    )
+                };
+                // Eight surfels at a time: sums per surfel, then the closing
+                // arithmetic (cofactor, normalisation) across lanes, in the scalar
+                // tail's order of operations, so both give the same bits.
+                let groups = len / LANES * LANES;
+                for k in (0..groups).step_by(LANES) {
+                    let mut sums = [[0.0f32; 16]; LANES];
+                    for (l, sum) in sums.iter_mut().enumerate() {
+                        let (a, b) = row(k + l);
+                        sum[..8].copy_from_slice(&a.to_array());
+                        sum[8..].copy_from_slice(&b.to_array());
                     }
+                    let lane = |j: usize| f32x8::from(std::array::from_fn(|l| sums[l][j]));
+                    let s0 = [load8(rx, k), load8(ry, k), load8(rz, k)];
+                    let d = [s0[0] - o.x, s0[1] - o.y, s0[2] - o.z];
+                    // g column-major, as Mat3::from_cols_array.
+                    let g: [f32x8; 9] = std::array::from_fn(|j| lane(3 + j));
+                    let mul = |m: &[f32x8; 9], v: &[f32x8; 3]| -> [f32x8; 3] {
+                        std::array::from_fn(|r| m[r] * v[0] + m[3 + r] * v[1] + m[6 + r] * v[2])
+                    };
+                    let gd = mul(&g, &d);
+                    for r in 0..3 {
+                        let pos = s0[r] + (lane(r) + gd[r]);
+                        store8([&mut *p.0, &mut *p.1, &mut *p.2][r], k, pos);
+                        store8([&mut *v.0, &mut *v.1, &mut *v.2][r], k, lane(12 + r));
+                    }
+                    let j: [f32x8; 9] = std::array::from_fn(|e| {
+                        let id = if e % 4 == 0 { f32x8::ONE } else { f32x8::ZERO };
+                        id + g[e]
+                    });
+                    let cross = |a: usize, b: usize| -> [f32x8; 3] {
+                        let (a, b) = (&j[3 * a..3 * a + 3], &j[3 * b..3 * b + 3]);
+                        [
+                            a[1] * b[2] - b[1] * a[2],
+                            a[2] * b[0] - b[2] * a[0],
+                            a[0] * b[1] - b[0] * a[1],
+                        ]
+                    };
+                    let (c0, c1, c2) = (cross(1, 2), cross(2, 0), cross(0, 1));
+                    let cof = [
+                        c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2],
+                    ];
+                    let m = mul(&cof, &[load8(nx, k), load8(ny, k), load8(nz, k)]);
+                    // Vec3::try_normalize, lane-wise.
+                    let rcp = f32x8::ONE / (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                    let ok = rcp.is_finite() & rcp.simd_gt(f32x8::ZERO);
+                    for (r, n) in [&mut *n.0, &mut *n.1, &mut *n.2].into_iter().enumerate() {
+                        let old = load8(n, k);
+                        store8(n, k, ok.select(m[r] * rcp, old));
+                    }
+                }
+                for k in groups..len {
+                    let (a, b) = row(k);
                     let (a, b) = (a.to_array(), b.to_array());
                     let g = Mat3::from_cols_array(&[
                         a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3],
