@@ -2,7 +2,15 @@
 //! 2004, §5): `u(s) = Σ w_i (u_i + ∇u_i (s₀ − x₀ᵢ)) / Σ w_i`, normals `n ∝ J⁻ᵀ n₀`
 //! with `J = I + Σ w_i ∇u_i / Σ w_i`. Weights use rest positions, so they are fixed
 //! and precomputed once.
+//!
+//! The fast path ([`SurfelBinding::advect`]) rewrites the sum as
+//! `u(s) = Σ w_i c_i + (Σ w_i ∇u_i)(s₀ − o)` with the per-phyxel affine term
+//! `c_i = u_i − ∇u_i (x₀ᵢ − o)`, tabulated once per step: a binding entry is then just
+//! (phyxel, weight), and each surfel sums one 64-byte table row per entry. The reference
+//! point `o` is the phyxels' rest centroid, so `c_i` stays small (no f32 cancellation) for
+//! objects far from the origin.
 
+use crate::columns::{LANES, load8, store8};
 use crate::grid::Grid;
 use crate::kernel::poly6_shape;
 use crate::mls::cofactor;
@@ -10,6 +18,7 @@ use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
+use wide::f32x8;
 
 /// Number of nearest phyxels a surfel binds to when too few lie within its reach.
 pub const MIN_BINDING: usize = 4;
@@ -20,22 +29,46 @@ pub const MIN_BINDING: usize = 4;
 /// of the full influence radius (docs/ARCHITECTURE.md).
 pub const BINDING_FRACTION: f32 = 0.5;
 
+/// Surfels advected per parallel task: large enough to amortise rayon's scheduling,
+/// small enough to balance two objects on two cores.
+const CHUNK: usize = 4096;
+
+/// One phyxel's advection terms for this step, `[c_i, ∇u_i (columns), v_i, 0]`, as two
+/// 8-lane vectors so a weighted sum over a row is two multiply-adds per entry.
+type AffineRow = [f32x8; 2];
+
 /// Fixed binding of each surfel to nearby phyxels, with normalised weights.
 #[derive(Clone, Debug, Default)]
 pub struct SurfelBinding {
     offsets: Vec<u32>,
-    phyxel: Vec<u32>,
-    weight: Vec<f32>,
-    /// Rest offset `s₀ − x₀ᵢ`.
-    offset: Vec<Vec3>,
-    /// Advected (position, normal, velocity) per surfel, kept between steps so the step
+    /// Bound phyxel and its normalised weight, rows in ascending phyxel order.
+    entries: Vec<(u32, f32)>,
+    /// Reference point `o` of the affine table (rest centroid of the phyxels).
+    origin: Vec3,
+    /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
     /// does not allocate.
-    scratch: Vec<(Vec3, Vec3, Vec3)>,
+    table: Vec<AffineRow>,
+}
+
+/// Weighted sum of the table rows of one surfel's binding entries, in entry order.
+#[inline]
+fn row_sum(table: &[AffineRow], entries: &[(u32, f32)]) -> (f32x8, f32x8) {
+    let (mut a, mut b) = (f32x8::ZERO, f32x8::ZERO);
+    for &(i, w) in entries {
+        let row = &table[i as usize];
+        let w = f32x8::splat(w);
+        a += w * row[0];
+        b += w * row[1];
+    }
+    (a, b)
 }
 
 impl SurfelBinding {
     /// Binds every surfel to the phyxels within [`BINDING_FRACTION`] of their influence
     /// radius at rest, or to its [`MIN_BINDING`] nearest phyxels when fewer lie there.
+    ///
+    /// The binding belongs to the rest shape it was built from: renewing the rest
+    /// positions of surfels or phyxels needs a new binding.
     pub fn build(surfels: &Surfels, phyxels: &Phyxels) -> Self {
         let mut b = Self {
             offsets: vec![0],
@@ -45,9 +78,15 @@ impl SurfelBinding {
             b.offsets.resize(surfels.len() + 1, 0);
             return b;
         }
+        let centroid = phyxels
+            .rest
+            .iter()
+            .fold(glam::DVec3::ZERO, |a, x| a + x.as_dvec3())
+            / phyxels.len() as f64;
+        b.origin = centroid.as_vec3();
         let grid: Grid = phyxels.rest_grid();
         let reach = grid.cell() * BINDING_FRACTION;
-        let rows: Vec<Vec<(u32, f32, Vec3)>> = (0..surfels.len())
+        let rows: Vec<Vec<(u32, f32)>> = (0..surfels.len())
             .into_par_iter()
             .map(|s| {
                 let x = surfels.rest.get(s);
@@ -55,7 +94,7 @@ impl SurfelBinding {
                 grid.for_each_within(x, reach, |i, d2| {
                     let w = poly6_shape(d2, phyxels.radius[i] * BINDING_FRACTION);
                     if w > 0.0 {
-                        row.push((i as u32, w, x - phyxels.rest.get(i)));
+                        row.push((i as u32, w));
                     }
                 });
                 if row.len() < MIN_BINDING {
@@ -64,7 +103,7 @@ impl SurfelBinding {
                     grid.k_nearest(x, MIN_BINDING, &mut knn);
                     let h = knn.last().map_or(1.0, |e| e.1.sqrt()) * 1.5 + 1e-12;
                     for (i, d2) in knn {
-                        row.push((i as u32, poly6_shape(d2, h), x - phyxels.rest.get(i)));
+                        row.push((i as u32, poly6_shape(d2, h)));
                     }
                 }
                 row.sort_unstable_by_key(|e| e.0);
@@ -74,29 +113,154 @@ impl SurfelBinding {
             })
             .collect();
         for row in rows {
-            for (i, w, o) in row {
-                b.phyxel.push(i);
-                b.weight.push(w);
-                b.offset.push(o);
-            }
-            b.offsets.push(b.phyxel.len() as u32);
+            b.entries.extend(row);
+            b.offsets.push(b.entries.len() as u32);
         }
         b
     }
 
     /// Moves surfels, their normals and velocities with the phyxels, given the
     /// displacement gradient of every phyxel.
+    ///
+    /// Same field as [`Self::advect_reference`] up to f32 round-off, computed from a
+    /// per-phyxel affine table and written straight into the surfel columns.
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
-        let mut out = std::mem::take(&mut self.scratch);
-        out.resize(surfels.len(), (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO));
-        out.par_iter_mut().enumerate().for_each(|(s, out)| {
-            *out = {
+        let o = self.origin;
+        self.table.resize(phyxels.len(), [f32x8::ZERO, f32x8::ZERO]);
+        self.table
+            .par_chunks_mut(CHUNK)
+            .enumerate()
+            .for_each(|(c, rows)| {
+                for (k, row) in rows.iter_mut().enumerate() {
+                    let i = c * CHUNK + k;
+                    let x0 = phyxels.rest.get(i);
+                    let g = grad[i];
+                    let ci = (phyxels.pos.get(i) - x0) - g * (x0 - o);
+                    let v = phyxels.vel.get(i);
+                    let (gx, gy, gz) = (g.x_axis, g.y_axis, g.z_axis);
+                    *row = [
+                        f32x8::from([ci.x, ci.y, ci.z, gx.x, gx.y, gx.z, gy.x, gy.y]),
+                        f32x8::from([gy.z, gz.x, gz.y, gz.z, v.x, v.y, v.z, 0.0]),
+                    ];
+                }
+            });
+        let Surfels {
+            pos,
+            rest,
+            normal,
+            rest_normal,
+            vel,
+            ..
+        } = surfels;
+        let (table, entries, offsets) = (&self.table, &self.entries, &self.offsets);
+        pos.par_chunks_mut(CHUNK)
+            .zip(normal.par_chunks_mut(CHUNK))
+            .zip(vel.par_chunks_mut(CHUNK))
+            .enumerate()
+            .for_each(|(c, ((p, n), v))| {
+                let first = c * CHUNK;
+                let len = p.0.len();
+                let offsets = &offsets[first..=first + len];
+                let (rx, ry, rz) = (
+                    &rest.x[first..first + len],
+                    &rest.y[first..first + len],
+                    &rest.z[first..first + len],
+                );
+                let (nx, ny, nz) = (
+                    &rest_normal.x[first..first + len],
+                    &rest_normal.y[first..first + len],
+                    &rest_normal.z[first..first + len],
+                );
+                let row = |k: usize| {
+                    row_sum(
+                        table,
+                        &entries[offsets[k] as usize..offsets[k + 1] as usize],
+                    )
+                };
+                // Eight surfels at a time: sums per surfel, then the closing
+                // arithmetic (cofactor, normalisation) across lanes, in the scalar
+                // tail's order of operations, so both give the same bits.
+                let groups = len / LANES * LANES;
+                for k in (0..groups).step_by(LANES) {
+                    let mut sums = [[0.0f32; 16]; LANES];
+                    for (l, sum) in sums.iter_mut().enumerate() {
+                        let (a, b) = row(k + l);
+                        sum[..8].copy_from_slice(&a.to_array());
+                        sum[8..].copy_from_slice(&b.to_array());
+                    }
+                    let lane = |j: usize| f32x8::from(std::array::from_fn(|l| sums[l][j]));
+                    let s0 = [load8(rx, k), load8(ry, k), load8(rz, k)];
+                    let d = [s0[0] - o.x, s0[1] - o.y, s0[2] - o.z];
+                    // g column-major, as Mat3::from_cols_array.
+                    let g: [f32x8; 9] = std::array::from_fn(|j| lane(3 + j));
+                    let mul = |m: &[f32x8; 9], v: &[f32x8; 3]| -> [f32x8; 3] {
+                        std::array::from_fn(|r| m[r] * v[0] + m[3 + r] * v[1] + m[6 + r] * v[2])
+                    };
+                    let gd = mul(&g, &d);
+                    for r in 0..3 {
+                        let pos = s0[r] + (lane(r) + gd[r]);
+                        store8([&mut *p.0, &mut *p.1, &mut *p.2][r], k, pos);
+                        store8([&mut *v.0, &mut *v.1, &mut *v.2][r], k, lane(12 + r));
+                    }
+                    let j: [f32x8; 9] = std::array::from_fn(|e| {
+                        let id = if e % 4 == 0 { f32x8::ONE } else { f32x8::ZERO };
+                        id + g[e]
+                    });
+                    let cross = |a: usize, b: usize| -> [f32x8; 3] {
+                        let (a, b) = (&j[3 * a..3 * a + 3], &j[3 * b..3 * b + 3]);
+                        [
+                            a[1] * b[2] - b[1] * a[2],
+                            a[2] * b[0] - b[2] * a[0],
+                            a[0] * b[1] - b[0] * a[1],
+                        ]
+                    };
+                    let (c0, c1, c2) = (cross(1, 2), cross(2, 0), cross(0, 1));
+                    let cof = [
+                        c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2],
+                    ];
+                    let m = mul(&cof, &[load8(nx, k), load8(ny, k), load8(nz, k)]);
+                    // Vec3::try_normalize, lane-wise.
+                    let rcp = f32x8::ONE / (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                    let ok = rcp.is_finite() & rcp.simd_gt(f32x8::ZERO);
+                    for (r, n) in [&mut *n.0, &mut *n.1, &mut *n.2].into_iter().enumerate() {
+                        let old = load8(n, k);
+                        store8(n, k, ok.select(m[r] * rcp, old));
+                    }
+                }
+                for k in groups..len {
+                    let (a, b) = row(k);
+                    let (a, b) = (a.to_array(), b.to_array());
+                    let g = Mat3::from_cols_array(&[
+                        a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3],
+                    ]);
+                    let s0 = Vec3::new(rx[k], ry[k], rz[k]);
+                    let u = Vec3::new(a[0], a[1], a[2]) + g * (s0 - o);
+                    let p_new = s0 + u;
+                    // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
+                    let cof = cofactor(Mat3::IDENTITY + g);
+                    if let Some(n_new) = (cof * Vec3::new(nx[k], ny[k], nz[k])).try_normalize() {
+                        (n.0[k], n.1[k], n.2[k]) = (n_new.x, n_new.y, n_new.z);
+                    }
+                    (p.0[k], p.1[k], p.2[k]) = (p_new.x, p_new.y, p_new.z);
+                    (v.0[k], v.1[k], v.2[k]) = (b[4], b[5], b[6]);
+                }
+            });
+    }
+
+    /// The direct sum of Müller et al. (2004, §5) per surfel and entry, with the rest
+    /// offset `s₀ − x₀ᵢ`: the reference for tests and benches of [`Self::advect`]
+    /// (it allocates its output).
+    pub fn advect_reference(&self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
+        let out: Vec<(Vec3, Vec3, Vec3)> = (0..surfels.len())
+            .into_par_iter()
+            .map(|s| {
+                let s0 = surfels.rest.get(s);
                 let (mut u, mut g, mut v) = (Vec3::ZERO, Mat3::ZERO, Vec3::ZERO);
-                for k in self.offsets[s] as usize..self.offsets[s + 1] as usize {
-                    let i = self.phyxel[k] as usize;
-                    let w = self.weight[k];
+                for &(i, w) in &self.entries[self.offsets[s] as usize..self.offsets[s + 1] as usize]
+                {
+                    let i = i as usize;
                     let ui = phyxels.pos.get(i) - phyxels.rest.get(i);
-                    u += w * (ui + grad[i] * self.offset[k]);
+                    u += w * (ui + grad[i] * (s0 - phyxels.rest.get(i)));
                     g += grad[i] * w;
                     v += w * phyxels.vel.get(i);
                 }
@@ -105,12 +269,11 @@ impl SurfelBinding {
                 // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
                 let cof = cofactor(j);
                 let n = (cof * n0).try_normalize().unwrap_or(surfels.normal.get(s));
-                (surfels.rest.get(s) + u, n, v)
-            };
-        });
+                (s0 + u, n, v)
+            })
+            .collect();
         surfels.pos.par_set_from(&out, |o| o.0);
         surfels.normal.par_set_from(&out, |o| o.1);
         surfels.vel.par_set_from(&out, |o| o.2);
-        self.scratch = out;
     }
 }

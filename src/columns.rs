@@ -87,6 +87,21 @@ impl Vec3s {
             });
     }
 
+    /// The first `len` points as parallel chunks of `chunk` points, each chunk its
+    /// (x, y, z) slices: kernels that write one `Vec3` per point straight into the
+    /// columns, without a scratch buffer and a copy pass.
+    pub fn par_chunks_mut(
+        &mut self,
+        chunk: usize,
+    ) -> impl IndexedParallelIterator<Item = (&mut [f32], &mut [f32], &mut [f32])> {
+        let n = self.len;
+        self.x[..n]
+            .par_chunks_mut(chunk)
+            .zip(self.y[..n].par_chunks_mut(chunk))
+            .zip(self.z[..n].par_chunks_mut(chunk))
+            .map(|((x, y), z)| (x, y, z))
+    }
+
     #[inline]
     pub fn add(&mut self, i: usize, v: Vec3) {
         self.x[i] += v.x;
