@@ -216,6 +216,38 @@ impl World {
         splits
     }
 
+    /// Runs one phase of the step alone on the current state, untimed, as the step would
+    /// run it (per-phase benches and profiles). The phases after it see its output;
+    /// out of order, a phase works on whatever the last step left (e.g. `detect` on the
+    /// last step's grids), and `dynamics` advances the phyxels.
+    pub fn run_phase(&mut self, phase: Phase) {
+        self.arena.reset();
+        match phase {
+            Phase::Dynamics => self.dynamics(),
+            Phase::Advect => self.advect(),
+            Phase::BroadPhase => self.broad_phase(),
+            Phase::SurfelGrid => {
+                self.surfel_grid();
+            }
+            Phase::Detect => {
+                self.detect();
+            }
+            Phase::ContactSurface => {
+                self.contact_surface();
+            }
+            Phase::Resample => {
+                self.resample();
+            }
+            Phase::Forces => {
+                self.forces();
+            }
+            Phase::Distribute => self.distribute(),
+            Phase::Topology => {
+                self.topology();
+            }
+        }
+    }
+
     fn moving_phyxels(&self) -> u64 {
         self.objects
             .iter()
