@@ -122,6 +122,9 @@ struct SegmentField<'a, 'b> {
     start: Vec3,
     start_own: Option<SurfaceSample>,
     from_a: bool,
+    /// The colliding surfel, whose detection sampled the other surface at the start and
+    /// at the projection.
+    colliding: &'a Colliding,
 }
 
 impl SegmentField<'_, '_> {
@@ -140,10 +143,11 @@ impl SegmentField<'_, '_> {
 
     /// `sample_near` of one side at `x`, reusing the start's.
     fn near(&self, surface: &ImplicitSurface<'_>, own: bool, x: Vec3) -> Option<SurfaceSample> {
-        if own && x == self.start {
-            self.start_own
-        } else {
-            surface.sample_near(x)
+        match (own, x == self.start, x == self.colliding.projection) {
+            (true, true, _) => self.start_own,
+            (false, true, _) => self.colliding.near_surfel,
+            (false, false, true) => self.colliding.near_projection,
+            _ => surface.sample_near(x),
         }
     }
 
@@ -192,9 +196,19 @@ pub fn contact_surface(
             start,
             start_own,
             from_a,
+            colliding: c,
         };
         let seg = c.projection - start;
         let len = seg.length();
+        // The segment's end is the projection itself (not `start + seg`, which may round
+        // off it), so detection's sample there is reused.
+        let at = |t: f32| {
+            if t == 1.0 {
+                c.projection
+            } else {
+                start + t * seg
+            }
+        };
         let (x, a, b) = if len < 1e-4 * p.spacing {
             (start, field.f_a(start), field.f_b(start))
         } else {
@@ -202,7 +216,7 @@ pub fn contact_surface(
             let mut n_seen = 0;
             let t = brent(
                 |t| {
-                    let x = start + t * seg;
+                    let x = at(t);
                     let (a, b) = (field.f_a(x), field.f_b(x));
                     if n_seen < SEGMENT_EVALUATIONS {
                         seen[n_seen] = (t, a, b);
@@ -216,7 +230,7 @@ pub fn contact_surface(
                 1e-3 * p.spacing / len,
                 40,
             )?;
-            let x = start + t * seg;
+            let x = at(t);
             match seen[..n_seen].iter().find(|e| e.0 == t) {
                 Some(&(_, a, b)) => (x, a, b),
                 None => (x, field.f_a(x), field.f_b(x)),

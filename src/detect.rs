@@ -3,7 +3,7 @@
 
 use crate::broad_phase::{Pair, points_in_box};
 use crate::grid::Grid;
-use crate::implicit::ImplicitSurface;
+use crate::implicit::{ImplicitSurface, SurfaceSample};
 use crate::surfels::Surfels;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -19,6 +19,10 @@ pub struct Colliding {
     pub normal: Vec3,
     /// Penetration depth `−(x − x_proj)·n(x_proj)` (m, > 0).
     pub depth: f32,
+    /// The other surface's `sample_near` at the surfel and at the projection (`None`
+    /// where no kernel reaches): the contact surface's root search starts from them.
+    pub near_surfel: Option<SurfaceSample>,
+    pub near_projection: Option<SurfaceSample>,
 }
 
 /// Detection result of one pair, kept for the contact-surface phase.
@@ -115,6 +119,8 @@ pub fn colliding_surfels(
                             projection: p.point,
                             normal: p.normal,
                             depth: -p.signed_distance,
+                            near_surfel: near,
+                            near_projection: p.near,
                         })
                     })
                 };

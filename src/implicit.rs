@@ -140,6 +140,9 @@ pub struct Projection {
     pub signed_distance: f32,
     pub iterations: u32,
     pub converged: bool,
+    /// [`ImplicitSurface::sample_near`] at `point` (the projection's last sample; `None`
+    /// when no kernel reaches `point`): callers that sample there again reuse it.
+    pub near: Option<SurfaceSample>,
 }
 
 /// `a = Σw s / Σw`, `n = normalize(Σw n)`, `f = n·(x − a)` from the weighted sums.
@@ -304,12 +307,14 @@ impl<'a> ImplicitSurface<'a> {
     /// `near`: the same result without sampling `x` again.
     pub fn project_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<Projection> {
         let mut p = x;
+        let mut near = near;
         let mut s = self.sample_given(x, near)?;
         let mut iterations = 0;
         let mut converged = s.f.abs() < self.tolerance;
         while !converged && iterations < MAX_PROJECTION_ITERATIONS {
             p -= s.f * s.normal;
-            s = self.sample(p)?;
+            near = self.sample_near(p);
+            s = self.sample_given(p, near)?;
             iterations += 1;
             converged = s.f.abs() < self.tolerance;
         }
@@ -319,6 +324,7 @@ impl<'a> ImplicitSurface<'a> {
             signed_distance: (x - p).dot(s.normal),
             iterations,
             converged,
+            near,
         })
     }
 
