@@ -32,6 +32,7 @@
 //! searched cover `r` plus a margin larger than that round-off.
 
 use glam::Vec3;
+use std::sync::{Mutex, OnceLock};
 use wide::f32x8;
 
 /// SIMD width of the distance tests.
@@ -642,5 +643,39 @@ impl Grid {
             }
             r *= 2.0;
         }
+    }
+}
+
+/// A grid built on first use after each [`LazyGrid::reset`], for queries that are rare
+/// (e.g. a far-field fallback): a step that never asks for it never pays for the build.
+///
+/// Thread-safe (the first caller builds, concurrent callers wait for it) and, once warmed
+/// up, allocation-free: a reset keeps the last build's buffers for the next build.
+#[derive(Debug, Default)]
+pub struct LazyGrid {
+    /// The grid of the current points, once someone asked for it.
+    built: OnceLock<Grid>,
+    /// The previous build, kept for its buffers.
+    spare: Mutex<Grid>,
+}
+
+impl LazyGrid {
+    /// Forgets the current build (the points changed); the next [`LazyGrid::get`] rebuilds
+    /// reusing its buffers.
+    pub fn reset(&mut self) {
+        if let Some(g) = self.built.take() {
+            *self.spare.get_mut().unwrap_or_else(|e| e.into_inner()) = g;
+        }
+    }
+
+    /// The grid of `points` with cell edge `cell`, built by the first call after a reset.
+    /// Later calls return that build: they must pass the same points and cell.
+    pub fn get(&self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) -> &Grid {
+        self.built.get_or_init(|| {
+            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
+            let mut g = std::mem::take(&mut *spare);
+            g.rebuild(points, cell);
+            g
+        })
     }
 }
