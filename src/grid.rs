@@ -269,17 +269,17 @@ impl Grid {
         self.start.clear();
         self.start.resize(table + 2, 0);
         self.bucket_of.clear();
-        self.bucket_of.reserve(n);
         let start = &mut self.start[..];
-        for p in points.clone() {
+        // The counts go through a local slice, not `self`: stores through `self`'s vectors
+        // would make the compiler reload every vector's pointer and length per point.
+        self.bucket_of.extend(points.clone().map(|p| {
             if p.is_nan() {
-                self.bucket_of.push(SKIPPED);
-                continue;
+                return SKIPPED;
             }
             let b = hash(cell_of(p, inv_cell), mask);
-            self.bucket_of.push(b as u32);
             start[b + 2] += 1;
-        }
+            b as u32
+        }));
         // ... so that after the prefix sum `start[b + 1]` is where bucket `b` begins ...
         for b in 2..table + 2 {
             start[b] += start[b - 1];
@@ -290,7 +290,14 @@ impl Grid {
         self.px.resize(m + LANES - 1, 0.0);
         self.py.resize(m + LANES - 1, 0.0);
         self.pz.resize(m + LANES - 1, 0.0);
-        // ... and after the scatter `start[b]` is where bucket `b` begins.
+        // ... and after the scatter `start[b]` is where bucket `b` begins. (Local slices
+        // again, so the four stores per point do not force reloads of `self`.)
+        let (sorted, px, py, pz) = (
+            &mut self.sorted[..],
+            &mut self.px[..m],
+            &mut self.py[..m],
+            &mut self.pz[..m],
+        );
         for ((i, p), &b) in points.enumerate().zip(&self.bucket_of) {
             if b == SKIPPED {
                 continue;
@@ -298,10 +305,10 @@ impl Grid {
             let slot = &mut start[b as usize + 1];
             let s = *slot as usize;
             *slot += 1;
-            self.sorted[s] = i as u32;
-            self.px[s] = p.x;
-            self.py[s] = p.y;
-            self.pz[s] = p.z;
+            sorted[s] = i as u32;
+            px[s] = p.x;
+            py[s] = p.y;
+            pz[s] = p.z;
         }
         debug_assert_eq!(start[table] as usize, m);
     }
