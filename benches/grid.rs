@@ -3,7 +3,10 @@
 //!
 //! - `build`: grid rebuild in place (the per-step case) and a fresh grid;
 //! - `range`: build + a fixed-radius query (~30 neighbours) at every point;
-//! - `knn16`: build + the 16 nearest points of every point.
+//! - `knn16`: build + the 16 nearest points of every point;
+//! - `sphere_1m/rebuild`: rebuild over the 1M surfels of a scale-scene sphere (radius
+//!   0.1, spiral order, cell of the fine surfel grid ≈ 2.5 spacings): the per-step
+//!   `surfel_grid` case at the 1M scale.
 //!
 //! Run: `cargo bench --bench grid -- --warm-up-time 1 --measurement-time 3`.
 //! Throughput is in points, so µs per point = 1 / (Melem/s); numbers go to
@@ -158,5 +161,34 @@ fn grid_vs_kiddo(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, grid_vs_kiddo);
+/// 1M points on a sphere of radius 0.1 in the spiral (golden-angle) order of
+/// `Shape::sample_surface`.
+fn sphere_1m() -> Vec<Vec3> {
+    let n = 1_000_000;
+    let golden_angle = std::f32::consts::PI * (3.0 - 5.0_f32.sqrt());
+    (0..n)
+        .map(|i| {
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let rho = (1.0 - y * y).max(0.0).sqrt();
+            let (s, c) = (i as f32 * golden_angle).sin_cos();
+            0.1 * Vec3::new(rho * c, y, rho * s)
+        })
+        .collect()
+}
+
+fn sphere_rebuild(c: &mut Criterion) {
+    let pts = sphere_1m();
+    let spacing = (4.0 * std::f32::consts::PI * 0.01 / pts.len() as f32).sqrt();
+    let cell = 2.5 * spacing;
+    let mut grid = Grid::build(pts.iter().copied(), cell);
+    let mut g = c.benchmark_group("grid");
+    g.throughput(Throughput::Elements(pts.len() as u64));
+    g.sample_size(20);
+    g.bench_function("sphere_1m/rebuild", |b| {
+        b.iter(|| grid.rebuild(black_box(&pts).iter().copied(), cell))
+    });
+    g.finish();
+}
+
+criterion_group!(benches, grid_vs_kiddo, sphere_rebuild);
 criterion_main!(benches);

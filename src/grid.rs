@@ -32,6 +32,7 @@
 //! searched cover `r` plus a margin larger than that round-off.
 
 use glam::Vec3;
+use std::sync::{Mutex, OnceLock};
 use wide::f32x8;
 
 /// SIMD width of the distance tests.
@@ -268,17 +269,17 @@ impl Grid {
         self.start.clear();
         self.start.resize(table + 2, 0);
         self.bucket_of.clear();
-        self.bucket_of.reserve(n);
         let start = &mut self.start[..];
-        for p in points.clone() {
+        // The counts go through a local slice, not `self`: stores through `self`'s vectors
+        // would make the compiler reload every vector's pointer and length per point.
+        self.bucket_of.extend(points.clone().map(|p| {
             if p.is_nan() {
-                self.bucket_of.push(SKIPPED);
-                continue;
+                return SKIPPED;
             }
             let b = hash(cell_of(p, inv_cell), mask);
-            self.bucket_of.push(b as u32);
             start[b + 2] += 1;
-        }
+            b as u32
+        }));
         // ... so that after the prefix sum `start[b + 1]` is where bucket `b` begins ...
         for b in 2..table + 2 {
             start[b] += start[b - 1];
@@ -289,7 +290,14 @@ impl Grid {
         self.px.resize(m + LANES - 1, 0.0);
         self.py.resize(m + LANES - 1, 0.0);
         self.pz.resize(m + LANES - 1, 0.0);
-        // ... and after the scatter `start[b]` is where bucket `b` begins.
+        // ... and after the scatter `start[b]` is where bucket `b` begins. (Local slices
+        // again, so the four stores per point do not force reloads of `self`.)
+        let (sorted, px, py, pz) = (
+            &mut self.sorted[..],
+            &mut self.px[..m],
+            &mut self.py[..m],
+            &mut self.pz[..m],
+        );
         for ((i, p), &b) in points.enumerate().zip(&self.bucket_of) {
             if b == SKIPPED {
                 continue;
@@ -297,10 +305,10 @@ impl Grid {
             let slot = &mut start[b as usize + 1];
             let s = *slot as usize;
             *slot += 1;
-            self.sorted[s] = i as u32;
-            self.px[s] = p.x;
-            self.py[s] = p.y;
-            self.pz[s] = p.z;
+            sorted[s] = i as u32;
+            px[s] = p.x;
+            py[s] = p.y;
+            pz[s] = p.z;
         }
         debug_assert_eq!(start[table] as usize, m);
     }
@@ -642,5 +650,39 @@ impl Grid {
             }
             r *= 2.0;
         }
+    }
+}
+
+/// A grid built on first use after each [`LazyGrid::reset`], for queries that are rare
+/// (e.g. a far-field fallback): a step that never asks for it never pays for the build.
+///
+/// Thread-safe (the first caller builds, concurrent callers wait for it) and, once warmed
+/// up, allocation-free: a reset keeps the last build's buffers for the next build.
+#[derive(Debug, Default)]
+pub struct LazyGrid {
+    /// The grid of the current points, once someone asked for it.
+    built: OnceLock<Grid>,
+    /// The previous build, kept for its buffers.
+    spare: Mutex<Grid>,
+}
+
+impl LazyGrid {
+    /// Forgets the current build (the points changed); the next [`LazyGrid::get`] rebuilds
+    /// reusing its buffers.
+    pub fn reset(&mut self) {
+        if let Some(g) = self.built.take() {
+            *self.spare.get_mut().unwrap_or_else(|e| e.into_inner()) = g;
+        }
+    }
+
+    /// The grid of `points` with cell edge `cell`, built by the first call after a reset.
+    /// Later calls return that build: they must pass the same points and cell.
+    pub fn get(&self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) -> &Grid {
+        self.built.get_or_init(|| {
+            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
+            let mut g = std::mem::take(&mut *spare);
+            g.rebuild(points, cell);
+            g
+        })
     }
 }

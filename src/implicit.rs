@@ -5,7 +5,7 @@
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
 use crate::columns::{LANES, Vec3s, load8};
-use crate::grid::Grid;
+use crate::grid::{Grid, LazyGrid};
 use glam::Vec3;
 use wide::f32x8;
 
@@ -112,8 +112,9 @@ pub struct ImplicitSurface<'a> {
     radius: &'a [f32],
     grid: &'a Grid,
     /// Grid for points far from every kernel (a coarser grid of the same surfels keeps
-    /// their nearest-surfel search short); `grid` unless set.
-    far: &'a Grid,
+    /// their nearest-surfel search short, built only if some point needs it); `grid`
+    /// unless set.
+    far: Option<&'a LazyGrid>,
     /// Surfel columns in the grid's sorted order, for the SIMD kernel sums.
     sorted: Option<&'a SortedSurfels>,
     /// Largest query radius: the widest kernel's cutoff.
@@ -182,17 +183,17 @@ impl<'a> ImplicitSurface<'a> {
             normal,
             radius,
             grid,
-            far: grid,
+            far: None,
             sorted: None,
             reach: grid_cell(r_max),
             tolerance: PROJECTION_TOLERANCE * SIGMA_PER_RADIUS * r_min.min(r_max),
         }
     }
 
-    /// Uses `coarse` (a grid of the same surfels with larger cells) for points far from
-    /// every kernel.
-    pub fn with_far_grid(mut self, coarse: &'a Grid) -> Self {
-        self.far = coarse;
+    /// Uses `coarse` (built on demand over the same surfels, with cells
+    /// [`FAR_GRID_FACTOR`] times the grid's) for points far from every kernel.
+    pub fn with_far_grid(mut self, coarse: &'a LazyGrid) -> Self {
+        self.far = Some(coarse);
         self
     }
 
@@ -283,7 +284,11 @@ impl<'a> ImplicitSurface<'a> {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         // One scratch list per thread: the step stays free of heap allocation.
         KNN_SCRATCH.with_borrow_mut(|near| {
-            self.far.k_nearest(x, FAR_NEIGHBOURS, near);
+            let far = match self.far {
+                Some(lazy) => lazy.get(self.pos.iter(), FAR_GRID_FACTOR * self.grid.cell()),
+                None => self.grid,
+            };
+            far.k_nearest(x, FAR_NEIGHBOURS, near);
             let (_, d2_far) = *near.last()?;
             let (_, d2_near) = near[0];
             let s2 = d2_far.max(1e-30);

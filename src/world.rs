@@ -6,8 +6,8 @@ use crate::contact::{
 };
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
-use crate::grid::Grid;
-use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, grid_cell};
+use crate::grid::{Grid, LazyGrid};
+use crate::implicit::{ImplicitSurface, grid_cell};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use crate::topology::{self, Components, SplitEvent};
@@ -41,8 +41,9 @@ pub struct World {
     pub patches: Vec<ContactPatch>,
     /// Phyxel grids (current positions) of moving objects in contact.
     phyxel_grids: Vec<Option<Grid>>,
-    /// Coarse surfel grids for far-field nearest-surfel searches.
-    far_grids: Vec<Option<Grid>>,
+    /// Coarse surfel grids for far-field nearest-surfel searches, built on first use in a
+    /// step (most steps have no far-field sample at all).
+    far_grids: Vec<LazyGrid>,
     /// Resample the contact surfaces into render surfaces (only needed for output).
     pub render_contacts: bool,
     /// Contact surfels whose friction force was evaluated, summed over the run
@@ -69,7 +70,7 @@ pub struct World {
 struct SurfaceView<'w> {
     objects: &'w [Object],
     grids: &'w [Option<Grid>],
-    far_grids: &'w [Option<Grid>],
+    far_grids: &'w [LazyGrid],
 }
 
 impl SurfaceView<'_> {
@@ -77,8 +78,7 @@ impl SurfaceView<'_> {
         let (oa, ob) = (&self.objects[a], &self.objects[b]);
         let ga = self.grids[a].as_ref().expect("grid built for pairs");
         let gb = self.grids[b].as_ref().expect("grid built for pairs");
-        let fa = self.far_grids[a].as_ref().expect("grid built for pairs");
-        let fb = self.far_grids[b].as_ref().expect("grid built for pairs");
+        let (fa, fb) = (&self.far_grids[a], &self.far_grids[b]);
         PairSurfaces {
             a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga)
                 .with_far_grid(fa),
@@ -315,7 +315,7 @@ impl World {
         let n = self.objects.len();
         self.grids.resize_with(n, || None);
         self.phyxel_grids.resize_with(n, || None);
-        self.far_grids.resize_with(n, || None);
+        self.far_grids.resize_with(n, LazyGrid::default);
         let mut needed = BumpVec::from_iter_in(std::iter::repeat_n(false, n), &self.arena);
         for p in &self.pairs {
             needed[p.a] = true;
@@ -323,8 +323,9 @@ impl World {
         }
         let objects = &self.objects;
         let needed = &needed[..];
-        // Objects in parallel, and each object's three grids in parallel: a grid's
-        // counting sort is serial, so this is where the cores share the phase.
+        // Objects in parallel, and each object's two grids in parallel: a grid's counting
+        // sort is serial, so this is where the cores share the phase. The far grid is
+        // only reset here: it is built if and when a far-field sample needs it.
         self.grids
             .par_iter_mut()
             .zip(self.phyxel_grids.par_iter_mut())
@@ -339,22 +340,15 @@ impl World {
                 let cell = grid_cell(r_max).max(1e-6);
                 let phyxel_cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
                 // Rebuilt in place: the grids keep their buffers between steps.
+                fg.reset();
                 rayon::join(
                     || {
                         g.get_or_insert_default()
                             .rebuild(o.surfels.pos.iter(), cell)
                     },
                     || {
-                        rayon::join(
-                            || {
-                                fg.get_or_insert_default()
-                                    .rebuild(o.surfels.pos.iter(), FAR_GRID_FACTOR * cell)
-                            },
-                            || {
-                                pg.get_or_insert_default()
-                                    .rebuild(o.phyxels.pos.iter(), phyxel_cell)
-                            },
-                        )
+                        pg.get_or_insert_default()
+                            .rebuild(o.phyxels.pos.iter(), phyxel_cell)
                     },
                 );
                 (o.surfels.len() + o.phyxels.len()) as u64
