@@ -78,8 +78,6 @@ pub struct PairSurfaces<'a> {
     pub b: ImplicitSurface<'a>,
     pub surfels_a: &'a Surfels,
     pub surfels_b: &'a Surfels,
-    pub grid_a: &'a Grid,
-    pub grid_b: &'a Grid,
 }
 
 impl PairSurfaces<'_> {
@@ -241,12 +239,12 @@ pub fn contact_surface(
         }
         // The surfel's own velocity, and the other surface's nearest surfel's.
         let v_own = own.vel.get(c.surfel as usize);
-        let (other_surfels, other_grid) = if from_a {
-            (s.surfels_b, s.grid_b)
+        let (other_surfels, other_surface) = if from_a {
+            (s.surfels_b, &s.b)
         } else {
-            (s.surfels_a, s.grid_a)
+            (s.surfels_a, &s.a)
         };
-        let v_other = other_grid
+        let v_other = other_surface
             .nearest(c.projection)
             .map_or(Vec3::ZERO, |(k, _)| other_surfels.vel.get(k));
         Some(ContactSurfel {

@@ -31,6 +31,7 @@
 //! those points, whatever the cell size, round-off at the boundary included: the cells
 //! searched cover `r` plus a margin larger than that round-off.
 
+use crate::columns::Vec3s;
 use glam::Vec3;
 use std::sync::{Mutex, OnceLock};
 use wide::f32x8;
@@ -311,6 +312,18 @@ impl Grid {
             pz[s] = p.z;
         }
         debug_assert_eq!(start[table] as usize, m);
+    }
+
+    /// Rebuilds the grid over the points `subset` of `pos` only, reporting them by their
+    /// index in `pos`: a grid of the part of an object that queries can reach (e.g. near
+    /// a contact) costs that part's size, not the object's. Does not allocate when
+    /// `subset` does not grow.
+    pub fn rebuild_subset(&mut self, pos: &Vec3s, subset: &[u32], cell: f32) {
+        self.rebuild(subset.iter().map(|&i| pos.get(i as usize)), cell);
+        for s in &mut self.sorted {
+            *s = subset[*s as usize];
+        }
+        self.n_input = pos.len();
     }
 
     /// Cell edge length.

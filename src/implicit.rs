@@ -4,6 +4,7 @@
 //! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
+use crate::broad_phase::Aabb;
 use crate::columns::{LANES, Vec3s, load8};
 use crate::grid::{Grid, LazyGrid};
 use glam::Vec3;
@@ -117,6 +118,9 @@ pub struct ImplicitSurface<'a> {
     far: Option<&'a LazyGrid>,
     /// Surfel columns in the grid's sorted order, for the SIMD kernel sums.
     sorted: Option<&'a SortedSurfels>,
+    /// When `grid` indexes only the surfels in a box: the box, and the grid of all
+    /// surfels (built on demand) for queries that reach out of it.
+    region: Option<(Aabb, &'a LazyGrid)>,
     /// Largest query radius: the widest kernel's cutoff.
     reach: f32,
     tolerance: f32,
@@ -157,6 +161,13 @@ fn finish(x: Vec3, w_sum: f32, ws: Vec3, wn: Vec3) -> Option<SurfaceSample> {
     })
 }
 
+/// Smallest and largest of `radius` (∞ and 0 when empty).
+pub fn radius_range(radius: &[f32]) -> (f32, f32) {
+    radius.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), &r| {
+        (lo.min(r), hi.max(r))
+    })
+}
+
 /// Cell of the far-field grid in cells of the kernel grid: a nearest-surfel search from
 /// a few kernel reaches deep takes one or two coarse queries instead of thousands of
 /// fine cells.
@@ -172,12 +183,20 @@ impl<'a> ImplicitSurface<'a> {
     /// The surface of surfels (`pos`, `normal`, disk `radius`) indexed by `grid`
     /// (built over `pos`).
     pub fn new(pos: &'a Vec3s, normal: &'a Vec3s, radius: &'a [f32], grid: &'a Grid) -> Self {
-        let n = pos.len();
-        let (r_min, r_max) = radius[..n]
-            .iter()
-            .fold((f32::INFINITY, 0.0f32), |(lo, hi), &r| {
-                (lo.min(r), hi.max(r))
-            });
+        let (r_min, r_max) = radius_range(&radius[..pos.len()]);
+        Self::with_radius_range(pos, normal, radius, grid, r_min, r_max)
+    }
+
+    /// As [`ImplicitSurface::new`] with the smallest and largest disk radius already
+    /// known (a caller that keeps them saves a pass over every surfel).
+    pub fn with_radius_range(
+        pos: &'a Vec3s,
+        normal: &'a Vec3s,
+        radius: &'a [f32],
+        grid: &'a Grid,
+        r_min: f32,
+        r_max: f32,
+    ) -> Self {
         Self {
             pos,
             normal,
@@ -185,9 +204,44 @@ impl<'a> ImplicitSurface<'a> {
             grid,
             far: None,
             sorted: None,
+            region: None,
             reach: grid_cell(r_max),
             tolerance: PROJECTION_TOLERANCE * SIGMA_PER_RADIUS * r_min.min(r_max),
         }
+    }
+
+    /// `grid` indexes only the surfels inside `region` ([`Grid::rebuild_subset`]);
+    /// queries whose ball leaves the box use `all`, a grid of every surfel with the
+    /// same cell built on first use. Results are those of a grid of every surfel.
+    pub fn with_region(mut self, region: Aabb, all: &'a LazyGrid) -> Self {
+        self.region = Some((region, all));
+        self
+    }
+
+    /// The grid that holds every surfel within `r` of `x`.
+    #[inline]
+    fn grid_for(&self, x: Vec3, r: f32) -> &'a Grid {
+        match self.region {
+            Some((b, all)) if !(x - r).cmpge(b.min).all() || !(x + r).cmple(b.max).all() => {
+                all.get(self.pos.iter(), self.grid.cell())
+            }
+            _ => self.grid,
+        }
+    }
+
+    /// The surfel nearest to `x` and its squared distance.
+    pub fn nearest(&self, x: Vec3) -> Option<(usize, f32)> {
+        if self.region.is_some() {
+            if let Some((k, d2)) = self.grid.nearest(x) {
+                // Exact when no surfel outside the box could be nearer.
+                let r = d2.sqrt() * (1.0 + 1.0e-6);
+                if std::ptr::eq(self.grid_for(x, r), self.grid) {
+                    return Some((k, d2));
+                }
+            }
+            return self.grid_for(x, f32::INFINITY).nearest(x);
+        }
+        self.grid.nearest(x)
     }
 
     /// Uses `coarse` (built on demand over the same surfels, with cells
@@ -228,7 +282,7 @@ impl<'a> ImplicitSurface<'a> {
     /// time over contiguous lanes in the grid's sorted order (`wide`, no gathers);
     /// otherwise they are the scalar reference.
     pub fn weighted_sums(&self, x: Vec3) -> (f32, Vec3, Vec3) {
-        let Some(sorted) = self.sorted else {
+        let Some(sorted) = self.sorted.filter(|_| self.region.is_none()) else {
             return self.weighted_sums_scalar(x);
         };
         let [px, py, pz] = self.grid.sorted_points();
@@ -255,16 +309,17 @@ impl<'a> ImplicitSurface<'a> {
     /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches).
     pub fn weighted_sums_scalar(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
-        self.grid.for_each_within(x, self.reach, |k, d2| {
-            let sigma = SIGMA_PER_RADIUS * self.radius[k];
-            let q = d2 / (sigma * sigma);
-            if q < CUTOFF_SIGMAS * CUTOFF_SIGMAS {
-                let w = (-q).exp();
-                w_sum += w;
-                ws += w * self.pos.get(k);
-                wn += w * self.normal.get(k);
-            }
-        });
+        self.grid_for(x, self.reach)
+            .for_each_within(x, self.reach, |k, d2| {
+                let sigma = SIGMA_PER_RADIUS * self.radius[k];
+                let q = d2 / (sigma * sigma);
+                if q < CUTOFF_SIGMAS * CUTOFF_SIGMAS {
+                    let w = (-q).exp();
+                    w_sum += w;
+                    ws += w * self.pos.get(k);
+                    wn += w * self.normal.get(k);
+                }
+            });
         (w_sum, ws, wn)
     }
 
@@ -286,7 +341,7 @@ impl<'a> ImplicitSurface<'a> {
         KNN_SCRATCH.with_borrow_mut(|near| {
             let far = match self.far {
                 Some(lazy) => lazy.get(self.pos.iter(), FAR_GRID_FACTOR * self.grid.cell()),
-                None => self.grid,
+                None => self.grid_for(x, f32::INFINITY),
             };
             far.k_nearest(x, FAR_NEIGHBOURS, near);
             let (_, d2_far) = *near.last()?;

@@ -1,13 +1,13 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
-use crate::broad_phase::{Aabb, Pair, overlapping_pairs};
+use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_box};
 use crate::contact::{
     self, ContactParams, ContactPatch, DistributeScratch, PairSurfaces, PatchScratch,
 };
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::{Grid, LazyGrid};
-use crate::implicit::{ImplicitSurface, grid_cell};
+use crate::implicit::{ImplicitSurface, grid_cell, radius_range};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use crate::topology::{self, Components, SplitEvent};
@@ -41,9 +41,8 @@ pub struct World {
     pub patches: Vec<ContactPatch>,
     /// Phyxel grids (current positions) of moving objects in contact.
     phyxel_grids: Vec<Option<Grid>>,
-    /// Coarse surfel grids for far-field nearest-surfel searches, built on first use in a
-    /// step (most steps have no far-field sample at all).
-    far_grids: Vec<LazyGrid>,
+    /// Per object: the region its surfel grid covers and the on-demand grids.
+    surface_grids: Vec<SurfaceGrids>,
     /// Resample the contact surfaces into render surfaces (only needed for output).
     pub render_contacts: bool,
     /// Contact surfels whose friction force was evaluated, summed over the run
@@ -70,30 +69,58 @@ pub struct World {
 struct SurfaceView<'w> {
     objects: &'w [Object],
     grids: &'w [Option<Grid>],
-    far_grids: &'w [LazyGrid],
+    surface_grids: &'w [SurfaceGrids],
 }
 
 impl SurfaceView<'_> {
     fn pair(&self, a: usize, b: usize) -> PairSurfaces<'_> {
         let (oa, ob) = (&self.objects[a], &self.objects[b]);
-        let ga = self.grids[a].as_ref().expect("grid built for pairs");
-        let gb = self.grids[b].as_ref().expect("grid built for pairs");
-        let (fa, fb) = (&self.far_grids[a], &self.far_grids[b]);
         PairSurfaces {
-            a: ImplicitSurface::new(&oa.surfels.pos, &oa.surfels.normal, &oa.surfels.radius, ga)
-                .with_far_grid(fa),
-            b: ImplicitSurface::new(&ob.surfels.pos, &ob.surfels.normal, &ob.surfels.radius, gb)
-                .with_far_grid(fb),
+            a: self.surface(a),
+            b: self.surface(b),
             surfels_a: &oa.surfels,
             surfels_b: &ob.surfels,
-            grid_a: ga,
-            grid_b: gb,
+        }
+    }
+
+    /// The implicit surface of object `k` (its grids built this step).
+    fn surface(&self, k: usize) -> ImplicitSurface<'_> {
+        let s = &self.objects[k].surfels;
+        let grid = self.grids[k].as_ref().expect("grid built for pairs");
+        let sg = &self.surface_grids[k];
+        let (r_min, r_max) = sg.radius_range;
+        let surface =
+            ImplicitSurface::with_radius_range(&s.pos, &s.normal, &s.radius, grid, r_min, r_max)
+                .with_far_grid(&sg.far);
+        match sg.region {
+            Some(region) => surface.with_region(region, &sg.all),
+            None => surface,
         }
     }
 
     fn params(&self, a: usize, b: usize, dt: f32) -> ContactParams {
         contact_params(&self.objects[a], &self.objects[b], dt)
     }
+}
+
+/// Margin of an object's surfel-grid region around its pairs' intersection boxes, in
+/// kernel reaches: detection, projections and root searches stay within a penetration
+/// depth of the box, and queries that leave the region go to a grid of all surfels.
+pub const GRID_REGION_MARGIN: f32 = 3.0;
+
+/// The grids of one object's surfels besides the kernel grid, and what that grid covers.
+#[derive(Debug, Default)]
+struct SurfaceGrids {
+    /// Coarse grid for far-field samples, built on first use in a step.
+    far: LazyGrid,
+    /// Grid of every surfel, built on first use, when the kernel grid covers a region.
+    all: LazyGrid,
+    /// The box whose surfels the kernel grid indexes (`None`: every surfel).
+    region: Option<Aabb>,
+    /// The surfels in `region` (scratch of the rebuild).
+    members: Vec<u32>,
+    /// Smallest and largest surfel disk radius at the last rebuild.
+    radius_range: (f32, f32),
 }
 
 /// Support of the contact-force distribution kernel in influence radii. The paper uses
@@ -150,7 +177,7 @@ impl World {
             detections: Vec::new(),
             patches: Vec::new(),
             phyxel_grids: Vec::new(),
-            far_grids: Vec::new(),
+            surface_grids: Vec::new(),
             render_contacts: false,
             friction_work: 0,
             arena: Bump::new(),
@@ -315,43 +342,75 @@ impl World {
         let n = self.objects.len();
         self.grids.resize_with(n, || None);
         self.phyxel_grids.resize_with(n, || None);
-        self.far_grids.resize_with(n, LazyGrid::default);
+        self.surface_grids.resize_with(n, SurfaceGrids::default);
         let mut needed = BumpVec::from_iter_in(std::iter::repeat_n(false, n), &self.arena);
+        // The union of each object's pairs' intersection boxes.
+        let mut near = BumpVec::from_iter_in(std::iter::repeat_n(Aabb::EMPTY, n), &self.arena);
         for p in &self.pairs {
-            needed[p.a] = true;
-            needed[p.b] = true;
+            for k in [p.a, p.b] {
+                needed[k] = true;
+                near[k] = Aabb {
+                    min: near[k].min.min(p.bounds.min),
+                    max: near[k].max.max(p.bounds.max),
+                };
+            }
         }
         let objects = &self.objects;
-        let needed = &needed[..];
+        let (needed, near) = (&needed[..], &near[..]);
         // Objects in parallel, and each object's two grids in parallel: a grid's counting
-        // sort is serial, so this is where the cores share the phase. The far grid is
-        // only reset here: it is built if and when a far-field sample needs it.
+        // sort is serial, so this is where the cores share the phase. The far grid and
+        // the grid of all surfels are only reset here: they are built if and when a
+        // query needs them.
         self.grids
             .par_iter_mut()
             .zip(self.phyxel_grids.par_iter_mut())
-            .zip(self.far_grids.par_iter_mut())
+            .zip(self.surface_grids.par_iter_mut())
             .enumerate()
-            .map(|(k, ((g, pg), fg))| {
+            .map(|(k, ((g, pg), sg))| {
                 let o = &objects[k];
                 if !(needed[k] && (g.is_none() || !o.is_static())) {
                     return 0;
                 }
-                let r_max = o.surfels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
-                let cell = grid_cell(r_max).max(1e-6);
+                sg.radius_range = radius_range(&o.surfels.radius[..o.surfels.len()]);
+                let cell = grid_cell(sg.radius_range.1).max(1e-6);
                 let phyxel_cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
+                sg.far.reset();
+                sg.all.reset();
+                // A moving object's kernel grid covers the surfels near its contacts
+                // only, unless that is most of them (static objects: built once, whole).
+                let margin = GRID_REGION_MARGIN * cell;
+                let region = Aabb {
+                    min: near[k].min - margin,
+                    max: near[k].max + margin,
+                };
+                sg.members.clear();
+                if !o.is_static() {
+                    points_in_box(&o.surfels.pos, &region, &mut sg.members);
+                }
+                let whole = o.is_static() || 2 * sg.members.len() > o.surfels.len();
+                sg.region = (!whole).then_some(region);
+                let SurfaceGrids { members, .. } = sg;
                 // Rebuilt in place: the grids keep their buffers between steps.
-                fg.reset();
                 rayon::join(
                     || {
-                        g.get_or_insert_default()
-                            .rebuild(o.surfels.pos.iter(), cell)
+                        let g = g.get_or_insert_default();
+                        if whole {
+                            g.rebuild(o.surfels.pos.iter(), cell)
+                        } else {
+                            g.rebuild_subset(&o.surfels.pos, members, cell)
+                        }
                     },
                     || {
                         pg.get_or_insert_default()
                             .rebuild(o.phyxels.pos.iter(), phyxel_cell)
                     },
                 );
-                (o.surfels.len() + o.phyxels.len()) as u64
+                let indexed = if whole {
+                    o.surfels.len()
+                } else {
+                    members.len()
+                };
+                (indexed + o.phyxels.len()) as u64
             })
             .sum()
     }
@@ -367,7 +426,7 @@ impl World {
         let view = SurfaceView {
             objects: &self.objects,
             grids: &self.grids,
-            far_grids: &self.far_grids,
+            surface_grids: &self.surface_grids,
         };
         let phyxel_grids = &self.phyxel_grids;
         let volume = |k: usize| Volume {
@@ -408,7 +467,7 @@ impl World {
         let view = SurfaceView {
             objects: &self.objects,
             grids: &self.grids,
-            far_grids: &self.far_grids,
+            surface_grids: &self.surface_grids,
         };
         let dt = self.dt;
         self.patches
@@ -432,7 +491,7 @@ impl World {
         let view = SurfaceView {
             objects: &self.objects,
             grids: &self.grids,
-            far_grids: &self.far_grids,
+            surface_grids: &self.surface_grids,
         };
         let dt = self.dt;
         self.patches.par_iter_mut().for_each(|patch| {
@@ -449,7 +508,7 @@ impl World {
         let view = SurfaceView {
             objects: &self.objects,
             grids: &self.grids,
-            far_grids: &self.far_grids,
+            surface_grids: &self.surface_grids,
         };
         let dt = self.dt;
         let with_friction: u64 = self
