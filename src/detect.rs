@@ -52,8 +52,9 @@ impl PairDetection {
 /// outside without projecting it (eq. 2 agrees: in every built-in scene, no candidate
 /// with `f > 0` was inside; `tests/detect.rs` checks the margin against the full test).
 pub const OUTSIDE_FRACTION: f32 = 0.05;
-/// Candidates per rayon task.
-const CHUNK: usize = 256;
+/// Candidates per rayon task (a few hundred candidates per side at the paper's size
+/// still split over both cores).
+const CHUNK: usize = 64;
 
 /// The other object's volume, for candidates far from its surface: a point farther than
 /// the kernels reach from every surfel is inside exactly when a phyxel lies within

@@ -441,10 +441,30 @@ impl World {
                 let s = view.pair(pair.a, pair.b);
                 d.a = pair.a;
                 d.b = pair.b;
-                d.candidates =
-                    colliding_surfels(s.surfels_a, &s.b, &volume(pair.b), pair, sa, &mut d.a_in_b);
-                d.candidates +=
-                    colliding_surfels(s.surfels_b, &s.a, &volume(pair.a), pair, sb, &mut d.b_in_a);
+                // Both sides at once: each writes its own list from its own scratch.
+                let (na, nb) = rayon::join(
+                    || {
+                        colliding_surfels(
+                            s.surfels_a,
+                            &s.b,
+                            &volume(pair.b),
+                            pair,
+                            sa,
+                            &mut d.a_in_b,
+                        )
+                    },
+                    || {
+                        colliding_surfels(
+                            s.surfels_b,
+                            &s.a,
+                            &volume(pair.a),
+                            pair,
+                            sb,
+                            &mut d.b_in_a,
+                        )
+                    },
+                );
+                d.candidates = na + nb;
             });
         for d in &self.detections {
             self.max_penetration = self.max_penetration.max(d.max_depth());
