@@ -1,5 +1,5 @@
 //! SIMD kernels against their scalar references, single-threaded, same inputs.
-//! Run: `cargo bench --bench kernels -- --warm-up-time 1 --measurement-time 3`;
+//! Run: `cargo bench --bench kernels -- --warm-up-time 1 --measurement-time 3 --noplot`;
 //! the ratios go to docs/PERFORMANCE.md.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
