@@ -118,12 +118,28 @@ pub struct ImplicitSurface<'a> {
     far: Option<&'a LazyGrid>,
     /// Surfel columns in the grid's sorted order, for the SIMD kernel sums.
     sorted: Option<&'a SortedSurfels>,
-    /// When `grid` indexes only the surfels in a box: the box, and the grid of all
-    /// surfels (built on demand) for queries that reach out of it.
-    region: Option<(Aabb, &'a LazyGrid)>,
+    /// When `grid` indexes only the surfels in a box: see [`Region`].
+    region: Option<Region<'a>>,
     /// Largest query radius: the widest kernel's cutoff.
     reach: f32,
     tolerance: f32,
+}
+
+/// The box whose surfels an [`ImplicitSurface`]'s grids index, and the grids of all
+/// surfels for queries that reach out of it.
+#[derive(Clone, Copy)]
+struct Region<'a> {
+    bounds: Aabb,
+    /// Kernel grid of every surfel (built on first use).
+    all: &'a LazyGrid,
+    /// Coarse far-field grid of the surfels in `bounds`.
+    far: &'a Grid,
+}
+
+/// Is the ball of radius `r` around `x` inside `b`?
+#[inline]
+fn ball_inside(b: &Aabb, x: Vec3, r: f32) -> bool {
+    (x - r).cmpge(b.min).all() && (x + r).cmple(b.max).all()
 }
 
 /// The surface near a point: `f(x)`, `n(x)` and `a(x)`.
@@ -210,11 +226,17 @@ impl<'a> ImplicitSurface<'a> {
         }
     }
 
-    /// `grid` indexes only the surfels inside `region` ([`Grid::rebuild_subset`]);
-    /// queries whose ball leaves the box use `all`, a grid of every surfel with the
-    /// same cell built on first use. Results are those of a grid of every surfel.
-    pub fn with_region(mut self, region: Aabb, all: &'a LazyGrid) -> Self {
-        self.region = Some((region, all));
+    /// `grid` indexes only the surfels inside `region` ([`Grid::rebuild_subset`]), and
+    /// `far` is the coarse far-field grid ([`FAR_GRID_FACTOR`] cells) of the same ones;
+    /// queries whose ball leaves the box use `all`, a kernel grid of every surfel built
+    /// on first use, or the far grid of [`ImplicitSurface::with_far_grid`]. Results are
+    /// those of grids of every surfel.
+    pub fn with_region(mut self, region: Aabb, all: &'a LazyGrid, far: &'a Grid) -> Self {
+        self.region = Some(Region {
+            bounds: region,
+            all,
+            far,
+        });
         self
     }
 
@@ -222,11 +244,30 @@ impl<'a> ImplicitSurface<'a> {
     #[inline]
     fn grid_for(&self, x: Vec3, r: f32) -> &'a Grid {
         match self.region {
-            Some((b, all)) if !(x - r).cmpge(b.min).all() || !(x + r).cmple(b.max).all() => {
-                all.get(self.pos.iter(), self.grid.cell())
+            Some(g) if !ball_inside(&g.bounds, x, r) => {
+                g.all.get(self.pos.iter(), self.grid.cell())
             }
             _ => self.grid,
         }
+    }
+
+    /// The [`FAR_NEIGHBOURS`] surfels nearest to `x`, into `near`: from the region's
+    /// far grid when no surfel outside the region can be among them, else from the far
+    /// grid of all surfels.
+    fn far_neighbours(&self, x: Vec3, near: &mut Vec<(usize, f32)>) {
+        if let Some(g) = self.region {
+            g.far.k_nearest(x, FAR_NEIGHBOURS, near);
+            if let Some(&(_, d2)) = near.last().filter(|_| near.len() == FAR_NEIGHBOURS) {
+                if ball_inside(&g.bounds, x, d2.sqrt() * (1.0 + 1.0e-6)) {
+                    return;
+                }
+            }
+        }
+        let far = match self.far {
+            Some(lazy) => lazy.get(self.pos.iter(), FAR_GRID_FACTOR * self.grid.cell()),
+            None => self.grid_for(x, f32::INFINITY),
+        };
+        far.k_nearest(x, FAR_NEIGHBOURS, near);
     }
 
     /// The surfel nearest to `x` and its squared distance.
@@ -339,11 +380,7 @@ impl<'a> ImplicitSurface<'a> {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         // One scratch list per thread: the step stays free of heap allocation.
         KNN_SCRATCH.with_borrow_mut(|near| {
-            let far = match self.far {
-                Some(lazy) => lazy.get(self.pos.iter(), FAR_GRID_FACTOR * self.grid.cell()),
-                None => self.grid_for(x, f32::INFINITY),
-            };
-            far.k_nearest(x, FAR_NEIGHBOURS, near);
+            self.far_neighbours(x, near);
             let (_, d2_far) = *near.last()?;
             let (_, d2_near) = near[0];
             let s2 = d2_far.max(1e-30);

@@ -7,7 +7,7 @@ use crate::contact::{
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::{Grid, LazyGrid};
-use crate::implicit::{ImplicitSurface, grid_cell, radius_range};
+use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, grid_cell, radius_range};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use crate::topology::{self, Components, SplitEvent};
@@ -93,7 +93,7 @@ impl SurfaceView<'_> {
             ImplicitSurface::with_radius_range(&s.pos, &s.normal, &s.radius, grid, r_min, r_max)
                 .with_far_grid(&sg.far);
         match sg.region {
-            Some(region) => surface.with_region(region, &sg.all),
+            Some(region) => surface.with_region(region, &sg.all, &sg.far_region),
             None => surface,
         }
     }
@@ -119,6 +119,8 @@ struct SurfaceGrids {
     region: Option<Aabb>,
     /// The surfels in `region` (scratch of the rebuild).
     members: Vec<u32>,
+    /// Coarse far-field grid of the surfels in `region` (when there is one).
+    far_region: Grid,
     /// Smallest and largest surfel disk radius at the last rebuild.
     radius_range: (f32, f32),
 }
@@ -389,7 +391,11 @@ impl World {
                 }
                 let whole = o.is_static() || 2 * sg.members.len() > o.surfels.len();
                 sg.region = (!whole).then_some(region);
-                let SurfaceGrids { members, .. } = sg;
+                let SurfaceGrids {
+                    members,
+                    far_region,
+                    ..
+                } = sg;
                 // Rebuilt in place: the grids keep their buffers between steps.
                 rayon::join(
                     || {
@@ -397,7 +403,12 @@ impl World {
                         if whole {
                             g.rebuild(o.surfels.pos.iter(), cell)
                         } else {
-                            g.rebuild_subset(&o.surfels.pos, members, cell)
+                            g.rebuild_subset(&o.surfels.pos, members, cell);
+                            far_region.rebuild_subset(
+                                &o.surfels.pos,
+                                members,
+                                FAR_GRID_FACTOR * cell,
+                            );
                         }
                     },
                     || {

@@ -207,10 +207,11 @@ fn early_outside_agrees_with_the_inside_test() {
     }
 }
 
-/// A kernel grid over only the surfels in a box (`Grid::rebuild_subset`,
-/// `ImplicitSurface::with_region`) gives the results of a grid over every surfel:
-/// samples, projections and nearest surfels at points in the box, on its boundary and
-/// far outside it (where the queries fall back to the grid of all surfels). Reference:
+/// A kernel grid and a far-field grid over only the surfels in a box
+/// (`Grid::rebuild_subset`, `ImplicitSurface::with_region`) give the results of grids
+/// over every surfel: samples (far-field ones included), projections and nearest
+/// surfels at points in the box, on its boundary and far outside it (where the queries
+/// fall back to the grids of all surfels). Reference:
 /// the whole-surface grid; tolerance: the f32 round-off of a different summation order
 /// (1e-6 m on positions, 1e-5 relative on weights), nearest surfels exactly equal.
 #[test]
@@ -226,9 +227,11 @@ fn region_grid_matches_the_whole_surface() {
     assert!(members.len() < sphere.radius.len() / 5);
     let mut grid = Grid::default();
     grid.rebuild_subset(&sphere.pos, &members, sphere.grid.cell());
+    let mut far = Grid::default();
+    far.rebuild_subset(&sphere.pos, &members, 8.0 * sphere.grid.cell());
     let all = phyxel::grid::LazyGrid::default();
     let part = ImplicitSurface::new(&sphere.pos, &sphere.normal, &sphere.radius, &grid)
-        .with_region(region, &all);
+        .with_region(region, &all, &far);
     let mut rng = Rng(5);
     for k in 0..3000 {
         // Two thirds near the box (inside, on and across its faces), a third anywhere.
