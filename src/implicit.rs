@@ -257,10 +257,12 @@ impl<'a> ImplicitSurface<'a> {
     fn far_neighbours(&self, x: Vec3, near: &mut Vec<(usize, f32)>) {
         if let Some(g) = self.region {
             g.far.k_nearest(x, FAR_NEIGHBOURS, near);
-            if let Some(&(_, d2)) = near.last().filter(|_| near.len() == FAR_NEIGHBOURS) {
-                if ball_inside(&g.bounds, x, d2.sqrt() * (1.0 + 1.0e-6)) {
-                    return;
-                }
+            let inside = near.len() == FAR_NEIGHBOURS
+                && near
+                    .last()
+                    .is_some_and(|&(_, d2)| ball_inside(&g.bounds, x, d2.sqrt() * (1.0 + 1.0e-6)));
+            if inside {
+                return;
             }
         }
         let far = match self.far {
