@@ -53,6 +53,8 @@ pub struct ContactPatch {
     pub render: Vec<ContactSurfel>,
     /// Colliding surfels dropped because the root left the intersection volume.
     pub dropped: usize,
+    /// Colliding surfels that are not force carriers (not moved onto Φ).
+    pub not_carriers: usize,
 }
 
 /// Contact-response constants of one pair, from the two materials.
@@ -69,6 +71,9 @@ pub struct ContactParams {
     pub friction: f32,
     /// Target spacing of contact surfels (m).
     pub spacing: f32,
+    /// Spacing of the denser side's force-carrying contact surfels (m, ≥ `spacing`;
+    /// equal to it when neither side is thinned): the support of their area estimate.
+    pub force_spacing: f32,
 }
 
 /// The two implicit surfaces and the surfels of a pair.
@@ -78,6 +83,9 @@ pub struct PairSurfaces<'a> {
     pub b: ImplicitSurface<'a>,
     pub surfels_a: &'a Surfels,
     pub surfels_b: &'a Surfels,
+    /// Which surfels of a and b carry contact forces.
+    pub carriers_a: &'a [bool],
+    pub carriers_b: &'a [bool],
 }
 
 impl PairSurfaces<'_> {
@@ -268,9 +276,15 @@ pub fn contact_surface(
     placed.resize(n_a + det.b_in_a.len(), None);
     placed.par_iter_mut().enumerate().for_each(|(k, slot)| {
         *slot = if k < n_a {
-            place(&det.a_in_b[k], s.surfels_a, true, det.a)
+            let c = &det.a_in_b[k];
+            s.carriers_a[c.surfel as usize]
+                .then(|| place(c, s.surfels_a, true, det.a))
+                .flatten()
         } else {
-            place(&det.b_in_a[k - n_a], s.surfels_b, false, det.b)
+            let c = &det.b_in_a[k - n_a];
+            s.carriers_b[c.surfel as usize]
+                .then(|| place(c, s.surfels_b, false, det.b))
+                .flatten()
         };
     });
     patch.a = det.a;
@@ -278,7 +292,17 @@ pub fn contact_surface(
     patch.surfels.clear();
     patch.surfels.extend(placed.iter().flatten());
     patch.render.clear();
-    patch.dropped = placed.len() - patch.surfels.len();
+    patch.not_carriers = det
+        .a_in_b
+        .iter()
+        .filter(|c| !s.carriers_a[c.surfel as usize])
+        .count()
+        + det
+            .b_in_a
+            .iter()
+            .filter(|c| !s.carriers_b[c.surfel as usize])
+            .count();
+    patch.dropped = placed.len() - patch.surfels.len() - patch.not_carriers;
 }
 
 /// Scratch of one pair's contact phases, kept between steps so that the step does not
@@ -496,7 +520,7 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScr
 /// surfels of a curved body) that would make a resting body drift; friction alone acts
 /// tangentially.
 pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchScratch) {
-    areas(&mut patch.surfels, p.spacing, scratch);
+    areas(&mut patch.surfels, p.force_spacing, scratch);
     let one_side = |d: Vec3, n: Vec3, v_rel: Vec3| -> Vec3 {
         let d = d.dot(n) * n;
         let len = d.length();

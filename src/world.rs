@@ -80,6 +80,8 @@ impl SurfaceView<'_> {
             b: self.surface(b),
             surfels_a: &oa.surfels,
             surfels_b: &ob.surfels,
+            carriers_a: &oa.force_carrier,
+            carriers_b: &ob.force_carrier,
         }
     }
 
@@ -160,6 +162,9 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
         damping: (2.0 * zeta * (stiffness * rho * h).sqrt()).min(1.6 * rho * h / dt),
         friction: (ma.friction * mb.friction).sqrt(),
         spacing: a.surfel_spacing.min(b.surfel_spacing),
+        // The denser side's carriers set the density of Φ (without thinning: the
+        // surfel spacing, as `spacing`).
+        force_spacing: a.carrier_spacing.min(b.carrier_spacing),
     }
 }
 
