@@ -274,17 +274,15 @@ impl<'a> ImplicitSurface<'a> {
 
     /// The surfel nearest to `x` and its squared distance.
     pub fn nearest(&self, x: Vec3) -> Option<(usize, f32)> {
-        if self.region.is_some() {
-            if let Some((k, d2)) = self.grid.nearest(x) {
-                // Exact when no surfel outside the box could be nearer.
-                let r = d2.sqrt() * (1.0 + 1.0e-6);
-                if std::ptr::eq(self.grid_for(x, r), self.grid) {
-                    return Some((k, d2));
-                }
-            }
-            return self.grid_for(x, f32::INFINITY).nearest(x);
+        let Some(g) = self.region else {
+            return self.grid.nearest(x);
+        };
+        // Exact when no surfel outside the box could be nearer.
+        let found = self.grid.nearest(x);
+        if found.is_some_and(|(_, d2)| ball_inside(&g.bounds, x, d2.sqrt() * (1.0 + 1.0e-6))) {
+            return found;
         }
-        self.grid.nearest(x)
+        g.all.get(self.pos.iter(), self.grid.cell()).nearest(x)
     }
 
     /// Uses `coarse` (built on demand over the same surfels, with cells
