@@ -1,4 +1,5 @@
-//! SIMD kernels against their scalar references, single-threaded, same inputs.
+//! SIMD kernels against their scalar references, single-threaded, same inputs:
+//! implicit-surface kernel sums and contact-force distribution.
 //! Run: `cargo bench --bench kernels -- --warm-up-time 1 --measurement-time 3 --noplot`;
 //! the ratios go to docs/PERFORMANCE.md.
 
@@ -57,5 +58,77 @@ fn implicit_sums(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, implicit_sums);
+/// Contact-force distribution (eqs. 8–9): SIMD lane groups of the phyxel grid against
+/// the scalar per-phyxel reference, 2,000 contact surfels in a shell half an influence
+/// radius around `two-spheres`' first sphere (390 phyxels, about 40 within reach each).
+fn distribution(c: &mut Criterion) {
+    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
+    let scene = phyxel::scene::Scene::builtin("two-spheres").expect("built-in scene");
+    let w = scene
+        .build(&phyxel::scene::BuildOptions::default())
+        .expect("scene builds");
+    let o = &w.objects[0];
+    let h = o.max_influence;
+    let grid = Grid::build(o.phyxels.pos.iter(), h);
+    let c0 = o.phyxels.centre_of_mass();
+    let centre = Vec3::new(c0[0] as f32, c0[1] as f32, c0[2] as f32);
+    let radius = o
+        .surfels
+        .pos
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0f32, f32::max);
+    let golden = 0.618_034f32;
+    let surfels: Vec<ContactSurfel> = (0..2000)
+        .map(|i| {
+            let f = i as f32;
+            let z = 1.0 - 2.0 * (f + 0.5) / 2000.0;
+            let phi = std::f32::consts::TAU * golden * f;
+            let rho = (1.0 - z * z).sqrt();
+            let dir = Vec3::new(rho * phi.cos(), rho * phi.sin(), z);
+            let r = radius + ((f * 0.37).fract() - 0.5) * h;
+            ContactSurfel {
+                pos: centre + r * dir,
+                normal: dir,
+                object: 0,
+                area: 1.0,
+                force: -dir,
+                anchor_a: Vec3::ZERO,
+                anchor_b: Vec3::ZERO,
+                velocity: Vec3::ZERO,
+            }
+        })
+        .collect();
+    let mut g = c.benchmark_group("distribute");
+    g.throughput(Throughput::Elements(surfels.len() as u64));
+    let mut phyxels = o.phyxels.clone();
+    let mut scratch = DistributeScratch::default();
+    g.bench_function("simd", |b| {
+        b.iter(|| {
+            distribute(
+                black_box(&surfels),
+                1.0,
+                &mut phyxels,
+                &grid,
+                h,
+                &mut scratch,
+            )
+        })
+    });
+    g.bench_function("scalar", |b| {
+        b.iter(|| {
+            distribute_reference(
+                black_box(&surfels),
+                1.0,
+                &mut phyxels,
+                &grid,
+                h,
+                &mut scratch,
+            )
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, implicit_sums, distribution);
 criterion_main!(benches);

@@ -165,3 +165,12 @@ pub fn load8(s: &[f32], at: usize) -> wide::f32x8 {
 pub fn store8(s: &mut [f32], at: usize, v: wide::f32x8) {
     s[at..at + 8].copy_from_slice(&v.to_array());
 }
+
+/// The lane mask of the low `LANES` bits of `bits`.
+#[inline(always)]
+pub fn lane_mask(bits: u32) -> wide::f32x8 {
+    use wide::bytemuck::cast;
+    let lane_bits = wide::i32x8::from([1, 2, 4, 8, 16, 32, 64, 128]);
+    let set = (wide::i32x8::splat(bits as i32) & lane_bits).simd_eq(lane_bits);
+    cast(set)
+}

@@ -3,6 +3,7 @@
 //! surfels, and their distribution to the phyxels.
 
 use crate::brent::brent;
+use crate::columns::{LANES, lane_mask, load8, store8};
 use crate::detect::{Colliding, PairDetection};
 use crate::grid::Grid;
 use crate::implicit::{ImplicitSurface, SurfaceSample};
@@ -12,6 +13,7 @@ use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
 use glam::{DMat3, Vec3};
 use rayon::prelude::*;
+use wide::f32x8;
 
 /// Phyxels a contact force spreads over at least (paper §7.3: k = 6).
 pub const MIN_DISTRIBUTION_PHYXELS: usize = 6;
@@ -314,11 +316,16 @@ pub struct PatchScratch {
     density: Vec<f32>,
 }
 
-/// Scratch of [`distribute`]: the phyxels near one contact surfel.
+/// Scratch of [`distribute`]: the phyxels near one contact surfel, and the force
+/// columns in the phyxel grid's sorted order (padded by `LANES − 1`); kept between
+/// steps, so the step does not allocate.
 #[derive(Clone, Debug, Default)]
 pub struct DistributeScratch {
     near: Vec<(usize, f32)>,
     knn: Vec<(usize, f32)>,
+    force: [Vec<f32>; 3],
+    /// The lane groups of one surfel's query and their weights.
+    lanes: Vec<(usize, f32x8)>,
 }
 
 /// Even, hole-free sampling of Φ for the render surface (after Witkin–Heckbert, as in
@@ -553,6 +560,12 @@ pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchSc
 /// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within `h`, normalised so the
 /// phyxel forces sum exactly to the surfel force (paper eqs. 8–9). `sign` is +1 for
 /// object a, −1 for b. The forces act at the next step.
+///
+/// Eight phyxels at a time over the grid's sorted lanes (`Grid::for_each_lanes_within`):
+/// one pass sums a surfel's weights, a second adds its share to force columns kept in
+/// the grid's order, so the adds are contiguous lane stores instead of scattered writes;
+/// the columns go to the phyxels once at the end. [`distribute_reference`] is the scalar
+/// version (tests and benches).
 pub fn distribute(
     surfels: &[ContactSurfel],
     sign: f32,
@@ -561,29 +574,106 @@ pub fn distribute(
     h: f32,
     scratch: &mut DistributeScratch,
 ) {
-    let DistributeScratch { near, knn } = scratch;
+    let order = grid.sorted();
+    for col in scratch.force.iter_mut() {
+        col.clear();
+        col.resize(order.len() + LANES - 1, 0.0);
+    }
+    let inv_h2 = f32x8::splat(1.0 / (h * h));
+    // Poly6 shape `(1 − r²/h²)³` of the lanes in `mask` (0 elsewhere, padding included).
+    let weights = |mask: u32, d2: f32x8| {
+        let q = f32x8::ONE - d2 * inv_h2;
+        let within = lane_mask(mask) & q.simd_gt(f32x8::ZERO);
+        within.select(q * q * q, f32x8::ZERO)
+    };
+    let DistributeScratch {
+        near,
+        knn,
+        force: [fx, fy, fz],
+        lanes,
+    } = scratch;
     for c in surfels {
-        near.clear();
-        grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
-        let mut support = h;
-        if near.len() < MIN_DISTRIBUTION_PHYXELS {
-            grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, knn);
-            support = knn.last().map_or(h, |e| e.1.sqrt() * 1.001 + 1e-9);
-            near.clear();
-            near.extend_from_slice(knn);
+        // One grid query: the weighted lane groups are kept for the adds.
+        lanes.clear();
+        let (mut total, mut count) = (f32x8::ZERO, 0);
+        grid.for_each_lanes_within(c.pos, h, |at, mask, d2| {
+            let w = weights(mask, d2);
+            total += w;
+            count += mask.count_ones() as usize;
+            lanes.push((at, w));
+        });
+        if count < MIN_DISTRIBUTION_PHYXELS {
+            // Too few phyxels within h: the scalar path widens to the nearest ones.
+            distribute_one(c, sign, phyxels, grid, h, near, knn);
+            continue;
         }
-        // Weights in place of the squared distances; the grid's order is deterministic.
-        let mut total = 0.0f32;
-        for e in near.iter_mut() {
-            e.1 = poly6_shape(e.1, support);
-            total += e.1;
-        }
+        let total = total.reduce_add();
         if total <= 0.0 {
             continue;
         }
         let f = (sign / total) * c.force;
-        for &(i, w) in near.iter() {
-            phyxels.force.add(i, w * f);
+        let (sx, sy, sz) = (f32x8::splat(f.x), f32x8::splat(f.y), f32x8::splat(f.z));
+        for &(at, w) in lanes.iter() {
+            for (col, s) in [(&mut *fx, sx), (&mut *fy, sy), (&mut *fz, sz)] {
+                let v = load8(col, at) + w * s;
+                store8(col, at, v);
+            }
         }
+    }
+    let [fx, fy, fz] = &scratch.force;
+    for (k, &i) in order.iter().enumerate() {
+        phyxels
+            .force
+            .add(i as usize, Vec3::new(fx[k], fy[k], fz[k]));
+    }
+}
+
+/// Scalar reference of [`distribute`]: the same weights, one phyxel at a time,
+/// written straight to the phyxels.
+pub fn distribute_reference(
+    surfels: &[ContactSurfel],
+    sign: f32,
+    phyxels: &mut Phyxels,
+    grid: &Grid,
+    h: f32,
+    scratch: &mut DistributeScratch,
+) {
+    let DistributeScratch { near, knn, .. } = scratch;
+    for c in surfels {
+        distribute_one(c, sign, phyxels, grid, h, near, knn);
+    }
+}
+
+/// One contact surfel's force onto the phyxels, scalar (see [`distribute`]).
+fn distribute_one(
+    c: &ContactSurfel,
+    sign: f32,
+    phyxels: &mut Phyxels,
+    grid: &Grid,
+    h: f32,
+    near: &mut Vec<(usize, f32)>,
+    knn: &mut Vec<(usize, f32)>,
+) {
+    near.clear();
+    grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
+    let mut support = h;
+    if near.len() < MIN_DISTRIBUTION_PHYXELS {
+        grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, knn);
+        support = knn.last().map_or(h, |e| e.1.sqrt() * 1.001 + 1e-9);
+        near.clear();
+        near.extend_from_slice(knn);
+    }
+    // Weights in place of the squared distances; the grid's order is deterministic.
+    let mut total = 0.0f32;
+    for e in near.iter_mut() {
+        e.1 = poly6_shape(e.1, support);
+        total += e.1;
+    }
+    if total <= 0.0 {
+        return;
+    }
+    let f = (sign / total) * c.force;
+    for &(i, w) in near.iter() {
+        phyxels.force.add(i, w * f);
     }
 }

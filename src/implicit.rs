@@ -5,7 +5,7 @@
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
 use crate::broad_phase::Aabb;
-use crate::columns::{LANES, Vec3s, load8};
+use crate::columns::{LANES, Vec3s, lane_mask, load8};
 use crate::grid::{Grid, LazyGrid};
 use glam::Vec3;
 use wide::f32x8;
@@ -64,15 +64,6 @@ pub fn exp_neg(q: f32x8) -> f32x8 {
     let n_bits = cast::<f32x8, i32x8>(t) - cast::<f32x8, i32x8>(c(MAGIC));
     let scale: f32x8 = cast((n_bits + i32x8::splat(127)) << 23);
     p * scale
-}
-
-/// The lane mask of the low `LANES` bits of `bits`.
-#[inline(always)]
-fn lane_mask(bits: u32) -> f32x8 {
-    use wide::bytemuck::cast;
-    let lane_bits = wide::i32x8::from([1, 2, 4, 8, 16, 32, 64, 128]);
-    let set = (wide::i32x8::splat(bits as i32) & lane_bits).simd_eq(lane_bits);
-    cast(set)
 }
 
 /// The surfel columns the SIMD kernel reads, permuted into the grid's sorted order and

@@ -299,3 +299,94 @@ fn force_carriers_match_every_surfel_carrying() {
     );
     assert!(n * 3 < n_ref, "carriers {n} of {n_ref}");
 }
+
+/// The SIMD force distribution (`contact::distribute`: lane groups of the phyxel grid,
+/// forces gathered in the grid's order) against its scalar reference
+/// (`contact::distribute_reference`), on `two-spheres`' first sphere (390 phyxels) with
+/// 2,000 contact surfels in a shell 0.5 influence radii around its surface and 40 far
+/// outside (fewer than six phyxels within reach: both take the k-nearest path).
+/// Tolerances (float32 sums in another order): each phyxel force within 1e-5 of the
+/// largest surfel force (N), and both totals equal to the sum of the surfel forces to
+/// 1e-5 relative (eq. 8's exact distribution).
+#[test]
+fn simd_distribution_matches_scalar_reference() {
+    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
+    use phyxel::grid::Grid;
+    let w = build(&Scene::builtin("two-spheres").unwrap());
+    let o = &w.objects[0];
+    let h = o.max_influence;
+    let grid = Grid::build(o.phyxels.pos.iter(), h);
+    let centre = com(&w, 0);
+    let radius = o
+        .surfels
+        .pos
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0f32, f32::max);
+    let mut seed = 7u32;
+    let mut rand = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    };
+    let mut surfels = Vec::new();
+    for k in 0..2040 {
+        let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
+        let r = if k < 2000 {
+            radius + (rand() - 0.5) * h
+        } else {
+            radius + 2.0 * h
+        };
+        let force = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 10.0;
+        surfels.push(ContactSurfel {
+            pos: centre + r * dir,
+            normal: dir,
+            object: 0,
+            area: 1.0,
+            force,
+            anchor_a: Vec3::ZERO,
+            anchor_b: Vec3::ZERO,
+            velocity: Vec3::ZERO,
+        });
+    }
+    let run = |f: fn(
+        &[ContactSurfel],
+        f32,
+        &mut phyxel::phyxels::Phyxels,
+        &Grid,
+        f32,
+        &mut DistributeScratch,
+    )| {
+        let mut p = o.phyxels.clone();
+        p.force = phyxel::columns::Vec3s::zeros(p.len());
+        f(
+            &surfels,
+            1.0,
+            &mut p,
+            &grid,
+            h,
+            &mut DistributeScratch::default(),
+        );
+        p.force
+    };
+    let (simd, scalar) = (run(distribute), run(distribute_reference));
+    let f_max = surfels.iter().map(|c| c.force.length()).fold(0.0, f32::max);
+    let worst = (0..simd.len())
+        .map(|i| (simd.get(i) - scalar.get(i)).length())
+        .fold(0.0, f32::max);
+    println!(
+        "distribution: largest phyxel difference {worst:.2e} N (surfel forces up to {f_max:.2} N)"
+    );
+    assert!(worst <= 1e-5 * f_max, "phyxel forces differ by {worst} N");
+    let applied: Vec3 = surfels.iter().map(|c| c.force).sum();
+    for forces in [&simd, &scalar] {
+        let total: Vec3 = (0..forces.len()).map(|i| forces.get(i)).sum();
+        let err = (total - applied).length();
+        let scale: f32 = surfels.iter().map(|c| c.force.length()).sum();
+        assert!(
+            err <= 1e-5 * scale,
+            "distributed {total} N, applied {applied} N"
+        );
+    }
+}
