@@ -7,7 +7,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
-use phyxel::implicit::{ImplicitSurface, SortedSurfels, grid_cell};
+use phyxel::implicit::{ImplicitSurface, SurfelRows, grid_cell};
 use phyxel::shape::Shape;
 use std::hint::black_box;
 
@@ -22,10 +22,10 @@ fn implicit_sums(c: &mut Criterion) {
     let normal = Vec3s::from_points(&s.normals);
     let r_max = s.radii.iter().fold(0.0f32, |a, &b| a.max(b));
     let grid = Grid::build(pos.iter(), grid_cell(r_max));
-    let mut sorted = SortedSurfels::default();
-    sorted.rebuild(&grid, &normal, &s.radii);
+    let mut rows = SurfelRows::default();
+    rows.rebuild(&grid, &pos, &normal, &s.radii);
     let reference = ImplicitSurface::new(&pos, &normal, &s.radii, &grid);
-    let surface = reference.with_sorted(&sorted);
+    let surface = reference.with_rows(&rows);
     let golden = 0.618_034f32;
     let points: Vec<Vec3> = (0..4096)
         .map(|i| {

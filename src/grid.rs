@@ -92,6 +92,8 @@ enum Query {
 
 /// Capacity of the per-query hit buffer (a power of two, at least 2 × LANES).
 const HITS: usize = 128;
+/// Most sorted positions in one batch of [`Grid::for_each_hit_batch`].
+pub const HIT_BATCH: usize = HITS;
 
 /// `NIBBLE_LANES[m]`: the set bits of the 4-bit mask `m`, in increasing order (the
 /// entries past its popcount are don't-cares).
@@ -353,10 +355,28 @@ impl Grid {
     /// NaN point. Does not allocate.
     #[inline]
     pub fn for_each_within(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, f32)) {
+        self.for_each_hit_batch(x, r, |batch| {
+            for &j in batch {
+                let j = j as usize;
+                // The same f32 operations as the lane tests, hence the same value.
+                let (dx, dy, dz) = (self.px[j] - x.x, self.py[j] - x.y, self.pz[j] - x.z);
+                f(self.sorted[j] as usize, dx * dx + dy * dy + dz * dz);
+            }
+        });
+    }
+
+    /// The points within `r` of `x` (the set [`Grid::for_each_within`] reports) as
+    /// batches of *sorted positions* (they index [`Grid::sorted`] and
+    /// [`Grid::sorted_points`]), at most [`HIT_BATCH`] per call: kernels that keep their
+    /// own data in the grid's order read it without the indirection. Does not allocate.
+    #[inline]
+    pub fn for_each_hit_batch(&self, x: Vec3, r: f32, mut f: impl FnMut(&[u32])) {
         let (lo, hi, nx, shared, r2) = match self.plan(x, r) {
             Query::Nothing => return,
             Query::Scan { r2 } => {
-                self.scan(x, r2, &mut f);
+                let mut hits = Hits::new();
+                self.run::<false>(0, self.sorted.len() as u32, 0, 0, x, r2, &mut hits, &mut f);
+                self.flush::<false>(&mut hits, 0, 0, &mut f);
                 return;
             }
             Query::Rows {
@@ -377,7 +397,7 @@ impl Grid {
                     }
                 }
             }
-            self.flush::<false>(&mut hits, x, 0, 0, &mut f);
+            self.flush::<false>(&mut hits, 0, 0, &mut f);
         } else {
             // Rows may share buckets: report a point only from the row of its own cell.
             for cz in lo[2]..=hi[2] {
@@ -385,7 +405,7 @@ impl Grid {
                     for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
                         self.run::<true>(s, e, cy, cz, x, r2, &mut hits, &mut f);
                     }
-                    self.flush::<true>(&mut hits, x, cy, cz, &mut f);
+                    self.flush::<true>(&mut hits, cy, cz, &mut f);
                 }
             }
         }
@@ -475,7 +495,7 @@ impl Grid {
         x: Vec3,
         r2: f32,
         hits: &mut Hits,
-        f: &mut impl FnMut(usize, f32),
+        f: &mut impl FnMut(&[u32]),
     ) {
         let (s, e) = (s as usize, e as usize);
         let xs = [x.x, x.y, x.z].map(f32x8::splat);
@@ -484,7 +504,7 @@ impl Grid {
         while k < e {
             let (mask, _) = self.lane_distances(k, e, xs, r2s);
             if hits.len > HITS - LANES {
-                self.flush::<FILTER>(hits, x, cy, cz, f);
+                self.flush::<FILTER>(hits, cy, cz, f);
             }
             hits.push_lanes(k as u32, mask);
             k += LANES;
@@ -497,22 +517,24 @@ impl Grid {
     fn flush<const FILTER: bool>(
         &self,
         hits: &mut Hits,
-        x: Vec3,
         cy: i32,
         cz: i32,
-        f: &mut impl FnMut(usize, f32),
+        f: &mut impl FnMut(&[u32]),
     ) {
-        for &j in &hits.pos[..hits.len] {
-            let j = j as usize;
-            let (qx, qy, qz) = (self.px[j], self.py[j], self.pz[j]);
-            if FILTER
-                && (floor_i32(qy * self.inv_cell) != cy || floor_i32(qz * self.inv_cell) != cz)
-            {
-                continue;
+        let mut n = hits.len;
+        if FILTER {
+            n = 0;
+            for k in 0..hits.len {
+                let j = hits.pos[k];
+                let (qy, qz) = (self.py[j as usize], self.pz[j as usize]);
+                if floor_i32(qy * self.inv_cell) == cy && floor_i32(qz * self.inv_cell) == cz {
+                    hits.pos[n] = j;
+                    n += 1;
+                }
             }
-            // The same f32 operations as the lanes of `run`, hence the same value.
-            let (dx, dy, dz) = (qx - x.x, qy - x.y, qz - x.z);
-            f(self.sorted[j] as usize, dx * dx + dy * dy + dz * dz);
+        }
+        if n > 0 {
+            f(&hits.pos[..n]);
         }
         hits.len = 0;
     }
@@ -597,18 +619,6 @@ impl Grid {
                 f(k, mask, d2);
             }
             k += LANES;
-        }
-    }
-
-    fn scan(&self, x: Vec3, r2: f32, f: &mut impl FnMut(usize, f32)) {
-        for k in 0..self.sorted.len() {
-            let dx = self.px[k] - x.x;
-            let dy = self.py[k] - x.y;
-            let dz = self.pz[k] - x.z;
-            let d2 = dx * dx + dy * dy + dz * dz;
-            if d2 <= r2 {
-                f(self.sorted[k] as usize, d2);
-            }
         }
     }
 

@@ -5,7 +5,7 @@
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
 use crate::broad_phase::Aabb;
-use crate::columns::{LANES, Vec3s, lane_mask, load8};
+use crate::columns::{LANES, Vec3s};
 use crate::grid::{Grid, LazyGrid};
 use glam::Vec3;
 use wide::f32x8;
@@ -23,21 +23,6 @@ thread_local! {
         std::cell::RefCell::new(Vec::new())
     };
 }
-/// Lane-wise partial kernel sums; [`LaneSums::total`] adds the lanes.
-#[derive(Default)]
-struct LaneSums {
-    w: f32x8,
-    s: [f32x8; 3],
-    n: [f32x8; 3],
-}
-
-impl LaneSums {
-    fn total(&self) -> (f32, Vec3, Vec3) {
-        let v = |c: &[f32x8; 3]| Vec3::new(c[0].reduce_add(), c[1].reduce_add(), c[2].reduce_add());
-        (self.w.reduce_add(), v(&self.s), v(&self.n))
-    }
-}
-
 /// `exp(−q)` lane-wise for `q ≥ 0` (lanes beyond ~87 give 0 or garbage that the caller
 /// masks): `n = round(−q log₂e)`, `r = −q − n ln2` with ln2 split in two (Cody–Waite, so
 /// r carries no rounding of the product), `e^r` by a degree-6 Taylor polynomial
@@ -66,28 +51,33 @@ pub fn exp_neg(q: f32x8) -> f32x8 {
     p * scale
 }
 
-/// The surfel columns the SIMD kernel reads, permuted into the grid's sorted order and
-/// padded by `LANES − 1`, so that a lane group of the grid is a contiguous load.
-/// Rebuilt after each grid rebuild (normals move with the surfels); keeps its buffers.
+/// One row per surfel in a grid's sorted order, `[x, y, z, nx, ny, nz, 1, σ]`: the
+/// batched kernel adds `θ · row` to a single `f32x8`, so Σθ, Σθ s and Σθ n take one
+/// multiply-add per hit, and the hits of a query are a few nearby rows.
+/// Rebuilt after each grid rebuild (surfels move); keeps its buffer.
 #[derive(Clone, Debug, Default)]
-pub struct SortedSurfels {
-    radius: Vec<f32>,
-    normal: [Vec<f32>; 3],
+pub struct SurfelRows {
+    rows: Vec<f32x8>,
 }
 
-impl SortedSurfels {
-    /// Permutes `normal` and `radius` into `grid`'s sorted order.
-    pub fn rebuild(&mut self, grid: &Grid, normal: &Vec3s, radius: &[f32]) {
-        let order = grid.sorted();
-        let fill = |out: &mut Vec<f32>, col: &[f32]| {
-            out.clear();
-            out.extend(order.iter().map(|&i| col[i as usize]));
-            out.resize(order.len() + LANES - 1, 0.0);
-        };
-        fill(&mut self.radius, radius);
-        fill(&mut self.normal[0], &normal.x);
-        fill(&mut self.normal[1], &normal.y);
-        fill(&mut self.normal[2], &normal.z);
+impl SurfelRows {
+    /// Rows of `grid`'s points (`pos`, the positions it was built over) in its sorted
+    /// order.
+    pub fn rebuild(&mut self, grid: &Grid, pos: &Vec3s, normal: &Vec3s, radius: &[f32]) {
+        self.rows.clear();
+        self.rows.extend(grid.sorted().iter().map(|&i| {
+            let i = i as usize;
+            f32x8::from([
+                pos.x[i],
+                pos.y[i],
+                pos.z[i],
+                normal.x[i],
+                normal.y[i],
+                normal.z[i],
+                1.0,
+                SIGMA_PER_RADIUS * radius[i],
+            ])
+        }));
     }
 }
 
@@ -107,8 +97,8 @@ pub struct ImplicitSurface<'a> {
     /// their nearest-surfel search short, built only if some point needs it); `grid`
     /// unless set.
     far: Option<&'a LazyGrid>,
-    /// Surfel columns in the grid's sorted order, for the SIMD kernel sums.
-    sorted: Option<&'a SortedSurfels>,
+    /// `grid`'s surfel rows, for the batched SIMD kernel sums.
+    rows: Option<&'a SurfelRows>,
     /// When `grid` indexes only the surfels in a box: see [`Region`].
     region: Option<Region<'a>>,
     /// Largest query radius: the widest kernel's cutoff.
@@ -210,7 +200,7 @@ impl<'a> ImplicitSurface<'a> {
             radius,
             grid,
             far: None,
-            sorted: None,
+            rows: None,
             region: None,
             reach: grid_cell(r_max),
             tolerance: PROJECTION_TOLERANCE * SIGMA_PER_RADIUS * r_min.min(r_max),
@@ -283,10 +273,10 @@ impl<'a> ImplicitSurface<'a> {
         self
     }
 
-    /// Evaluates the kernel sums with the SIMD kernel over `sorted` (rebuilt from this
-    /// surface's normals and radii after its grid's last rebuild).
-    pub fn with_sorted(mut self, sorted: &'a SortedSurfels) -> Self {
-        self.sorted = Some(sorted);
+    /// Evaluates the kernel sums with the batched SIMD kernel over `rows` (rebuilt from
+    /// this surface's surfels after its grid's last rebuild).
+    pub fn with_rows(mut self, rows: &'a SurfelRows) -> Self {
+        self.rows = Some(rows);
         self
     }
 
@@ -310,32 +300,47 @@ impl<'a> ImplicitSurface<'a> {
     }
 
     /// `(Σθ_k, Σθ_k s_k, Σθ_k n_k)` at `x` over the surfels within reach: the kernel
-    /// sums of eq. 1. With [`ImplicitSurface::with_sorted`] they run eight kernels at a
-    /// time over contiguous lanes in the grid's sorted order (`wide`, no gathers);
-    /// otherwise they are the scalar reference.
+    /// sums of eq. 1. With [`ImplicitSurface::with_rows`] (and the query inside the
+    /// grid's region) the grid's hits come in batches of sorted positions: eight
+    /// distances at a time become weights in `f32x8` lanes (`exp_neg`), and each hit adds
+    /// `θ · row` with one lane multiply-add. Otherwise they are the scalar reference.
     pub fn weighted_sums(&self, x: Vec3) -> (f32, Vec3, Vec3) {
-        let Some(sorted) = self.sorted.filter(|_| self.region.is_none()) else {
+        let in_grid = self
+            .region
+            .is_none_or(|g| ball_inside(&g.bounds, x, self.reach));
+        let Some(rows) = self.rows.filter(|_| in_grid) else {
             return self.weighted_sums_scalar(x);
         };
-        let [px, py, pz] = self.grid.sorted_points();
+        let rows = &rows.rows[..];
         let cutoff = f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS);
-        let mut sums = LaneSums::default();
-        self.grid
-            .for_each_lanes_within(x, self.reach, |at, mask, d2| {
-                let sigma = load8(&sorted.radius, at) * f32x8::splat(SIGMA_PER_RADIUS);
-                let q = d2 / (sigma * sigma);
-                // Lanes outside the mask or the cutoff (and NaN from a zero radius) weigh 0.
-                let within = q.simd_lt(cutoff) & lane_mask(mask);
-                let w = within.select(exp_neg(q), f32x8::ZERO);
-                sums.w += w;
-                sums.s[0] += w * load8(px, at);
-                sums.s[1] += w * load8(py, at);
-                sums.s[2] += w * load8(pz, at);
-                sums.n[0] += w * load8(&sorted.normal[0], at);
-                sums.n[1] += w * load8(&sorted.normal[1], at);
-                sums.n[2] += w * load8(&sorted.normal[2], at);
-            });
-        sums.total()
+        let mut sum = f32x8::ZERO;
+        self.grid.for_each_hit_batch(x, self.reach, |batch| {
+            for group in batch.chunks(LANES) {
+                // Padding lanes: infinite distance, so weight 0.
+                let (mut d2, mut sigma) = ([f32::INFINITY; LANES], [1.0f32; LANES]);
+                for (l, &j) in group.iter().enumerate() {
+                    let r = rows[j as usize].as_array();
+                    // The f32 operations of the scalar reference, hence the same q.
+                    let (dx, dy, dz) = (r[0] - x.x, r[1] - x.y, r[2] - x.z);
+                    d2[l] = dx * dx + dy * dy + dz * dz;
+                    sigma[l] = r[7];
+                }
+                let sigma = f32x8::from(sigma);
+                let q = f32x8::from(d2) / (sigma * sigma);
+                // Beyond the cutoff (and NaN from a zero radius) weigh 0.
+                let w = q.simd_lt(cutoff).select(exp_neg(q), f32x8::ZERO);
+                let w = w.as_array();
+                for (l, &j) in group.iter().enumerate() {
+                    sum += f32x8::splat(w[l]) * rows[j as usize];
+                }
+            }
+        });
+        let t = sum.as_array();
+        (
+            t[6],
+            Vec3::new(t[0], t[1], t[2]),
+            Vec3::new(t[3], t[4], t[5]),
+        )
     }
 
     /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches).

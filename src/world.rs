@@ -7,7 +7,7 @@ use crate::contact::{
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::{Grid, LazyGrid};
-use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, grid_cell, radius_range};
+use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, SurfelRows, grid_cell, radius_range};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use crate::topology::{self, Components, SplitEvent};
@@ -93,7 +93,8 @@ impl SurfaceView<'_> {
         let (r_min, r_max) = sg.radius_range;
         let surface =
             ImplicitSurface::with_radius_range(&s.pos, &s.normal, &s.radius, grid, r_min, r_max)
-                .with_far_grid(&sg.far);
+                .with_far_grid(&sg.far)
+                .with_rows(&sg.rows);
         match sg.region {
             Some(region) => surface.with_region(region, &sg.all, &sg.far_region),
             None => surface,
@@ -125,6 +126,8 @@ struct SurfaceGrids {
     far_region: Grid,
     /// Smallest and largest surfel disk radius at the last rebuild.
     radius_range: (f32, f32),
+    /// The kernel grid's surfel rows (the batched SIMD kernel sums).
+    rows: SurfelRows,
 }
 
 /// Support of the contact-force distribution kernel in influence radii. The paper uses
@@ -399,6 +402,7 @@ impl World {
                 let SurfaceGrids {
                     members,
                     far_region,
+                    rows,
                     ..
                 } = sg;
                 // Rebuilt in place: the grids keep their buffers between steps.
@@ -415,6 +419,8 @@ impl World {
                                 FAR_GRID_FACTOR * cell,
                             );
                         }
+                        let s = &o.surfels;
+                        rows.rebuild(g, &s.pos, &s.normal, &s.radius);
                     },
                     || {
                         pg.get_or_insert_default()

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
-use phyxel::implicit::{ImplicitSurface, SortedSurfels, exp_neg, grid_cell};
+use phyxel::implicit::{ImplicitSurface, SurfelRows, exp_neg, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::shape::Shape;
 use phyxel::timing::Phase;
@@ -351,18 +351,23 @@ fn disjoint_objects_cost_no_narrow_phase() {
     assert_eq!(world.max_penetration, 0.0);
 }
 
-/// The SIMD kernel sums of the implicit surface (eight kernels per lane pass over the
-/// grid's sorted order, lane-wise `exp`) against the scalar reference, at 2000 points within ±1.5 spacings of a
-/// sampled sphere (R = 0.1 m, spacing 3.5 mm). Tolerance: relative 1e-5 of Σθ and of
+/// The SIMD kernel sums of the implicit surface (the grid's hits in batches, eight
+/// weights per lane-wise `exp`, one row multiply-add per hit) against the scalar
+/// reference, at 2000 points within ±1.5 spacings of a sampled sphere (R = 0.1 m, spacing 3.5 mm). Tolerance: relative 1e-5 of Σθ and of
 /// |Σθ s|, |Σθ n| (f32 summation order and `exp` rounding differ, nothing else).
 #[test]
 fn simd_kernel_sums_match_scalar_reference() {
     let r = 0.1;
     let spacing = 0.0035;
     let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);
-    let mut sorted = SortedSurfels::default();
-    sorted.rebuild(&sampled.grid, &sampled.normal, &sampled.radius);
-    let surface = sampled.surface().with_sorted(&sorted);
+    let mut rows = SurfelRows::default();
+    rows.rebuild(
+        &sampled.grid,
+        &sampled.pos,
+        &sampled.normal,
+        &sampled.radius,
+    );
+    let surface = sampled.surface().with_rows(&rows);
     let reference = sampled.surface();
     let mut rng = Rng(7);
     let mut compared = 0;
