@@ -6,7 +6,7 @@ use crate::brent::brent;
 use crate::columns::{LANES, lane_mask, load8, store8};
 use crate::detect::{Colliding, PairDetection};
 use crate::grid::Grid;
-use crate::implicit::{ImplicitSurface, SurfaceSample};
+use crate::implicit::{ImplicitSurface, NearHits, SurfaceSample};
 use crate::kernel::poly6_shape;
 use crate::mls::sym_eigen;
 use crate::phyxels::Phyxels;
@@ -133,6 +133,9 @@ struct SegmentField<'a, 'b> {
     /// The colliding surfel, whose detection sampled the other surface at the start and
     /// at the projection.
     colliding: &'a Colliding,
+    /// Each side's last kernel query, for Brent's next evaluation close by.
+    kept_a: NearHits,
+    kept_b: NearHits,
 }
 
 impl SegmentField<'_, '_> {
@@ -149,23 +152,45 @@ impl SegmentField<'_, '_> {
         }
     }
 
-    /// `sample_near` of one side at `x`, reusing the start's.
-    fn near(&self, surface: &ImplicitSurface<'_>, own: bool, x: Vec3) -> Option<SurfaceSample> {
-        match (own, x == self.start, x == self.colliding.projection) {
-            (true, true, _) => self.start_own,
-            (false, true, _) => self.colliding.near_surfel,
-            (false, false, true) => self.colliding.near_projection,
-            _ => surface.sample_near(x),
+    /// `sample_near` of one side at `x`, reusing the start's and detection's samples
+    /// and the side's last query.
+    fn near(
+        surface: &ImplicitSurface<'_>,
+        kept: &mut NearHits,
+        given: [Option<Option<SurfaceSample>>; 2],
+        at: [bool; 2],
+        x: Vec3,
+    ) -> Option<SurfaceSample> {
+        match (at, given) {
+            ([true, _], [Some(start), _]) => start,
+            ([false, true], [_, Some(end)]) => end,
+            _ => surface.sample_near_kept(x, kept),
         }
     }
 
-    fn f_a(&self, x: Vec3) -> Side {
-        let near = self.near(&self.s.a, self.from_a, x);
+    /// The `sample_near` this side already has at the segment's start and end, if any.
+    fn given(&self, own: bool) -> [Option<Option<SurfaceSample>>; 2] {
+        if own {
+            [Some(self.start_own), None]
+        } else {
+            [
+                Some(self.colliding.near_surfel),
+                Some(self.colliding.near_projection),
+            ]
+        }
+    }
+
+    fn f_a(&mut self, x: Vec3) -> Side {
+        let at = [x == self.start, x == self.colliding.projection];
+        let given = self.given(self.from_a);
+        let near = Self::near(&self.s.a, &mut self.kept_a, given, at, x);
         Self::side(self.anchor_a, near, x)
     }
 
-    fn f_b(&self, x: Vec3) -> Side {
-        let near = self.near(&self.s.b, !self.from_a, x);
+    fn f_b(&mut self, x: Vec3) -> Side {
+        let at = [x == self.start, x == self.colliding.projection];
+        let given = self.given(!self.from_a);
+        let near = Self::near(&self.s.b, &mut self.kept_b, given, at, x);
         Self::side(self.anchor_b, near, x)
     }
 }
@@ -197,7 +222,7 @@ pub fn contact_surface(
         } else {
             ((c.projection, c.normal), (start, own_normal))
         };
-        let field = SegmentField {
+        let mut field = SegmentField {
             s,
             anchor_a,
             anchor_b,
@@ -205,6 +230,8 @@ pub fn contact_surface(
             start_own,
             from_a,
             colliding: c,
+            kept_a: NearHits::default(),
+            kept_b: NearHits::default(),
         };
         let seg = c.projection - start;
         let len = seg.length();

@@ -81,6 +81,67 @@ impl SurfelRows {
     }
 }
 
+/// Adds `θ_k · row_k` to `sum` for the sorted positions in `batch`: eight distances at
+/// a time become weights in lanes, then one lane multiply-add per hit.
+#[inline(always)]
+fn add_kernels(rows: &[f32x8], x: Vec3, batch: &[u32], sum: &mut f32x8) {
+    let cutoff = f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS);
+    for group in batch.chunks(LANES) {
+        // Padding lanes: infinite distance, so weight 0.
+        let (mut d2, mut sigma) = ([f32::INFINITY; LANES], [1.0f32; LANES]);
+        for (l, &j) in group.iter().enumerate() {
+            let r = rows[j as usize].as_array();
+            // The f32 operations of the scalar reference, hence the same q.
+            let (dx, dy, dz) = (r[0] - x.x, r[1] - x.y, r[2] - x.z);
+            d2[l] = dx * dx + dy * dy + dz * dz;
+            sigma[l] = r[7];
+        }
+        let sigma = f32x8::from(sigma);
+        let q = f32x8::from(d2) / (sigma * sigma);
+        // Beyond the cutoff (and NaN from a zero radius) weigh 0.
+        let w = q.simd_lt(cutoff).select(exp_neg(q), f32x8::ZERO);
+        let w = w.as_array();
+        for (l, &j) in group.iter().enumerate() {
+            *sum += f32x8::splat(w[l]) * rows[j as usize];
+        }
+    }
+}
+
+/// `(Σθ, Σθ s, Σθ n)` from the lanes of a row sum.
+fn lane_totals(sum: f32x8) -> (f32, Vec3, Vec3) {
+    let t = sum.as_array();
+    (
+        t[6],
+        Vec3::new(t[0], t[1], t[2]),
+        Vec3::new(t[3], t[4], t[5]),
+    )
+}
+
+/// Most hits [`NearHits`] keeps (a kernel query finds about 12 at the paper's sampling).
+pub const NEAR_HITS: usize = 96;
+/// How far from a kept query's centre its hits still serve, in kernel reaches.
+pub const NEAR_HITS_SLACK: f32 = 0.02;
+
+/// The hits (sorted grid positions) of the last query of
+/// [`ImplicitSurface::sample_near_kept`], for samples close to it.
+#[derive(Clone, Copy, Debug)]
+pub struct NearHits {
+    centre: Vec3,
+    /// Number kept; above [`NEAR_HITS`] when none are (none yet, or too many).
+    len: usize,
+    pos: [u32; NEAR_HITS],
+}
+
+impl Default for NearHits {
+    fn default() -> Self {
+        Self {
+            centre: Vec3::ZERO,
+            len: usize::MAX,
+            pos: [0; NEAR_HITS],
+        }
+    }
+}
+
 /// Iteration limit of the orthogonal projection.
 pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
 /// Convergence tolerance of the projection, in units of the smallest σ.
@@ -311,36 +372,47 @@ impl<'a> ImplicitSurface<'a> {
         let Some(rows) = self.rows.filter(|_| in_grid) else {
             return self.weighted_sums_scalar(x);
         };
-        let rows = &rows.rows[..];
-        let cutoff = f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS);
         let mut sum = f32x8::ZERO;
         self.grid.for_each_hit_batch(x, self.reach, |batch| {
-            for group in batch.chunks(LANES) {
-                // Padding lanes: infinite distance, so weight 0.
-                let (mut d2, mut sigma) = ([f32::INFINITY; LANES], [1.0f32; LANES]);
-                for (l, &j) in group.iter().enumerate() {
-                    let r = rows[j as usize].as_array();
-                    // The f32 operations of the scalar reference, hence the same q.
-                    let (dx, dy, dz) = (r[0] - x.x, r[1] - x.y, r[2] - x.z);
-                    d2[l] = dx * dx + dy * dy + dz * dz;
-                    sigma[l] = r[7];
-                }
-                let sigma = f32x8::from(sigma);
-                let q = f32x8::from(d2) / (sigma * sigma);
-                // Beyond the cutoff (and NaN from a zero radius) weigh 0.
-                let w = q.simd_lt(cutoff).select(exp_neg(q), f32x8::ZERO);
-                let w = w.as_array();
-                for (l, &j) in group.iter().enumerate() {
-                    sum += f32x8::splat(w[l]) * rows[j as usize];
-                }
-            }
+            add_kernels(&rows.rows, x, batch, &mut sum);
         });
-        let t = sum.as_array();
-        (
-            t[6],
-            Vec3::new(t[0], t[1], t[2]),
-            Vec3::new(t[3], t[4], t[5]),
-        )
+        lane_totals(sum)
+    }
+
+    /// [`ImplicitSurface::sample_near`] that keeps the query's hits in `hits` for the
+    /// next samples: one within [`NEAR_HITS_SLACK`] reaches of the last query's centre
+    /// reads the kept hits instead of the grid (a root search's last evaluations lie
+    /// within its tolerance of each other). Same weights and sums as `sample_near` up to
+    /// summation order (`tests/detect.rs`).
+    pub fn sample_near_kept(&self, x: Vec3, hits: &mut NearHits) -> Option<SurfaceSample> {
+        let slack = NEAR_HITS_SLACK * self.reach;
+        let wide = self.reach + slack;
+        let in_grid = self.region.is_none_or(|g| ball_inside(&g.bounds, x, wide));
+        let Some(rows) = self.rows.filter(|_| in_grid) else {
+            return self.sample_near(x);
+        };
+        let mut sum = f32x8::ZERO;
+        if hits.len <= NEAR_HITS && (x - hits.centre).length_squared() <= slack * slack {
+            add_kernels(&rows.rows, x, &hits.pos[..hits.len], &mut sum);
+        } else {
+            // Hits between `reach` and `wide` weigh 0 here (beyond every cutoff).
+            let (mut len, mut fits) = (0, true);
+            self.grid.for_each_hit_batch(x, wide, |batch| {
+                add_kernels(&rows.rows, x, batch, &mut sum);
+                fits &= len + batch.len() <= NEAR_HITS;
+                if fits {
+                    hits.pos[len..len + batch.len()].copy_from_slice(batch);
+                    len += batch.len();
+                }
+            });
+            hits.centre = x;
+            hits.len = if fits { len } else { usize::MAX };
+        }
+        let (w_sum, ws, wn) = lane_totals(sum);
+        if w_sum <= 1.0e-30 {
+            return None;
+        }
+        finish(x, w_sum, ws, wn)
     }
 
     /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches).

@@ -392,6 +392,53 @@ fn simd_kernel_sums_match_scalar_reference() {
     assert!(compared > 1500, "too few points within reach: {compared}");
 }
 
+/// Samples from kept hits (`ImplicitSurface::sample_near_kept`, as Brent's evaluations
+/// take them) against fresh `sample_near` queries, on the sphere of the test above: at
+/// 2000 random points, each followed by points 0.2, 1 and 1.9% of a kernel reach away
+/// (within `NEAR_HITS_SLACK` = 2%: read from the kept hits) and one 5% away (a fresh
+/// query). Tolerance: `f` within 1e-6 m and normals within 1e-5 (summation order only),
+/// and `None` exactly where `sample_near` gives `None`.
+#[test]
+fn kept_hits_sample_like_fresh_queries() {
+    use phyxel::implicit::NearHits;
+    let r = 0.1;
+    let spacing = 0.0035;
+    let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);
+    let mut rows = SurfelRows::default();
+    rows.rebuild(
+        &sampled.grid,
+        &sampled.pos,
+        &sampled.normal,
+        &sampled.radius,
+    );
+    let surface = sampled.surface().with_rows(&rows);
+    let reach = surface.reach();
+    let mut rng = Rng(11);
+    let mut kept = NearHits::default();
+    let mut compared = 0;
+    for _ in 0..2000 {
+        let x0 = rng.dir() * (r + 2.0 * spacing * rng.next());
+        let step = rng.dir();
+        for frac in [0.0, 0.002, 0.01, 0.019, 0.05] {
+            let x = x0 + frac * reach * step;
+            let (got, want) = (
+                surface.sample_near_kept(x, &mut kept),
+                surface.sample_near(x),
+            );
+            match (got, want) {
+                (Some(g), Some(w)) => {
+                    assert!((g.f - w.f).abs() <= 1e-6, "f {} vs {} at {x}", g.f, w.f);
+                    assert!((g.normal - w.normal).length() <= 1e-5, "normal at {x}");
+                    compared += 1;
+                }
+                (None, None) => {}
+                _ => panic!("kept {got:?} vs fresh {want:?} at {x}"),
+            }
+        }
+    }
+    assert!(compared > 5000, "too few points within reach: {compared}");
+}
+
 /// `exp_neg` (lane-wise `e^{−q}` from adds, multiplies and exponent bits) against
 /// `f32::exp` on 0 ≤ q ≤ 80 (the kernel needs q < 6.25). Tolerance: relative 5e-7
 /// (the polynomial's 2e-7 plus f32 rounding).
