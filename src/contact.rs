@@ -527,11 +527,15 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScr
     density.clear();
     density.resize(surfels.len(), 0.0);
     let grid = &*grid;
+    let hh2 = f32x8::splat(hh * hh);
+    // Eight neighbours at a time over the grid's lane groups (lanes off the mask weigh 0).
     density.par_iter_mut().enumerate().for_each(|(i, rho)| {
-        grid.for_each_within(surfels[i].pos, hh, |_, d2| {
-            let q = hh * hh - d2;
-            *rho += norm * q * q * q;
+        let mut sum = f32x8::ZERO;
+        grid.for_each_lanes_within(surfels[i].pos, hh, |_, mask, d2| {
+            let q = hh2 - d2;
+            sum += lane_mask(mask).select(q * q * q, f32x8::ZERO);
         });
+        *rho = norm * sum.reduce_add();
     });
     for (c, &rho) in surfels.iter_mut().zip(density.iter()) {
         c.area = 1.0 / rho;

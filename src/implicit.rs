@@ -476,9 +476,11 @@ impl<'a> ImplicitSurface<'a> {
         let mut s = self.sample_given(x, near)?;
         let mut iterations = 0;
         let mut converged = s.f.abs() < self.tolerance;
+        // The last steps are short: their samples read the previous query's hits.
+        let mut kept = NearHits::default();
         while !converged && iterations < MAX_PROJECTION_ITERATIONS {
             p -= s.f * s.normal;
-            near = self.sample_near(p);
+            near = self.sample_near_kept(p, &mut kept);
             s = self.sample_given(p, near)?;
             iterations += 1;
             converged = s.f.abs() < self.tolerance;
