@@ -629,7 +629,9 @@ impl Grid {
         if self.sorted.is_empty() || !x.is_finite() {
             return None;
         }
-        let mut r = self.cell;
+        // A third of a cell first: that box spans 1–2 cells per axis instead of 3, and
+        // a point on a sampled surface has its nearest sample within it.
+        let mut r = self.cell / 3.0;
         loop {
             let mut best: Option<(usize, f32)> = None;
             self.for_each_within(x, r, |i, d2| {
