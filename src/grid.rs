@@ -710,4 +710,14 @@ impl LazyGrid {
             g
         })
     }
+
+    /// [`LazyGrid::get`] over the points `subset` of `pos` ([`Grid::rebuild_subset`]).
+    pub fn get_subset(&self, pos: &Vec3s, subset: &[u32], cell: f32) -> &Grid {
+        self.built.get_or_init(|| {
+            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
+            let mut g = std::mem::take(&mut *spare);
+            g.rebuild_subset(pos, subset, cell);
+            g
+        })
+    }
 }

@@ -174,8 +174,10 @@ struct Region<'a> {
     bounds: Aabb,
     /// Kernel grid of every surfel (built on first use).
     all: &'a LazyGrid,
-    /// Coarse far-field grid of the surfels in `bounds`.
-    far: &'a Grid,
+    /// Coarse far-field grid of the surfels in `bounds` (built on first use).
+    far: &'a LazyGrid,
+    /// The surfels in `bounds`, which `grid` indexes.
+    members: &'a [u32],
 }
 
 /// Is the ball of radius `r` around `x` inside `b`?
@@ -268,16 +270,24 @@ impl<'a> ImplicitSurface<'a> {
         }
     }
 
-    /// `grid` indexes only the surfels inside `region` ([`Grid::rebuild_subset`]), and
-    /// `far` is the coarse far-field grid ([`FAR_GRID_FACTOR`] cells) of the same ones;
-    /// queries whose ball leaves the box use `all`, a kernel grid of every surfel built
-    /// on first use, or the far grid of [`ImplicitSurface::with_far_grid`]. Results are
-    /// those of grids of every surfel.
-    pub fn with_region(mut self, region: Aabb, all: &'a LazyGrid, far: &'a Grid) -> Self {
+    /// `grid` indexes only the surfels `members`, those inside `region`
+    /// ([`Grid::rebuild_subset`]), and `far` is the coarse far-field grid
+    /// ([`FAR_GRID_FACTOR`] cells) of the same ones, built on first use; queries whose
+    /// ball leaves the box use `all`, a kernel grid of every surfel built on first use,
+    /// or the far grid of [`ImplicitSurface::with_far_grid`]. Results are those of grids
+    /// of every surfel.
+    pub fn with_region(
+        mut self,
+        region: Aabb,
+        members: &'a [u32],
+        all: &'a LazyGrid,
+        far: &'a LazyGrid,
+    ) -> Self {
         self.region = Some(Region {
             bounds: region,
             all,
             far,
+            members,
         });
         self
     }
@@ -298,7 +308,10 @@ impl<'a> ImplicitSurface<'a> {
     /// grid of all surfels.
     fn far_neighbours(&self, x: Vec3, near: &mut Vec<(usize, f32)>) {
         if let Some(g) = self.region {
-            g.far.k_nearest(x, FAR_NEIGHBOURS, near);
+            let far = g
+                .far
+                .get_subset(self.pos, g.members, FAR_GRID_FACTOR * self.grid.cell());
+            far.k_nearest(x, FAR_NEIGHBOURS, near);
             let inside = near.len() == FAR_NEIGHBOURS
                 && near
                     .last()

@@ -7,7 +7,7 @@ use crate::contact::{
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::StepContext;
 use crate::grid::{Grid, LazyGrid};
-use crate::implicit::{FAR_GRID_FACTOR, ImplicitSurface, SurfelRows, grid_cell, radius_range};
+use crate::implicit::{ImplicitSurface, SurfelRows, grid_cell, radius_range};
 use crate::object::Object;
 use crate::timing::{Phase, PhaseTimes};
 use crate::topology::{self, Components, SplitEvent};
@@ -96,7 +96,7 @@ impl SurfaceView<'_> {
                 .with_far_grid(&sg.far)
                 .with_rows(&sg.rows);
         match sg.region {
-            Some(region) => surface.with_region(region, &sg.all, &sg.far_region),
+            Some(region) => surface.with_region(region, &sg.members, &sg.all, &sg.far_region),
             None => surface,
         }
     }
@@ -122,8 +122,9 @@ struct SurfaceGrids {
     region: Option<Aabb>,
     /// The surfels in `region` (scratch of the rebuild).
     members: Vec<u32>,
-    /// Coarse far-field grid of the surfels in `region` (when there is one).
-    far_region: Grid,
+    /// Coarse far-field grid of the surfels in `region` (when there is one), built on
+    /// first use in a step.
+    far_region: LazyGrid,
     /// Smallest and largest surfel disk radius at the last rebuild.
     radius_range: (f32, f32),
     /// The kernel grid's surfel rows (the batched SIMD kernel sums).
@@ -386,6 +387,7 @@ impl World {
                 let phyxel_cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
                 sg.far.reset();
                 sg.all.reset();
+                sg.far_region.reset();
                 // A moving object's kernel grid covers the surfels near its contacts
                 // only, unless that is most of them (static objects: built once, whole).
                 let margin = GRID_REGION_MARGIN * cell;
@@ -399,12 +401,7 @@ impl World {
                 }
                 let whole = o.is_static() || 2 * sg.members.len() > o.surfels.len();
                 sg.region = (!whole).then_some(region);
-                let SurfaceGrids {
-                    members,
-                    far_region,
-                    rows,
-                    ..
-                } = sg;
+                let SurfaceGrids { members, rows, .. } = sg;
                 // Rebuilt in place: the grids keep their buffers between steps.
                 rayon::join(
                     || {
@@ -413,11 +410,6 @@ impl World {
                             g.rebuild(o.surfels.pos.iter(), cell)
                         } else {
                             g.rebuild_subset(&o.surfels.pos, members, cell);
-                            far_region.rebuild_subset(
-                                &o.surfels.pos,
-                                members,
-                                FAR_GRID_FACTOR * cell,
-                            );
                         }
                         let s = &o.surfels;
                         rows.rebuild(g, &s.pos, &s.normal, &s.radius);

@@ -207,8 +207,8 @@ fn early_outside_agrees_with_the_inside_test() {
     }
 }
 
-/// A kernel grid and a far-field grid over only the surfels in a box
-/// (`Grid::rebuild_subset`, `ImplicitSurface::with_region`) give the results of grids
+/// A kernel grid (with its rows, as the step uses it) and a far-field grid over only
+/// the surfels in a box (`Grid::rebuild_subset`, `ImplicitSurface::with_region`) give the results of grids
 /// over every surfel: samples (far-field ones included), projections and nearest
 /// surfels at points in the box, on its boundary and far outside it (where the queries
 /// fall back to the grids of all surfels). Reference:
@@ -227,11 +227,14 @@ fn region_grid_matches_the_whole_surface() {
     assert!(members.len() < sphere.radius.len() / 5);
     let mut grid = Grid::default();
     grid.rebuild_subset(&sphere.pos, &members, sphere.grid.cell());
-    let mut far = Grid::default();
-    far.rebuild_subset(&sphere.pos, &members, 8.0 * sphere.grid.cell());
+    let far = phyxel::grid::LazyGrid::default();
     let all = phyxel::grid::LazyGrid::default();
+    // As the step builds it: the batched kernel over the region grid's rows.
+    let mut rows = SurfelRows::default();
+    rows.rebuild(&grid, &sphere.pos, &sphere.normal, &sphere.radius);
     let part = ImplicitSurface::new(&sphere.pos, &sphere.normal, &sphere.radius, &grid)
-        .with_region(region, &all, &far);
+        .with_region(region, &members, &all, &far)
+        .with_rows(&rows);
     let mut rng = Rng(5);
     for k in 0..3000 {
         // Two thirds near the box (inside, on and across its faces), a third anywhere.
