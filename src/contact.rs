@@ -593,9 +593,10 @@ pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchSc
 /// object a, −1 for b. The forces act at the next step.
 ///
 /// Eight phyxels at a time over the grid's sorted lanes (`Grid::for_each_lanes_within`):
-/// one pass sums a surfel's weights, a second adds its share to force columns kept in
-/// the grid's order, so the adds are contiguous lane stores instead of scattered writes;
-/// the columns go to the phyxels once at the end. [`distribute_reference`] is the scalar
+/// one query per surfel gives its lane groups and their weights, whose sum normalises;
+/// the surfel's share then goes to force columns kept in the grid's order, so the adds
+/// are contiguous lane stores instead of scattered writes; the columns go to the
+/// phyxels once at the end. [`distribute_reference`] is the scalar
 /// version (tests and benches).
 pub fn distribute(
     surfels: &[ContactSurfel],

@@ -36,6 +36,13 @@ impl Sampled {
     fn surface(&self) -> ImplicitSurface<'_> {
         ImplicitSurface::new(&self.pos, &self.normal, &self.radius, &self.grid)
     }
+
+    /// The grid's surfel rows, for the batched kernel (`with_rows`).
+    fn rows(&self) -> SurfelRows {
+        let mut rows = SurfelRows::default();
+        rows.rebuild(&self.grid, &self.pos, &self.normal, &self.radius);
+        rows
+    }
 }
 
 /// Deterministic points: xorshift in [-1, 1).
@@ -363,13 +370,7 @@ fn simd_kernel_sums_match_scalar_reference() {
     let r = 0.1;
     let spacing = 0.0035;
     let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);
-    let mut rows = SurfelRows::default();
-    rows.rebuild(
-        &sampled.grid,
-        &sampled.pos,
-        &sampled.normal,
-        &sampled.radius,
-    );
+    let rows = sampled.rows();
     let surface = sampled.surface().with_rows(&rows);
     let reference = sampled.surface();
     let mut rng = Rng(7);
@@ -407,13 +408,7 @@ fn kept_hits_sample_like_fresh_queries() {
     let r = 0.1;
     let spacing = 0.0035;
     let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);
-    let mut rows = SurfelRows::default();
-    rows.rebuild(
-        &sampled.grid,
-        &sampled.pos,
-        &sampled.normal,
-        &sampled.radius,
-    );
+    let rows = sampled.rows();
     let surface = sampled.surface().with_rows(&rows);
     let reach = surface.reach();
     let mut rng = Rng(11);
