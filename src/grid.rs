@@ -623,8 +623,8 @@ impl Grid {
     }
 
     /// The nearest indexed point to `x` and its squared distance, without allocating:
-    /// the search radius doubles from one cell until a point lies within it (every point
-    /// within r is found, so the nearest of them is final).
+    /// the search radius doubles from a third of a cell until a point lies within it
+    /// (every point within r is found, so the nearest of them is final).
     pub fn nearest(&self, x: Vec3) -> Option<(usize, f32)> {
         if self.sorted.is_empty() || !x.is_finite() {
             return None;
