@@ -152,45 +152,31 @@ impl SegmentField<'_, '_> {
         }
     }
 
-    /// `sample_near` of one side at `x`, reusing the start's and detection's samples
-    /// and the side's last query.
-    fn near(
-        surface: &ImplicitSurface<'_>,
-        kept: &mut NearHits,
-        given: [Option<Option<SurfaceSample>>; 2],
-        at: [bool; 2],
-        x: Vec3,
-    ) -> Option<SurfaceSample> {
-        match (at, given) {
-            ([true, _], [Some(start), _]) => start,
-            ([false, true], [_, Some(end)]) => end,
+    /// `sample_near` of surface a (`on_a`) or b at `x`, reusing the start's and
+    /// detection's samples and that side's last query.
+    fn near(&mut self, on_a: bool, x: Vec3) -> Option<SurfaceSample> {
+        let s = self.s;
+        let (surface, kept) = if on_a {
+            (&s.a, &mut self.kept_a)
+        } else {
+            (&s.b, &mut self.kept_b)
+        };
+        let own = on_a == self.from_a;
+        match (own, x == self.start, x == self.colliding.projection) {
+            (true, true, _) => self.start_own,
+            (false, true, _) => self.colliding.near_surfel,
+            (false, false, true) => self.colliding.near_projection,
             _ => surface.sample_near_kept(x, kept),
         }
     }
 
-    /// The `sample_near` this side already has at the segment's start and end, if any.
-    fn given(&self, own: bool) -> [Option<Option<SurfaceSample>>; 2] {
-        if own {
-            [Some(self.start_own), None]
-        } else {
-            [
-                Some(self.colliding.near_surfel),
-                Some(self.colliding.near_projection),
-            ]
-        }
-    }
-
     fn f_a(&mut self, x: Vec3) -> Side {
-        let at = [x == self.start, x == self.colliding.projection];
-        let given = self.given(self.from_a);
-        let near = Self::near(&self.s.a, &mut self.kept_a, given, at, x);
+        let near = self.near(true, x);
         Self::side(self.anchor_a, near, x)
     }
 
     fn f_b(&mut self, x: Vec3) -> Side {
-        let at = [x == self.start, x == self.colliding.projection];
-        let given = self.given(!self.from_a);
-        let near = Self::near(&self.s.b, &mut self.kept_b, given, at, x);
+        let near = self.near(false, x);
         Self::side(self.anchor_b, near, x)
     }
 }
