@@ -21,6 +21,9 @@ use phyxel::mls::{MlsStencil, cofactor};
 use phyxel::phyxels::Phyxels;
 use rayon::prelude::*;
 
+mod lanes;
+use lanes::{LaneInputs, LaneLaw, LaneOutputs, LaneStencil};
+
 /// Power iterations for the largest stencil frequency (converges to within a few
 /// percent from below; the stable step keeps a margin for that).
 const POWER_ITERATIONS: usize = 60;
@@ -39,9 +42,15 @@ pub struct MlsDynamics {
     /// `incoming[in_off[j]..in_off[j + 1]]`: (phyxel i, stencil entry k) with j = neighbours[k].
     in_off: Vec<u32>,
     incoming: Vec<(u32, u32)>,
+    /// The stencil in lane layout for the SIMD kernel.
+    lanes: LaneStencil,
+    /// `P` per phyxel for the lane kernel's force pass (kept between steps).
+    stress_rows: Vec<lanes::StressRow>,
+    /// `[u, v, 0, 0]` per phyxel for the lane kernel's gathers.
+    state: Vec<[f32; 8]>,
     /// Displacement gradient per phyxel (column b = ∂u/∂x_b).
     grad: Vec<Mat3>,
-    /// `P_i` per phyxel (N per unit `d`).
+    /// `P_i` per phyxel (N per unit `d`), for the scalar reference.
     stress_force: Vec<Mat3>,
     internal: Vec3s,
     /// Per-phyxel gather output, kept between steps (no allocation in the step).
@@ -71,12 +80,16 @@ impl MlsDynamics {
         let n = phyxels.len();
         let stencil = fracture_stencil(phyxels, material);
         let (in_off, incoming) = incoming_of(&stencil);
+        let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
         Self {
+            stress_rows: vec![[0.0; 16]; lanes.padded()],
+            state: Vec::new(),
+            lanes,
             stencil,
             in_off,
             incoming,
             grad: vec![Mat3::ZERO; n],
-            stress_force: vec![Mat3::ZERO; n],
+            stress_force: Vec::new(),
             internal: Vec3s::zeros(n),
             gathered: vec![Vec3::ZERO; n],
             disp: vec![Vec3::ZERO; n],
@@ -194,17 +207,56 @@ impl MlsDynamics {
         &self.plastic
     }
 
-    /// Internal elastic forces of the current state, in `self.internal` (N).
-    /// `dt` only matters for plastic flow.
+    /// Internal elastic forces of the current state, in `self.internal` (N), by the lane
+    /// kernel (eight phyxels per `f32x8`, see `lanes`). `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
-        let st = &self.stencil;
-        let n = st.len();
+        let law = Law::new(material, dt, self.tau(material));
+        let n = self.stencil.len();
+        self.state.resize(self.lanes.padded(), [0.0; 8]);
+        let viscous = law.tau > 0.0;
+        self.state[..n].par_iter_mut().enumerate().for_each(|(i, s)| {
+            let u = phyxels.pos.get(i) - phyxels.rest.get(i);
+            let v = if viscous {
+                phyxels.vel.get(i)
+            } else {
+                Vec3::ZERO
+            };
+            *s = [u.x, u.y, u.z, v.x, v.y, v.z, 0.0, 0.0];
+        });
+        let input = LaneInputs {
+            law: LaneLaw {
+                lambda: law.lambda,
+                mu: law.mu,
+                kv: law.kv,
+                tau: law.tau,
+                paper: law.paper,
+                plastic_yield: law.plastic_yield,
+                plastic_creep_dt: law.plastic_creep_dt,
+                plastic_max: law.plastic_max,
+            },
+            state: &self.state,
+            volume: &phyxels.volume,
+        };
+        let out = LaneOutputs {
+            grad: &mut self.grad,
+            plastic: &mut self.plastic,
+            stress: &mut self.stress_rows,
+        };
+        self.max_strain = lanes::stress_pass(&self.lanes, &input, out);
+        self.after_plastic_flow(material);
+        let f = &mut self.internal;
+        lanes::force_pass(&self.lanes, &self.stress_rows, &mut f.x, &mut f.y, &mut f.z);
+    }
+
+    /// Displacement (and, with viscosity, velocity) packed per phyxel for the stencil
+    /// gathers; returns the law of this step.
+    fn pack_state(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) -> Law {
+        let n = self.stencil.len();
         self.disp.resize(n, Vec3::ZERO);
         self.disp
             .par_iter_mut()
             .enumerate()
             .for_each(|(i, u)| *u = phyxels.pos.get(i) - phyxels.rest.get(i));
-        st.gradients(&self.disp, &mut self.grad);
         let law = Law::new(material, dt, self.tau(material));
         if law.tau > 0.0 {
             self.vel.resize(n, Vec3::ZERO);
@@ -213,6 +265,32 @@ impl MlsDynamics {
                 .enumerate()
                 .for_each(|(i, v)| *v = phyxels.vel.get(i));
         }
+        law
+    }
+
+    /// With `fracture`, asks for a new rest configuration once plastic flow reaches
+    /// the cap.
+    fn after_plastic_flow(&mut self, material: &Material) {
+        if !self.plastic.is_empty() && material.fracture {
+            self.max_plastic = self
+                .plastic
+                .par_iter()
+                .map(|&ep| frobenius(ep))
+                .reduce(|| 0.0, f32::max);
+            // Flow has reached the cap: renew the rest state so that it can go on.
+            self.new_rest = self.max_plastic >= RENEW_FRACTION * material.plastic_max;
+        }
+    }
+
+    /// The scalar reference of [`MlsDynamics::compute_forces`]: per phyxel, glam
+    /// matrices, the stencil in rows and the transposed lists (same formulas and sum
+    /// order; the results agree to rounding, see `tests/mls.rs`).
+    pub fn compute_forces_reference(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
+        let law = self.pack_state(phyxels, material, dt);
+        let st = &self.stencil;
+        let n = st.len();
+        st.gradients(&self.disp, &mut self.grad);
+        self.stress_force.resize(n, Mat3::ZERO);
         let grad = &self.grad;
         let vel = &self.vel;
         let volume = &phyxels.volume;
@@ -247,15 +325,7 @@ impl MlsDynamics {
                 .reduce(|| 0.0, f32::max)
         };
         self.max_strain = max_strain;
-        if !self.plastic.is_empty() && material.fracture {
-            self.max_plastic = self
-                .plastic
-                .par_iter()
-                .map(|&ep| frobenius(ep))
-                .reduce(|| 0.0, f32::max);
-            // Flow has reached the cap: renew the rest state so that it can go on.
-            self.new_rest = self.max_plastic >= RENEW_FRACTION * material.plastic_max;
-        }
+        self.after_plastic_flow(material);
         self.gather_forces();
     }
 
@@ -527,6 +597,7 @@ impl Dynamics for MlsDynamics {
         }
         self.stencil = fracture_stencil(phyxels, material);
         let (in_off, incoming) = incoming_of(&self.stencil);
+        self.lanes = LaneStencil::new(&self.stencil, &in_off, &incoming);
         self.in_off = in_off;
         self.incoming = incoming;
         self.grad.iter_mut().for_each(|g| *g = Mat3::ZERO);

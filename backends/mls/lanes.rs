@@ -1,0 +1,544 @@
+//! The MLS force kernel in lanes: eight phyxels per `f32x8`.
+//!
+//! Both sums of the method are sparse: the gradient `∇u_i = Σ_j (u_j − u_i) d_ijᵀ` over
+//! row i of the stencil, and the force `f_j = P_j d_j + Σ_i P_i d_ij` over the rows that
+//! name j. Each is stored as a [`Sliced`] table (the "sliced ELLPACK" layout of sparse
+//! SIMD kernels): eight consecutive phyxels form a group, slot `s` of a group holds
+//! entry `s` of each of the eight at `8 s + lane`, and shorter lists are padded with
+//! entries that weigh zero.
+//!
+//! The stress pass gathers the state `[u, v]` of a slot's eight neighbours (eight
+//! aligned row loads and one lane transpose), accumulates eight gradients with lane
+//! multiply-adds, and evaluates the constitutive law on eight 3×3 matrices at once
+//! ([`M3`]). The force pass gathers the eight `P_i` of a slot the same way and adds
+//! `P_i d_ij`, own term first and then the rows in increasing order: the scalar
+//! reference's order, so the sums are deterministic and need no atomics.
+//! The scalar reference is `MlsDynamics::compute_forces_reference`.
+
+use glam::Mat3;
+use phyxel::columns::{LANES, load8, store8};
+use phyxel::mls::MlsStencil;
+use wide::f32x8;
+
+/// Groups handled serially by one rayon task.
+const GROUP_GRAIN: usize = 16;
+
+/// Stress `P` of a phyxel as 16 floats (9 used): two aligned lane rows.
+pub type StressRow = [f32; 16];
+
+/// A sparse table in lane layout: per group of eight phyxels, a few slots of eight
+/// (index, weight) entries.
+#[derive(Clone, Debug, Default)]
+struct Sliced {
+    /// Slots of group g: `slot_off[g]..slot_off[g + 1]`.
+    slot_off: Vec<u32>,
+    /// Phyxel index per slot lane (the lane's own phyxel in padding entries).
+    index: Vec<u32>,
+    /// Weight vector per slot lane, one column per axis (zero in padding entries).
+    w: [Vec<f32>; 3],
+}
+
+impl Sliced {
+    /// The table of `lists(i)` for phyxels `0..n`.
+    fn new<I: Iterator<Item = (u32, glam::Vec3)>>(n: usize, lists: impl Fn(usize) -> I) -> Self {
+        let groups = n.div_ceil(LANES);
+        let mut slot_off = Vec::with_capacity(groups + 1);
+        slot_off.push(0u32);
+        for g in 0..groups {
+            let longest = (g * LANES..((g + 1) * LANES).min(n))
+                .map(|i| lists(i).count())
+                .max()
+                .unwrap_or(0);
+            slot_off.push(slot_off[g] + longest as u32);
+        }
+        let len = *slot_off.last().unwrap_or(&0) as usize * LANES;
+        let mut index = vec![0u32; len];
+        let mut w = [vec![0.0f32; len], vec![0.0f32; len], vec![0.0f32; len]];
+        for g in 0..groups {
+            let slots = slot_off[g] as usize..slot_off[g + 1] as usize;
+            for lane in 0..LANES {
+                let i = g * LANES + lane;
+                for s in slots.clone() {
+                    index[s * LANES + lane] = i as u32;
+                }
+                if i >= n {
+                    continue;
+                }
+                for (s, (j, wj)) in slots.clone().zip(lists(i)) {
+                    let at = s * LANES + lane;
+                    index[at] = j;
+                    (w[0][at], w[1][at], w[2][at]) = (wj.x, wj.y, wj.z);
+                }
+            }
+        }
+        Self {
+            slot_off,
+            index,
+            w,
+        }
+    }
+
+    fn slots(&self, g: usize) -> std::ops::Range<usize> {
+        self.slot_off[g] as usize..self.slot_off[g + 1] as usize
+    }
+
+    #[inline(always)]
+    fn weight(&self, s: usize) -> [f32x8; 3] {
+        let at = s * LANES;
+        [load8(&self.w[0], at), load8(&self.w[1], at), load8(&self.w[2], at)]
+    }
+
+    #[inline(always)]
+    fn indices(&self, s: usize) -> &[u32] {
+        &self.index[s * LANES..(s + 1) * LANES]
+    }
+}
+
+/// The stencil in lane layout: rows for the gradients, transposed lists for the forces.
+#[derive(Clone, Debug, Default)]
+pub struct LaneStencil {
+    /// Number of phyxels.
+    n: usize,
+    /// Row i: neighbours j and `d_ij`.
+    rows: Sliced,
+    /// Phyxel j: `(j, d_j)` first, then the rows i that name j with `d_ij`.
+    targets: Sliced,
+}
+
+impl LaneStencil {
+    /// The lane layout of `st`; `incoming` lists `(i, k)` per phyxel j as
+    /// `MlsDynamics` keeps them (rows in increasing order).
+    pub fn new(st: &MlsStencil, in_off: &[u32], incoming: &[(u32, u32)]) -> Self {
+        let n = st.len();
+        let rows = Sliced::new(n, |i| st.row(i).map(|k| (st.neighbours[k], st.d[k])));
+        let targets = Sliced::new(n, |j| {
+            let own = std::iter::once((j as u32, st.d_self[j]));
+            own.chain(
+                incoming[in_off[j] as usize..in_off[j + 1] as usize]
+                    .iter()
+                    .map(|&(i, k)| (i, st.d[k as usize])),
+            )
+        });
+        Self { n, rows, targets }
+    }
+
+    /// Phyxels rounded up to whole groups: the length of the state and stress buffers.
+    pub fn padded(&self) -> usize {
+        self.n.div_ceil(LANES) * LANES
+    }
+
+    fn groups(&self) -> usize {
+        self.rows.slot_off.len() - 1
+    }
+}
+
+/// Eight 3×3 matrices, column-major like glam (`c[3 col + row]`).
+#[derive(Clone, Copy)]
+pub struct M3 {
+    c: [f32x8; 9],
+}
+
+impl M3 {
+    const ZERO: Self = Self {
+        c: [f32x8::ZERO; 9],
+    };
+
+    #[inline(always)]
+    fn at(&self, row: usize, col: usize) -> f32x8 {
+        self.c[3 * col + row]
+    }
+
+    #[inline(always)]
+    fn identity_plus(mut self) -> Self {
+        for k in 0..3 {
+            self.c[4 * k] += f32x8::ONE;
+        }
+        self
+    }
+
+    #[inline(always)]
+    fn add(mut self, o: &Self) -> Self {
+        (0..9).for_each(|k| self.c[k] += o.c[k]);
+        self
+    }
+
+    #[inline(always)]
+    fn sub(mut self, o: &Self) -> Self {
+        (0..9).for_each(|k| self.c[k] -= o.c[k]);
+        self
+    }
+
+    #[inline(always)]
+    fn scale(mut self, s: f32x8) -> Self {
+        (0..9).for_each(|k| self.c[k] *= s);
+        self
+    }
+
+    #[inline(always)]
+    fn transpose(&self) -> Self {
+        Self {
+            c: std::array::from_fn(|k| self.at(k / 3, k % 3)),
+        }
+    }
+
+    /// `self · o`.
+    #[inline(always)]
+    fn mul(&self, o: &Self) -> Self {
+        Self {
+            c: std::array::from_fn(|k| {
+                let (row, col) = (k % 3, k / 3);
+                self.at(row, 0) * o.at(0, col)
+                    + self.at(row, 1) * o.at(1, col)
+                    + self.at(row, 2) * o.at(2, col)
+            }),
+        }
+    }
+
+    /// `selfᵀ · o`.
+    #[inline(always)]
+    fn tr_mul(&self, o: &Self) -> Self {
+        Self {
+            c: std::array::from_fn(|k| {
+                let (row, col) = (k % 3, k / 3);
+                self.at(0, row) * o.at(0, col)
+                    + self.at(1, row) * o.at(1, col)
+                    + self.at(2, row) * o.at(2, col)
+            }),
+        }
+    }
+
+    #[inline(always)]
+    fn trace(&self) -> f32x8 {
+        self.c[0] + self.c[4] + self.c[8]
+    }
+
+    #[inline(always)]
+    fn frobenius(&self) -> f32x8 {
+        let mut s = f32x8::ZERO;
+        for v in self.c {
+            s += v * v;
+        }
+        s.sqrt()
+    }
+
+    #[inline(always)]
+    fn col(&self, col: usize) -> [f32x8; 3] {
+        [self.c[3 * col], self.c[3 * col + 1], self.c[3 * col + 2]]
+    }
+
+    /// Cofactor matrix, columns `[J₂×J₃, J₃×J₁, J₁×J₂]` (as [`phyxel::mls::cofactor`]).
+    #[inline(always)]
+    fn cofactor(&self) -> Self {
+        let cross = |a: [f32x8; 3], b: [f32x8; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let (x, y, z) = (self.col(0), self.col(1), self.col(2));
+        let (c0, c1, c2) = (cross(y, z), cross(z, x), cross(x, y));
+        Self {
+            c: [c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2]],
+        }
+    }
+
+    /// `det = x · (y × z)` over the columns.
+    #[inline(always)]
+    fn determinant(&self) -> f32x8 {
+        let (x, y, z) = (self.col(0), self.col(1), self.col(2));
+        x[0] * (y[1] * z[2] - y[2] * z[1])
+            + x[1] * (y[2] * z[0] - y[0] * z[2])
+            + x[2] * (y[0] * z[1] - y[1] * z[0])
+    }
+
+    /// Lanes from up to eight matrices (missing lanes zero).
+    fn load(ms: &[Mat3]) -> Self {
+        let mut a = [[0.0f32; 8]; 9];
+        for (lane, m) in ms.iter().enumerate() {
+            for (k, v) in m.to_cols_array().into_iter().enumerate() {
+                a[k][lane] = v;
+            }
+        }
+        Self {
+            c: a.map(f32x8::from),
+        }
+    }
+
+    /// Writes the first `out.len()` lanes back as matrices.
+    fn store(&self, out: &mut [Mat3]) {
+        let a = self.c.map(|v| v.to_array());
+        for (lane, m) in out.iter_mut().enumerate() {
+            *m = Mat3::from_cols_array(&std::array::from_fn(|k| a[k][lane]));
+        }
+    }
+}
+
+/// The constitutive law in lanes (the same formulas as the scalar `Law`).
+#[derive(Clone, Copy)]
+pub struct LaneLaw {
+    pub lambda: f32,
+    pub mu: f32,
+    pub kv: f32,
+    pub tau: f32,
+    pub paper: bool,
+    pub plastic_yield: f32,
+    pub plastic_creep_dt: f32,
+    pub plastic_max: f32,
+}
+
+impl LaneLaw {
+    #[inline(always)]
+    fn hooke(&self, e: &M3) -> M3 {
+        let diag = f32x8::splat(self.lambda) * e.trace();
+        let mut s = e.scale(f32x8::splat(2.0 * self.mu));
+        for k in 0..3 {
+            s.c[4 * k] += diag;
+        }
+        s
+    }
+
+    #[inline(always)]
+    fn strain(&self, j: &M3) -> M3 {
+        let mut c = j.tr_mul(j);
+        for k in 0..3 {
+            c.c[4 * k] -= f32x8::ONE;
+        }
+        if self.paper {
+            c
+        } else {
+            c.scale(f32x8::splat(0.5))
+        }
+    }
+
+    /// `P` of eight phyxels and their strain norms; updates `plastic` when given.
+    #[inline(always)]
+    fn stress_force(
+        &self,
+        grad: &M3,
+        vel_grad: Option<&M3>,
+        plastic: Option<&mut M3>,
+        volume: f32x8,
+    ) -> (M3, f32x8) {
+        let j = grad.identity_plus();
+        let strain = self.strain(&j);
+        let mut elastic = strain;
+        if let Some(ep) = plastic {
+            let e = strain.sub(ep);
+            let flows = e.frobenius().simd_gt(f32x8::splat(self.plastic_yield));
+            let creep = flows.select(f32x8::splat(self.plastic_creep_dt), f32x8::ZERO);
+            *ep = ep.add(&e.scale(creep));
+            let norm = ep.frobenius();
+            let max = f32x8::splat(self.plastic_max);
+            let capped = norm.simd_gt(max).select(max / norm, f32x8::ONE);
+            *ep = ep.scale(capped);
+            elastic = strain.sub(ep);
+        }
+        let mut sigma = self.hooke(&elastic);
+        if let Some(jd) = vel_grad {
+            let half = j.tr_mul(jd);
+            let mut rate = half.add(&half.transpose());
+            if !self.paper {
+                rate = rate.scale(f32x8::splat(0.5));
+            }
+            sigma = sigma.add(&self.hooke(&rate).scale(f32x8::splat(self.tau)));
+        }
+        let s = if self.paper { 2.0 } else { 1.0 };
+        let mut p = j.mul(&sigma).scale(-volume * f32x8::splat(s));
+        if self.kv > 0.0 {
+            let k = volume * f32x8::splat(self.kv) * (j.determinant() - f32x8::ONE);
+            p = p.sub(&j.cofactor().scale(k));
+        }
+        (p, strain.frobenius())
+    }
+}
+
+/// Per-step inputs of the stress pass.
+pub struct LaneInputs<'a> {
+    pub law: LaneLaw,
+    /// Per phyxel `[u, v, 0, 0]`: displacement (m) and velocity (m/s, read only when
+    /// `law.tau > 0`), one 32-byte row so a neighbour is one lane load; padded to
+    /// [`LaneStencil::padded`] with zero rows.
+    pub state: &'a [[f32; 8]],
+    /// Rest volume per phyxel, padded (m³).
+    pub volume: &'a [f32],
+}
+
+/// Per-step outputs of the stress pass (buffers kept by the backend).
+pub struct LaneOutputs<'a> {
+    /// Displacement gradient per phyxel.
+    pub grad: &'a mut [Mat3],
+    /// Plastic strain per phyxel (empty for elastic materials).
+    pub plastic: &'a mut [Mat3],
+    /// `P` per phyxel, padded to [`LaneStencil::padded`] (N per unit `d`).
+    pub stress: &'a mut [StressRow],
+}
+
+/// Gradients and stresses `P` of every phyxel; returns the largest strain norm.
+pub fn stress_pass(st: &LaneStencil, input: &LaneInputs<'_>, out: LaneOutputs<'_>) -> f32 {
+    groups_pass(st, input, 0..st.groups(), out)
+}
+
+/// Splits the outputs at group boundaries and runs the groups in parallel tasks.
+fn groups_pass(
+    st: &LaneStencil,
+    input: &LaneInputs<'_>,
+    groups: std::ops::Range<usize>,
+    out: LaneOutputs<'_>,
+) -> f32 {
+    if groups.len() <= GROUP_GRAIN {
+        let LaneOutputs {
+            mut grad,
+            mut plastic,
+            mut stress,
+        } = out;
+        let mut max = 0.0f32;
+        for g in groups {
+            let rows = (st.n - g * LANES).min(LANES);
+            let (gr, rest) = grad.split_at_mut(rows);
+            grad = rest;
+            let pl = if plastic.is_empty() {
+                None
+            } else {
+                let (pl, rest) = plastic.split_at_mut(rows);
+                plastic = rest;
+                Some(pl)
+            };
+            let (p, rest) = stress.split_at_mut(LANES);
+            stress = rest;
+            max = max.max(group(st, input, g, gr, pl, p));
+        }
+        return max;
+    }
+    let mid = groups.start + groups.len() / 2;
+    let rows = (mid - groups.start) * LANES;
+    let (g0, g1) = out.grad.split_at_mut(rows);
+    let (p0, p1) = if out.plastic.is_empty() {
+        (&mut [][..], &mut [][..])
+    } else {
+        out.plastic.split_at_mut(rows)
+    };
+    let (s0, s1) = out.stress.split_at_mut(rows);
+    let (a, b) = rayon::join(
+        || {
+            let out = LaneOutputs {
+                grad: g0,
+                plastic: p0,
+                stress: s0,
+            };
+            groups_pass(st, input, groups.start..mid, out)
+        },
+        || {
+            let out = LaneOutputs {
+                grad: g1,
+                plastic: p1,
+                stress: s1,
+            };
+            groups_pass(st, input, mid..groups.end, out)
+        },
+    );
+    a.max(b)
+}
+
+/// Eight rows of eight floats transposed to lanes.
+#[inline(always)]
+fn gather<const W: usize>(rows: &[[f32; W]], idx: &[u32], half: usize) -> [f32x8; 8] {
+    f32x8::transpose(std::array::from_fn(|lane| {
+        let r = &rows[idx[lane] as usize];
+        let a: [f32; 8] = r[8 * half..8 * half + 8].try_into().expect("8 of W");
+        f32x8::from(a)
+    }))
+}
+
+/// `∇u` and `∇v` of a group's eight rows: `Σ_j (u_j − u_i) d_ijᵀ` (`∇v` only with
+/// `velocity`).
+#[inline(always)]
+fn lane_gradients(st: &LaneStencil, state: &[[f32; 8]], g: usize, velocity: bool) -> (M3, M3) {
+    let own_idx: [u32; LANES] = std::array::from_fn(|l| (g * LANES + l) as u32);
+    let own = gather(state, &own_idx, 0);
+    let (mut gu, mut gv) = (M3::ZERO, M3::ZERO);
+    for s in st.rows.slots(g) {
+        let nb = gather(state, st.rows.indices(s), 0);
+        let d = st.rows.weight(s);
+        let du: [f32x8; 3] = std::array::from_fn(|r| nb[r] - own[r]);
+        for col in 0..3 {
+            for row in 0..3 {
+                gu.c[3 * col + row] += du[row] * d[col];
+            }
+        }
+        if velocity {
+            let dv: [f32x8; 3] = std::array::from_fn(|r| nb[3 + r] - own[3 + r]);
+            for col in 0..3 {
+                for row in 0..3 {
+                    gv.c[3 * col + row] += dv[row] * d[col];
+                }
+            }
+        }
+    }
+    (gu, gv)
+}
+
+/// One group: gradients and the law; returns the largest strain.
+fn group(
+    st: &LaneStencil,
+    input: &LaneInputs<'_>,
+    g: usize,
+    grad: &mut [Mat3],
+    plastic: Option<&mut [Mat3]>,
+    stress: &mut [StressRow],
+) -> f32 {
+    let velocity = input.law.tau > 0.0;
+    let (gu, gv) = lane_gradients(st, input.state, g, velocity);
+    gu.store(grad);
+    let gv = velocity.then_some(gv);
+    let volume = load8(input.volume, g * LANES);
+    let (p, strain) = match plastic {
+        Some(pl) => {
+            let mut ep = M3::load(pl);
+            let r = input
+                .law
+                .stress_force(&gu, gv.as_ref(), Some(&mut ep), volume);
+            ep.store(pl);
+            r
+        }
+        None => input.law.stress_force(&gu, gv.as_ref(), None, volume),
+    };
+    let z = f32x8::ZERO;
+    let lo = f32x8::transpose(std::array::from_fn(|k| p.c[k]));
+    let hi = f32x8::transpose([p.c[8], z, z, z, z, z, z, z]);
+    for (l, row) in stress.iter_mut().enumerate() {
+        store8(row, 0, lo[l]);
+        store8(row, 8, hi[l]);
+    }
+    strain.to_array()[..grad.len()]
+        .iter()
+        .fold(0.0f32, |a, &b| a.max(b))
+}
+
+/// `f_j = P_j d_j + Σ_i P_i d_ij` of every phyxel into the padded force columns (N).
+pub fn force_pass(st: &LaneStencil, stress: &[StressRow], fx: &mut [f32], fy: &mut [f32], fz: &mut [f32]) {
+    use rayon::prelude::*;
+    fx.par_chunks_mut(LANES)
+        .zip(fy.par_chunks_mut(LANES))
+        .zip(fz.par_chunks_mut(LANES))
+        .enumerate()
+        .with_min_len(GROUP_GRAIN)
+        .for_each(|(g, ((x, y), z))| {
+            let mut f = [f32x8::ZERO; 3];
+            for s in st.targets.slots(g) {
+                let idx = st.targets.indices(s);
+                let lo = gather(stress, idx, 0);
+                let p8 = f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
+                    stress[idx[l] as usize][8]
+                }));
+                let p = |k: usize| if k < 8 { lo[k] } else { p8 };
+                let d = st.targets.weight(s);
+                for (row, fr) in f.iter_mut().enumerate() {
+                    *fr += p(row) * d[0] + p(3 + row) * d[1] + p(6 + row) * d[2];
+                }
+            }
+            store8(x, 0, f[0]);
+            store8(y, 0, f[1]);
+            store8(z, 0, f[2]);
+        });
+}
