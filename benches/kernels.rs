@@ -1,5 +1,5 @@
 //! SIMD kernels against their scalar references, single-threaded, same inputs:
-//! implicit-surface kernel sums and contact-force distribution.
+//! implicit-surface kernel sums, contact-force distribution and the MLS forces.
 //! Run: `cargo bench --bench kernels -- --warm-up-time 1 --measurement-time 3 --noplot`;
 //! the ratios go to docs/PERFORMANCE.md.
 
@@ -131,5 +131,44 @@ fn distribution(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, implicit_sums, distribution);
+/// MLS internal forces (gradients, law, force gather) of a deformed, moving ball: the lane
+/// kernel (`compute_forces`) against the scalar reference (`compute_forces_reference`),
+/// at the phyxel counts of one `scale` object at 10k and at 1M surfels (about 390 and
+/// 20k phyxels).
+fn mls_forces(c: &mut Criterion) {
+    use phyxel::backends::mls::MlsDynamics;
+    use phyxel::material::Material;
+    use phyxel::phyxels::Phyxels;
+    let mat = Material::default();
+    // The kernel runs rayon tasks: one thread, as the other kernels here.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a one-thread pool");
+    let mut g = c.benchmark_group("mls_forces");
+    for (label, phyxels) in [("390", 390.0f32), ("20k", 20_000.0)] {
+        let r = 0.1f32;
+        let spacing = (4.0 / 3.0 * std::f32::consts::PI * r.powi(3) / phyxels).cbrt();
+        let v = Shape::Sphere { radius: r }.sample_volume(spacing);
+        let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
+        for i in 0..p.len() {
+            let x = p.rest.get(i);
+            p.pos
+                .set(i, x + Vec3::new(0.02 * x.y, -0.01 * x.x, 0.03 * x.z));
+            p.vel.set(i, Vec3::new(x.z, 0.5 * x.x, -x.y));
+        }
+        let mut m = MlsDynamics::new(&p, &mat);
+        g.throughput(Throughput::Elements(p.len() as u64));
+        // Timed on the pool's thread: `install` per iteration would add its hand-over.
+        g.bench_function(format!("simd/{label}"), |b| {
+            pool.install(|| b.iter(|| m.compute_forces(black_box(&p), &mat, 1e-4)))
+        });
+        g.bench_function(format!("scalar/{label}"), |b| {
+            pool.install(|| b.iter(|| m.compute_forces_reference(black_box(&p), &mat, 1e-4)))
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, implicit_sums, distribution, mls_forces);
 criterion_main!(benches);

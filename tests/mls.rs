@@ -398,10 +398,17 @@ fn lane_kernel_matches_scalar_reference() {
                 lanes.diagnostics(&p, &mat).max_strain.unwrap(),
                 scalar.diagnostics(&p, &mat).max_strain.unwrap(),
             );
-            assert!((sl - ss).abs() <= 1e-6 * ss, "{name}: max strain {sl} vs {ss}");
+            assert!(
+                (sl - ss).abs() <= 1e-6 * ss,
+                "{name}: max strain {sl} vs {ss}"
+            );
         }
         if mat.is_plastic() {
-            let flowed = lanes.plastic_strain().iter().filter(|e| max_abs(**e) > 0.0).count();
+            let flowed = lanes
+                .plastic_strain()
+                .iter()
+                .filter(|e| max_abs(**e) > 0.0)
+                .count();
             assert!(flowed > 0, "{name}: no plastic flow to compare");
         }
     }

@@ -71,11 +71,7 @@ impl Sliced {
                 }
             }
         }
-        Self {
-            slot_off,
-            index,
-            w,
-        }
+        Self { slot_off, index, w }
     }
 
     fn slots(&self, g: usize) -> std::ops::Range<usize> {
@@ -85,7 +81,11 @@ impl Sliced {
     #[inline(always)]
     fn weight(&self, s: usize) -> [f32x8; 3] {
         let at = s * LANES;
-        [load8(&self.w[0], at), load8(&self.w[1], at), load8(&self.w[2], at)]
+        [
+            load8(&self.w[0], at),
+            load8(&self.w[1], at),
+            load8(&self.w[2], at),
+        ]
     }
 
     #[inline(always)]
@@ -239,7 +239,9 @@ impl M3 {
         let (x, y, z) = (self.col(0), self.col(1), self.col(2));
         let (c0, c1, c2) = (cross(y, z), cross(z, x), cross(x, y));
         Self {
-            c: [c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2]],
+            c: [
+                c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2],
+            ],
         }
     }
 
@@ -516,7 +518,13 @@ fn group(
 }
 
 /// `f_j = P_j d_j + Σ_i P_i d_ij` of every phyxel into the padded force columns (N).
-pub fn force_pass(st: &LaneStencil, stress: &[StressRow], fx: &mut [f32], fy: &mut [f32], fz: &mut [f32]) {
+pub fn force_pass(
+    st: &LaneStencil,
+    stress: &[StressRow],
+    fx: &mut [f32],
+    fy: &mut [f32],
+    fz: &mut [f32],
+) {
     use rayon::prelude::*;
     fx.par_chunks_mut(LANES)
         .zip(fy.par_chunks_mut(LANES))

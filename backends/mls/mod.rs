@@ -214,15 +214,18 @@ impl MlsDynamics {
         let n = self.stencil.len();
         self.state.resize(self.lanes.padded(), [0.0; 8]);
         let viscous = law.tau > 0.0;
-        self.state[..n].par_iter_mut().enumerate().for_each(|(i, s)| {
-            let u = phyxels.pos.get(i) - phyxels.rest.get(i);
-            let v = if viscous {
-                phyxels.vel.get(i)
-            } else {
-                Vec3::ZERO
-            };
-            *s = [u.x, u.y, u.z, v.x, v.y, v.z, 0.0, 0.0];
-        });
+        self.state[..n]
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, s)| {
+                let u = phyxels.pos.get(i) - phyxels.rest.get(i);
+                let v = if viscous {
+                    phyxels.vel.get(i)
+                } else {
+                    Vec3::ZERO
+                };
+                *s = [u.x, u.y, u.z, v.x, v.y, v.z, 0.0, 0.0];
+            });
         let input = LaneInputs {
             law: LaneLaw {
                 lambda: law.lambda,
