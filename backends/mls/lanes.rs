@@ -207,6 +207,16 @@ impl M3 {
         }
     }
 
+    /// `self += a bᵀ`.
+    #[inline(always)]
+    fn add_outer(&mut self, a: [f32x8; 3], b: [f32x8; 3]) {
+        for (col, bc) in b.into_iter().enumerate() {
+            for (row, ar) in a.into_iter().enumerate() {
+                self.c[3 * col + row] += ar * bc;
+            }
+        }
+    }
+
     #[inline(always)]
     fn trace(&self) -> f32x8 {
         self.c[0] + self.c[4] + self.c[8]
@@ -463,18 +473,9 @@ fn lane_gradients(st: &LaneStencil, state: &[[f32; 8]], g: usize, velocity: bool
         let nb = gather(state, st.rows.indices(s), 0);
         let d = st.rows.weight(s);
         let du: [f32x8; 3] = std::array::from_fn(|r| nb[r] - own[r]);
-        for col in 0..3 {
-            for row in 0..3 {
-                gu.c[3 * col + row] += du[row] * d[col];
-            }
-        }
+        gu.add_outer(du, d);
         if velocity {
-            let dv: [f32x8; 3] = std::array::from_fn(|r| nb[3 + r] - own[3 + r]);
-            for col in 0..3 {
-                for row in 0..3 {
-                    gv.c[3 * col + row] += dv[row] * d[col];
-                }
-            }
+            gv.add_outer(std::array::from_fn(|r| nb[3 + r] - own[3 + r]), d);
         }
     }
     (gu, gv)
