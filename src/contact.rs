@@ -622,7 +622,7 @@ pub fn distribute(
         });
         if count < MIN_DISTRIBUTION_PHYXELS {
             // Too few phyxels within h: the scalar path widens to the nearest ones.
-            distribute_one(c, sign, phyxels, grid, h, near, knn);
+            distribute_one::<false>(c, sign, phyxels, grid, h, near, knn);
             continue;
         }
         let total = total.reduce_add();
@@ -646,8 +646,9 @@ pub fn distribute(
     }
 }
 
-/// Scalar reference of [`distribute`]: the same weights, one phyxel at a time,
-/// written straight to the phyxels.
+/// Scalar reference of [`distribute`]: the same weights, one phyxel at a time, found by
+/// the scalar grid query ([`Grid::for_each_within_scalar`]) and written straight to the
+/// phyxels; no lanes anywhere.
 pub fn distribute_reference(
     surfels: &[ContactSurfel],
     sign: f32,
@@ -658,12 +659,13 @@ pub fn distribute_reference(
 ) {
     let DistributeScratch { near, knn, .. } = scratch;
     for c in surfels {
-        distribute_one(c, sign, phyxels, grid, h, near, knn);
+        distribute_one::<true>(c, sign, phyxels, grid, h, near, knn);
     }
 }
 
-/// One contact surfel's force onto the phyxels, scalar (see [`distribute`]).
-fn distribute_one(
+/// One contact surfel's force onto the phyxels, one phyxel at a time (see
+/// [`distribute`]), over the scalar or the lane grid query.
+fn distribute_one<const SCALAR_QUERY: bool>(
     c: &ContactSurfel,
     sign: f32,
     phyxels: &mut Phyxels,
@@ -673,7 +675,11 @@ fn distribute_one(
     knn: &mut Vec<(usize, f32)>,
 ) {
     near.clear();
-    grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
+    if SCALAR_QUERY {
+        grid.for_each_within_scalar(c.pos, h, |i, d2| near.push((i, d2)));
+    } else {
+        grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
+    }
     let mut support = h;
     if near.len() < MIN_DISTRIBUTION_PHYXELS {
         grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, knn);

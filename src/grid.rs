@@ -365,6 +365,43 @@ impl Grid {
         });
     }
 
+    /// Scalar reference of [`Grid::for_each_within`]: the same cells, points and f32
+    /// distance test, one point at a time and in order (no lanes), so the scalar
+    /// references of the SIMD kernels are scalar throughout. Does not allocate.
+    pub fn for_each_within_scalar(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, f32)) {
+        let mut test = |k: usize, r2: f32, row: Option<(i32, i32)>| {
+            let (dx, dy, dz) = (self.px[k] - x.x, self.py[k] - x.y, self.pz[k] - x.z);
+            let d2 = dx * dx + dy * dy + dz * dz;
+            let own_row = row.is_none_or(|(cy, cz)| {
+                floor_i32(self.py[k] * self.inv_cell) == cy
+                    && floor_i32(self.pz[k] * self.inv_cell) == cz
+            });
+            if d2 <= r2 && own_row {
+                f(self.sorted[k] as usize, d2);
+            }
+        };
+        match self.plan(x, r) {
+            Query::Nothing => {}
+            Query::Scan { r2 } => (0..self.sorted.len()).for_each(|k| test(k, r2, None)),
+            Query::Rows {
+                lo,
+                hi,
+                nx,
+                shared,
+                r2,
+            } => {
+                for cz in lo[2]..=hi[2] {
+                    for cy in lo[1]..=hi[1] {
+                        let row = shared.then_some((cy, cz));
+                        for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
+                            (s as usize..e as usize).for_each(|k| test(k, r2, row));
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// The points within `r` of `x` (the set [`Grid::for_each_within`] reports) as
     /// batches of *sorted positions* (they index [`Grid::sorted`] and
     /// [`Grid::sorted_points`]), at most [`HIT_BATCH`] per call: kernels that keep their

@@ -377,13 +377,14 @@ impl<'a> ImplicitSurface<'a> {
     /// sums of eq. 1. With [`ImplicitSurface::with_rows`] (and the query inside the
     /// grid's region) the grid's hits come in batches of sorted positions: eight
     /// distances at a time become weights in `f32x8` lanes (`exp_neg`), and each hit adds
-    /// `θ · row` with one lane multiply-add. Otherwise they are the scalar reference.
+    /// `θ · row` with one lane multiply-add. Otherwise each hit adds its weight on its own
+    /// (the same sums as the scalar reference, over the lane query).
     pub fn weighted_sums(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         let in_grid = self
             .region
             .is_none_or(|g| ball_inside(&g.bounds, x, self.reach));
         let Some(rows) = self.rows.filter(|_| in_grid) else {
-            return self.weighted_sums_scalar(x);
+            return self.sums_per_hit::<false>(x);
         };
         let mut sum = f32x8::ZERO;
         self.grid.for_each_hit_batch(x, self.reach, |batch| {
@@ -428,20 +429,32 @@ impl<'a> ImplicitSurface<'a> {
         finish(x, w_sum, ws, wn)
     }
 
-    /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches).
+    /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches): the
+    /// scalar grid query ([`Grid::for_each_within_scalar`]), libm `exp` and vector
+    /// multiply-adds per hit, no lanes anywhere.
     pub fn weighted_sums_scalar(&self, x: Vec3) -> (f32, Vec3, Vec3) {
+        self.sums_per_hit::<true>(x)
+    }
+
+    /// The kernel sums one hit at a time, over the scalar or the lane grid query.
+    fn sums_per_hit<const SCALAR_QUERY: bool>(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
-        self.grid_for(x, self.reach)
-            .for_each_within(x, self.reach, |k, d2| {
-                let sigma = SIGMA_PER_RADIUS * self.radius[k];
-                let q = d2 / (sigma * sigma);
-                if q < CUTOFF_SIGMAS * CUTOFF_SIGMAS {
-                    let w = (-q).exp();
-                    w_sum += w;
-                    ws += w * self.pos.get(k);
-                    wn += w * self.normal.get(k);
-                }
-            });
+        let add = |k: usize, d2: f32| {
+            let sigma = SIGMA_PER_RADIUS * self.radius[k];
+            let q = d2 / (sigma * sigma);
+            if q < CUTOFF_SIGMAS * CUTOFF_SIGMAS {
+                let w = (-q).exp();
+                w_sum += w;
+                ws += w * self.pos.get(k);
+                wn += w * self.normal.get(k);
+            }
+        };
+        let grid = self.grid_for(x, self.reach);
+        if SCALAR_QUERY {
+            grid.for_each_within_scalar(x, self.reach, add);
+        } else {
+            grid.for_each_within(x, self.reach, add);
+        }
         (w_sum, ws, wn)
     }
 

@@ -47,6 +47,14 @@ fn grid_within(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
     out
 }
 
+/// The scalar reference query, in the same form as [`grid_within`].
+fn grid_within_scalar(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
+    let mut out = Vec::new();
+    grid.for_each_within_scalar(x, r, |i, d| out.push((i, d.to_bits())));
+    out.sort_unstable();
+    out
+}
+
 /// The lane-group range query, unpacked to `(index, d² bits)` sorted by index (a point
 /// in two calls, or a set bit on padding, makes the comparison fail).
 fn grid_lanes_within(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
@@ -78,7 +86,8 @@ fn brute_knn(points: &[Vec3], x: Vec3, k: usize) -> Vec<(usize, f32)> {
     all
 }
 
-/// Checks every range query of `queries × radii`, per point and per lane group, against
+/// Checks every range query of `queries × radii`, per point (lanes and scalar) and per
+/// lane group, against
 /// brute force (exact).
 fn check_range(
     points: &[Vec3],
@@ -95,6 +104,14 @@ fn check_range(
                 grid_within(&grid, x, r),
                 want.clone(),
                 "x = {:?}, r = {}, cell = {}",
+                x,
+                r,
+                cell
+            );
+            prop_assert_eq!(
+                grid_within_scalar(&grid, x, r),
+                want.clone(),
+                "scalar: x = {:?}, r = {}, cell = {}",
                 x,
                 r,
                 cell
