@@ -69,10 +69,7 @@ pub struct Volume<'a> {
 
 impl Volume<'_> {
     fn contains(&self, x: Vec3) -> bool {
-        let mut found = false;
-        self.phyxels
-            .for_each_within(x, self.reach, |_, _| found = true);
-        found
+        self.phyxels.any_within(x, self.reach)
     }
 }
 

@@ -365,6 +365,30 @@ impl Grid {
         });
     }
 
+    /// True when a point lies within `r` of `x` (the set [`Grid::for_each_within`]
+    /// reports is not empty); stops at the first lane group with a hit.
+    pub fn any_within(&self, x: Vec3, r: f32) -> bool {
+        let xs = [x.x, x.y, x.z].map(f32x8::splat);
+        let any_in = |s: u32, e: u32, r2: f32| {
+            let r2s = f32x8::splat(r2);
+            (s as usize..e as usize)
+                .step_by(LANES)
+                .any(|k| self.lane_distances(k, e as usize, xs, r2s).0 != 0)
+        };
+        match self.plan(x, r) {
+            Query::Nothing => false,
+            Query::Scan { r2 } => any_in(0, self.sorted.len() as u32, r2),
+            // A point met through a shared bucket is still within `r`: no row filter.
+            Query::Rows { lo, hi, nx, r2, .. } => (lo[2]..=hi[2]).any(|cz| {
+                (lo[1]..=hi[1]).any(|cy| {
+                    self.row_runs(lo[0], nx, cy, cz)
+                        .into_iter()
+                        .any(|(s, e)| any_in(s, e, r2))
+                })
+            }),
+        }
+    }
+
     /// Scalar reference of [`Grid::for_each_within`]: the same cells, points and f32
     /// distance test, one point at a time and in order (no lanes), so the scalar
     /// references of the SIMD kernels are scalar throughout. Does not allocate.
@@ -687,6 +711,14 @@ impl Grid {
     /// (ties broken by index). Fewer than `k` only when the grid indexes fewer points.
     /// Empty for a non-finite `x`. Allocates only if `out` must grow.
     pub fn k_nearest(&self, x: Vec3, k: usize, out: &mut Vec<(usize, f32)>) {
+        self.k_nearest_from(x, k, self.cell, out);
+    }
+
+    /// [`Grid::k_nearest`] whose search starts at radius `r0` (doubling until `k` points
+    /// lie within): the same result for any `r0`, only the work differs. A caller that
+    /// knows about where the k-th neighbour lies (the last query's, for a coherent
+    /// sequence of points) avoids both the doublings and a radius far too large.
+    pub fn k_nearest_from(&self, x: Vec3, k: usize, r0: f32, out: &mut Vec<(usize, f32)>) {
         out.clear();
         let m = self.sorted.len();
         if m == 0 || k == 0 || !x.is_finite() {
@@ -696,7 +728,11 @@ impl Grid {
         // Squared distances here are ≥ +0 and not NaN, so their bits order like their
         // values; indices are < 2³², so this key orders by (distance, index).
         let key = |e: &(usize, f32)| ((e.1.to_bits() as u64) << 32) | e.0 as u64;
-        let mut r = self.cell;
+        let mut r = if r0 > 0.0 && r0.is_finite() {
+            r0
+        } else {
+            self.cell
+        };
         loop {
             out.clear();
             self.for_each_within(x, r, |i, d2| out.push((i, d2)));

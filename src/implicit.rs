@@ -22,7 +22,15 @@ thread_local! {
     static KNN_SCRATCH: std::cell::RefCell<Vec<(usize, f32)>> = const {
         std::cell::RefCell::new(Vec::new())
     };
+    /// Distance of the last far-field query's k-th neighbour on this thread: where the
+    /// next search starts (a worker's points are consecutive surfels, so nearby). Only
+    /// the work depends on it, not the result.
+    static FAR_RADIUS: std::cell::Cell<f32> = const { std::cell::Cell::new(0.0) };
 }
+
+/// The far-field k-nearest search starts this much beyond the last query's k-th
+/// distance, so that a neighbour at about the same depth needs no second pass.
+const FAR_RADIUS_SLACK: f32 = 1.2;
 /// `exp(−q)` lane-wise for `q ≥ 0` (lanes beyond ~87 give 0 or garbage that the caller
 /// masks): `n = round(−q log₂e)`, `r = −q − n ln2` with ln2 split in two (Cody–Waite, so
 /// r carries no rounding of the product), `e^r` by a degree-6 Taylor polynomial
@@ -307,11 +315,20 @@ impl<'a> ImplicitSurface<'a> {
     /// far grid when no surfel outside the region can be among them, else from the far
     /// grid of all surfels.
     fn far_neighbours(&self, x: Vec3, near: &mut Vec<(usize, f32)>) {
+        let r0 = FAR_RADIUS.get() * FAR_RADIUS_SLACK;
+        self.far_neighbours_from(x, r0, near);
+        if let Some(&(_, d2)) = near.last() {
+            FAR_RADIUS.set(d2.sqrt());
+        }
+    }
+
+    /// [`ImplicitSurface::far_neighbours`] with the search starting at radius `r0`.
+    fn far_neighbours_from(&self, x: Vec3, r0: f32, near: &mut Vec<(usize, f32)>) {
         if let Some(g) = self.region {
             let far = g
                 .far
                 .get_subset(self.pos, g.members, FAR_GRID_FACTOR * self.grid.cell());
-            far.k_nearest(x, FAR_NEIGHBOURS, near);
+            far.k_nearest_from(x, FAR_NEIGHBOURS, r0, near);
             let inside = near.len() == FAR_NEIGHBOURS
                 && near
                     .last()
@@ -324,7 +341,7 @@ impl<'a> ImplicitSurface<'a> {
             Some(lazy) => lazy.get(self.pos.iter(), FAR_GRID_FACTOR * self.grid.cell()),
             None => self.grid_for(x, f32::INFINITY),
         };
-        far.k_nearest(x, FAR_NEIGHBOURS, near);
+        far.k_nearest_from(x, FAR_NEIGHBOURS, r0, near);
     }
 
     /// The surfel nearest to `x` and its squared distance.

@@ -86,8 +86,8 @@ fn brute_knn(points: &[Vec3], x: Vec3, k: usize) -> Vec<(usize, f32)> {
     all
 }
 
-/// Checks every range query of `queries × radii`, per point (lanes and scalar) and per
-/// lane group, against
+/// Checks every range query of `queries × radii`, per point (lanes and scalar), per
+/// lane group and as a yes/no (`any_within`), against
 /// brute force (exact).
 fn check_range(
     points: &[Vec3],
@@ -104,6 +104,14 @@ fn check_range(
                 grid_within(&grid, x, r),
                 want.clone(),
                 "x = {:?}, r = {}, cell = {}",
+                x,
+                r,
+                cell
+            );
+            prop_assert_eq!(
+                grid.any_within(x, r),
+                !want.is_empty(),
+                "any: x = {:?}, r = {}, cell = {}",
                 x,
                 r,
                 cell
@@ -164,6 +172,12 @@ fn check_knn(
             idx.sort_unstable();
             idx.dedup();
             prop_assert_eq!(idx.len(), out.len(), "an index was returned twice");
+            // Any starting radius gives the same list (only the work differs).
+            let mut from = Vec::new();
+            for r0 in [1e-6 * cell, 0.3 * cell, 7.0 * cell, 0.0, f32::NAN] {
+                grid.k_nearest_from(x, k, r0, &mut from);
+                prop_assert_eq!(&from, &out, "k_nearest_from r0 = {}, x = {:?}", r0, x);
+            }
         }
     }
     Ok(())
@@ -461,6 +475,7 @@ fn empty_grids_report_nothing() {
         assert!(grid.is_empty());
         assert_eq!(grid.indexed(), 0);
         grid.for_each_within(Vec3::ZERO, f32::INFINITY, |_, _| panic!("reported"));
+        assert!(!grid.any_within(Vec3::ZERO, f32::INFINITY));
         grid.k_nearest(Vec3::ZERO, 3, &mut out);
         assert!(out.is_empty());
     }
