@@ -182,13 +182,15 @@ impl SurfelBinding {
                 // tail's order of operations, so both give the same bits.
                 let groups = len / LANES * LANES;
                 for k in (0..groups).step_by(LANES) {
-                    let mut sums = [[0.0f32; 16]; LANES];
-                    for (l, sum) in sums.iter_mut().enumerate() {
-                        let (a, b) = row(k + l);
-                        sum[..8].copy_from_slice(&a.to_array());
-                        sum[8..].copy_from_slice(&b.to_array());
+                    // The eight surfels' sums, transposed to lanes: column j of the
+                    // table rows is `lane(j)`.
+                    let mut first = [f32x8::ZERO; LANES];
+                    let mut second = [f32x8::ZERO; LANES];
+                    for l in 0..LANES {
+                        (first[l], second[l]) = row(k + l);
                     }
-                    let lane = |j: usize| f32x8::from(std::array::from_fn(|l| sums[l][j]));
+                    let (first, second) = (f32x8::transpose(first), f32x8::transpose(second));
+                    let lane = |j: usize| if j < 8 { first[j] } else { second[j - 8] };
                     let s0 = [load8(rx, k), load8(ry, k), load8(rz, k)];
                     let d = [s0[0] - o.x, s0[1] - o.y, s0[2] - o.z];
                     // g column-major, as Mat3::from_cols_array.
