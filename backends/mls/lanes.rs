@@ -15,6 +15,7 @@
 //! reference's order, so the sums are deterministic and need no atomics.
 //! The scalar reference is `MlsDynamics::compute_forces_reference`.
 
+use super::Law;
 use glam::Mat3;
 use phyxel::columns::{LANES, load8, store8};
 use phyxel::mls::MlsStencil;
@@ -286,22 +287,10 @@ impl M3 {
     }
 }
 
-/// The constitutive law in lanes (the same formulas as the scalar `Law`).
-#[derive(Clone, Copy)]
-pub struct LaneLaw {
-    pub lambda: f32,
-    pub mu: f32,
-    pub kv: f32,
-    pub tau: f32,
-    pub paper: bool,
-    pub plastic_yield: f32,
-    pub plastic_creep_dt: f32,
-    pub plastic_max: f32,
-}
-
-impl LaneLaw {
+/// The constitutive law on eight phyxels: the formulas of the scalar `Law` methods.
+impl Law {
     #[inline(always)]
-    fn hooke(&self, e: &M3) -> M3 {
+    fn lane_hooke(&self, e: &M3) -> M3 {
         let diag = f32x8::splat(self.lambda) * e.trace();
         let mut s = e.scale(f32x8::splat(2.0 * self.mu));
         for k in 0..3 {
@@ -311,7 +300,7 @@ impl LaneLaw {
     }
 
     #[inline(always)]
-    fn strain(&self, j: &M3) -> M3 {
+    fn lane_strain(&self, j: &M3) -> M3 {
         let mut c = j.tr_mul(j);
         for k in 0..3 {
             c.c[4 * k] -= f32x8::ONE;
@@ -325,7 +314,7 @@ impl LaneLaw {
 
     /// `P` of eight phyxels and their strain norms; updates `plastic` when given.
     #[inline(always)]
-    fn stress_force(
+    fn lane_stress_force(
         &self,
         grad: &M3,
         vel_grad: Option<&M3>,
@@ -333,7 +322,7 @@ impl LaneLaw {
         volume: f32x8,
     ) -> (M3, f32x8) {
         let j = grad.identity_plus();
-        let strain = self.strain(&j);
+        let strain = self.lane_strain(&j);
         let mut elastic = strain;
         if let Some(ep) = plastic {
             let e = strain.sub(ep);
@@ -346,14 +335,14 @@ impl LaneLaw {
             *ep = ep.scale(capped);
             elastic = strain.sub(ep);
         }
-        let mut sigma = self.hooke(&elastic);
+        let mut sigma = self.lane_hooke(&elastic);
         if let Some(jd) = vel_grad {
             let half = j.tr_mul(jd);
             let mut rate = half.add(&half.transpose());
             if !self.paper {
                 rate = rate.scale(f32x8::splat(0.5));
             }
-            sigma = sigma.add(&self.hooke(&rate).scale(f32x8::splat(self.tau)));
+            sigma = sigma.add(&self.lane_hooke(&rate).scale(f32x8::splat(self.tau)));
         }
         let s = if self.paper { 2.0 } else { 1.0 };
         let mut p = j.mul(&sigma).scale(-volume * f32x8::splat(s));
@@ -367,7 +356,7 @@ impl LaneLaw {
 
 /// Per-step inputs of the stress pass.
 pub struct LaneInputs<'a> {
-    pub law: LaneLaw,
+    pub law: Law,
     /// Per phyxel `[u, v, 0, 0]`: displacement (m) and velocity (m/s, read only when
     /// `law.tau > 0`), one 32-byte row so a neighbour is one lane load; padded to
     /// [`LaneStencil::padded`] with zero rows.
@@ -500,11 +489,11 @@ fn group(
             let mut ep = M3::load(pl);
             let r = input
                 .law
-                .stress_force(&gu, gv.as_ref(), Some(&mut ep), volume);
+                .lane_stress_force(&gu, gv.as_ref(), Some(&mut ep), volume);
             ep.store(pl);
             r
         }
-        None => input.law.stress_force(&gu, gv.as_ref(), None, volume),
+        None => input.law.lane_stress_force(&gu, gv.as_ref(), None, volume),
     };
     let z = f32x8::ZERO;
     let lo = f32x8::transpose(std::array::from_fn(|k| p.c[k]));

@@ -22,7 +22,7 @@ use phyxel::phyxels::Phyxels;
 use rayon::prelude::*;
 
 mod lanes;
-use lanes::{LaneInputs, LaneLaw, LaneOutputs, LaneStencil};
+use lanes::{LaneInputs, LaneOutputs, LaneStencil};
 
 /// Power iterations for the largest stencil frequency (converges to within a few
 /// percent from below; the stable step keeps a margin for that).
@@ -226,17 +226,9 @@ impl MlsDynamics {
                 };
                 *s = [u.x, u.y, u.z, v.x, v.y, v.z, 0.0, 0.0];
             });
+        self.stress_rows.resize(self.lanes.padded(), [0.0; 16]);
         let input = LaneInputs {
-            law: LaneLaw {
-                lambda: law.lambda,
-                mu: law.mu,
-                kv: law.kv,
-                tau: law.tau,
-                paper: law.paper,
-                plastic_yield: law.plastic_yield,
-                plastic_creep_dt: law.plastic_creep_dt,
-                plastic_max: law.plastic_max,
-            },
+            law,
             state: &self.state,
             volume: &phyxels.volume,
         };
