@@ -413,16 +413,10 @@ impl Grid {
                 nx,
                 shared,
                 r2,
-            } => {
-                for cz in lo[2]..=hi[2] {
-                    for cy in lo[1]..=hi[1] {
-                        let row = shared.then_some((cy, cz));
-                        for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
-                            (s as usize..e as usize).for_each(|k| test(k, r2, row));
-                        }
-                    }
-                }
-            }
+            } => self.box_runs(lo, hi, nx, |s, e, cy, cz| {
+                let row = shared.then_some((cy, cz));
+                (s as usize..e as usize).for_each(|k| test(k, r2, row));
+            }),
         }
     }
 
@@ -524,6 +518,25 @@ impl Grid {
                 (self.start[b0], self.start[table]),
                 (self.start[0], self.start[b1 - table]),
             ]
+        }
+    }
+
+    /// The sorted-position runs of the query box `lo..=hi` (rows of `nx` cells), row by
+    /// row: `f(s, e, cy, cz)` for each run `s..e` of row `(cy, cz)`.
+    #[inline(always)]
+    fn box_runs(
+        &self,
+        lo: [i32; 3],
+        hi: [i32; 3],
+        nx: usize,
+        mut f: impl FnMut(u32, u32, i32, i32),
+    ) {
+        for cz in lo[2]..=hi[2] {
+            for cy in lo[1]..=hi[1] {
+                for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
+                    f(s, e, cy, cz);
+                }
+            }
         }
     }
 
@@ -629,19 +642,13 @@ impl Grid {
                 nx,
                 shared,
                 r2,
-            } => {
-                for cz in lo[2]..=hi[2] {
-                    for cy in lo[1]..=hi[1] {
-                        for (s, e) in self.row_runs(lo[0], nx, cy, cz) {
-                            if shared {
-                                self.lanes::<true>(s, e, cy, cz, x, r2, &mut f);
-                            } else {
-                                self.lanes::<false>(s, e, cy, cz, x, r2, &mut f);
-                            }
-                        }
-                    }
+            } => self.box_runs(lo, hi, nx, |s, e, cy, cz| {
+                if shared {
+                    self.lanes::<true>(s, e, cy, cz, x, r2, &mut f);
+                } else {
+                    self.lanes::<false>(s, e, cy, cz, x, r2, &mut f);
                 }
-            }
+            }),
         }
     }
 
