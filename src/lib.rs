@@ -5,7 +5,7 @@
 //! point-based animation of Müller et al. 2004.
 //!
 //! Objects are point clouds: **surfels** sample the surface, **phyxels** the volume.
-//! A pluggable [`Dynamics`](dynamics::Dynamics) backend moves the phyxels; the surfels
+//! A pluggable [`Dynamics`] backend moves the phyxels; the surfels
 //! follow them; the contact pipeline then finds, resolves and responds to contacts.
 //!
 //! ```no_run

@@ -10,7 +10,7 @@
 //! (rest ← current, for phyxels and surfels): a fresh backend has no plastic state, and
 //! the old rest shape would make a plastically deformed piece spring back. Mass and
 //! momentum are copied phyxel by phyxel, so they are kept exactly; then crack surfels
-//! close the new boundary ([`crack_surfels`]).
+//! close the new boundary (the private `crack_surfels`).
 //!
 //! **Self-collision.** An object stores the phyxel pairs within the influence radius at
 //! rest; two phyxels that come closer than their spacing without being rest neighbours
