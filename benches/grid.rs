@@ -1,12 +1,13 @@
 //! Spatial hash grid vs the `kiddo` k-d tree on a 100,000-point jittered cubic lattice
 //! (spacing 1, jitter ±0.25 per coordinate, fixed seed), single thread.
 //!
-//! - `build`: grid rebuild in place (the per-step case) and a fresh grid;
+//! - `build`: grid rebuild in place (the per-step case; buckets in lanes, and the scalar
+//!   reference `rebuild_scalar`) and a fresh grid;
 //! - `range`: build + a fixed-radius query (~30 neighbours) at every point;
 //! - `knn16`: build + the 16 nearest points of every point;
 //! - `sphere_1m/rebuild`: rebuild over the 1M surfels of a scale-scene sphere (radius
 //!   0.1, spiral order, cell of the fine surfel grid ≈ 2.5 spacings): the per-step
-//!   `surfel_grid` case at the 1M scale.
+//!   `surfel_grid` case at the 1M scale, also against the scalar reference.
 //!
 //! Run: `cargo bench --bench grid -- --warm-up-time 1 --measurement-time 3`.
 //! Throughput is in points, so µs per point = 1 / (Melem/s); numbers go to
@@ -144,6 +145,9 @@ fn grid_vs_kiddo(c: &mut Criterion) {
     g.bench_function("build/rebuild", |b| {
         b.iter(|| grid.rebuild(black_box(&pts).iter().copied(), RADIUS))
     });
+    g.bench_function("build/rebuild_scalar", |b| {
+        b.iter(|| grid.rebuild_reference(black_box(&pts).iter().copied(), RADIUS))
+    });
     g.bench_function("build/fresh", |b| {
         b.iter(|| Grid::build(black_box(&pts).iter().copied(), RADIUS))
     });
@@ -186,6 +190,9 @@ fn sphere_rebuild(c: &mut Criterion) {
     g.sample_size(20);
     g.bench_function("sphere_1m/rebuild", |b| {
         b.iter(|| grid.rebuild(black_box(&pts).iter().copied(), cell))
+    });
+    g.bench_function("sphere_1m/rebuild_scalar", |b| {
+        b.iter(|| grid.rebuild_reference(black_box(&pts).iter().copied(), cell))
     });
     g.finish();
 }

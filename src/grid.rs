@@ -34,7 +34,7 @@
 use crate::columns::Vec3s;
 use glam::Vec3;
 use std::sync::{Mutex, OnceLock};
-use wide::f32x8;
+use wide::{f32x8, i32x8};
 
 /// SIMD width of the distance tests.
 const LANES: usize = 8;
@@ -184,6 +184,36 @@ fn cell_of(p: Vec3, inv_cell: f32) -> [i32; 3] {
     ]
 }
 
+/// [`floor_i32`] of eight values: the same saturation (`trunc_int` saturates like `as`,
+/// NaN → 0) and the same step down where truncation rounded up.
+#[inline(always)]
+fn floor_lanes(v: f32x8) -> i32x8 {
+    let t = v.trunc_int();
+    let above: i32x8 = wide::bytemuck::cast(t.round_float().simd_gt(v));
+    // `above` is −1 where t > v: a saturating add steps those lanes down by one.
+    t.saturating_add(above)
+}
+
+/// The buckets of eight points ([`hash`] of [`cell_of`]), [`SKIPPED`] for a point with
+/// a NaN coordinate.
+#[inline(always)]
+fn lane_buckets(group: &[Vec3; LANES], inv_cell: f32, mask: usize) -> [u32; LANES] {
+    let inv = f32x8::splat(inv_cell);
+    let axis = |a: usize| f32x8::from(group.map(|p| p.to_array()[a]));
+    let (x, y, z) = (axis(0), axis(1), axis(2));
+    let c = [
+        floor_lanes(x * inv),
+        floor_lanes(y * inv),
+        floor_lanes(z * inv),
+    ];
+    let h = c[0] + c[1] * i32x8::splat(P2 as i32) + c[2] * i32x8::splat(P3 as i32);
+    let h = h & i32x8::splat(mask as i32);
+    let nan: i32x8 = wide::bytemuck::cast(x.is_nan() | y.is_nan() | z.is_nan());
+    nan.select(i32x8::splat(SKIPPED as i32), h)
+        .to_array()
+        .map(|b| b as u32)
+}
+
 /// Additive spatial hash: consecutive x cells map to consecutive buckets (mod table).
 /// It is linear modulo the table size, so whether two cells collide depends only on
 /// their offset (see [`row_separation`]).
@@ -254,6 +284,26 @@ impl Grid {
     /// For fixed-radius queries of radius `r`, `cell = r` is a good choice (a query
     /// reads 3 × 3 runs of 3 cells each).
     pub fn rebuild(&mut self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) {
+        self.rebuild_with::<true>(points, cell);
+    }
+
+    /// Scalar reference of [`Grid::rebuild`]: each point's bucket one at a time (the
+    /// same grid, bit for bit; tests and benches).
+    pub fn rebuild_reference(
+        &mut self,
+        points: impl ExactSizeIterator<Item = Vec3> + Clone,
+        cell: f32,
+    ) {
+        self.rebuild_with::<false>(points, cell);
+    }
+
+    /// The build, with the buckets computed eight points at a time (`LANES_HASH`) or
+    /// one at a time.
+    fn rebuild_with<const LANES_HASH: bool>(
+        &mut self,
+        points: impl ExactSizeIterator<Item = Vec3> + Clone,
+        cell: f32,
+    ) {
         assert!(cell.is_finite() && cell > 0.0, "grid cell size must be > 0");
         let n = points.len();
         assert!(n < u32::MAX as usize, "too many points for a grid");
@@ -275,14 +325,35 @@ impl Grid {
         let start = &mut self.start[..];
         // The counts go through a local slice, not `self`: stores through `self`'s vectors
         // would make the compiler reload every vector's pointer and length per point.
-        self.bucket_of.extend(points.clone().map(|p| {
-            if p.is_nan() {
-                return SKIPPED;
+        if LANES_HASH {
+            let mut it = points.clone();
+            loop {
+                let mut group = [Vec3::ZERO; LANES];
+                let mut len = 0;
+                for (slot, p) in group.iter_mut().zip(&mut it) {
+                    *slot = p;
+                    len += 1;
+                }
+                for &b in &lane_buckets(&group, inv_cell, mask)[..len] {
+                    if b != SKIPPED {
+                        start[b as usize + 2] += 1;
+                    }
+                    self.bucket_of.push(b);
+                }
+                if len < LANES {
+                    break;
+                }
             }
-            let b = hash(cell_of(p, inv_cell), mask);
-            start[b + 2] += 1;
-            b as u32
-        }));
+        } else {
+            self.bucket_of.extend(points.clone().map(|p| {
+                if p.is_nan() {
+                    return SKIPPED;
+                }
+                let b = hash(cell_of(p, inv_cell), mask);
+                start[b + 2] += 1;
+                b as u32
+            }));
+        }
         // ... so that after the prefix sum `start[b + 1]` is where bucket `b` begins ...
         for b in 2..table + 2 {
             start[b] += start[b - 1];
