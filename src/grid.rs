@@ -467,10 +467,7 @@ impl Grid {
         let mut test = |k: usize, r2: f32, row: Option<(i32, i32)>| {
             let (dx, dy, dz) = (self.px[k] - x.x, self.py[k] - x.y, self.pz[k] - x.z);
             let d2 = dx * dx + dy * dy + dz * dz;
-            let own_row = row.is_none_or(|(cy, cz)| {
-                floor_i32(self.py[k] * self.inv_cell) == cy
-                    && floor_i32(self.pz[k] * self.inv_cell) == cz
-            });
+            let own_row = row.is_none_or(|(cy, cz)| self.in_row(k, cy, cz));
             if d2 <= r2 && own_row {
                 f(self.sorted[k] as usize, d2);
             }
@@ -592,6 +589,13 @@ impl Grid {
         }
     }
 
+    /// True when the point at sorted position `k` lies in cell row `(cy, cz)`: the
+    /// filter of queries whose rows share buckets.
+    #[inline(always)]
+    fn in_row(&self, k: usize, cy: i32, cz: i32) -> bool {
+        floor_i32(self.py[k] * self.inv_cell) == cy && floor_i32(self.pz[k] * self.inv_cell) == cz
+    }
+
     /// The sorted-position runs of the query box `lo..=hi` (rows of `nx` cells), row by
     /// row: `f(s, e, cy, cz)` for each run `s..e` of row `(cy, cz)`.
     #[inline(always)]
@@ -671,8 +675,7 @@ impl Grid {
             n = 0;
             for k in 0..hits.len {
                 let j = hits.pos[k];
-                let (qy, qz) = (self.py[j as usize], self.pz[j as usize]);
-                if floor_i32(qy * self.inv_cell) == cy && floor_i32(qz * self.inv_cell) == cz {
+                if self.in_row(j as usize, cy, cz) {
                     hits.pos[n] = j;
                     n += 1;
                 }
@@ -746,10 +749,7 @@ impl Grid {
             if FILTER {
                 for l in 0..LANES {
                     let j = k + l;
-                    if mask & (1 << l) != 0
-                        && (floor_i32(self.py[j] * self.inv_cell) != cy
-                            || floor_i32(self.pz[j] * self.inv_cell) != cz)
-                    {
+                    if mask & (1 << l) != 0 && !self.in_row(j, cy, cz) {
                         mask &= !(1 << l);
                     }
                 }
