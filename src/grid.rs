@@ -90,8 +90,9 @@ enum Query {
     },
 }
 
-/// Capacity of the per-query hit buffer (a power of two, at least 2 × LANES).
-const HITS: usize = 128;
+/// Capacity of the per-query hit buffer (a power of two, at least 2 × LANES). Small
+/// enough that clearing it per query is a few stores, not a `memset` call (128 was).
+const HITS: usize = 64;
 /// Most sorted positions in one batch of [`Grid::for_each_hit_batch`].
 pub const HIT_BATCH: usize = HITS;
 
@@ -192,6 +193,15 @@ fn floor_lanes(v: f32x8) -> i32x8 {
     let above: i32x8 = wide::bytemuck::cast(t.round_float().simd_gt(v));
     // `above` is −1 where t > v: a saturating add steps those lanes down by one.
     t.saturating_add(above)
+}
+
+/// [`cell_of`] of two corners in one lane floor (the same cells: [`floor_lanes`] is
+/// [`floor_i32`] lane-wise).
+#[inline(always)]
+fn box_cells(lo: Vec3, hi: Vec3, inv_cell: f32) -> ([i32; 3], [i32; 3]) {
+    let v = f32x8::from([lo.x, lo.y, lo.z, hi.x, hi.y, hi.z, 0.0, 0.0]) * f32x8::splat(inv_cell);
+    let c = floor_lanes(v).to_array();
+    ([c[0], c[1], c[2]], [c[3], c[4], c[5]])
 }
 
 /// The buckets of eight points ([`hash`] of [`cell_of`]), [`SKIPPED`] for a point with
@@ -446,7 +456,7 @@ impl Grid {
                 .step_by(LANES)
                 .any(|k| self.lane_distances(k, e as usize, xs, r2s).0 != 0)
         };
-        match self.plan(x, r) {
+        match self.plan::<true>(x, r) {
             Query::Nothing => false,
             Query::Scan { r2 } => any_in(0, self.sorted.len() as u32, r2),
             // A point met through a shared bucket is still within `r`: no row filter.
@@ -472,7 +482,7 @@ impl Grid {
                 f(self.sorted[k] as usize, d2);
             }
         };
-        match self.plan(x, r) {
+        match self.plan::<false>(x, r) {
             Query::Nothing => {}
             Query::Scan { r2 } => (0..self.sorted.len()).for_each(|k| test(k, r2, None)),
             Query::Rows {
@@ -494,7 +504,7 @@ impl Grid {
     /// own data in the grid's order read it without the indirection. Does not allocate.
     #[inline]
     pub fn for_each_hit_batch(&self, x: Vec3, r: f32, mut f: impl FnMut(&[u32])) {
-        let (lo, hi, nx, shared, r2) = match self.plan(x, r) {
+        let (lo, hi, nx, shared, r2) = match self.plan::<true>(x, r) {
             Query::Nothing => return,
             Query::Scan { r2 } => {
                 let mut hits = Hits::new();
@@ -535,9 +545,10 @@ impl Grid {
     }
 
     /// What a query of radius `r` around `x` reads: nothing, a scan of every point, or
-    /// the rows of a box of cells.
+    /// the rows of a box of cells (whose corners' cells take one lane floor, or with
+    /// `LANE_FLOOR` false six scalar ones: the same cells).
     #[inline(always)]
-    fn plan(&self, x: Vec3, r: f32) -> Query {
+    fn plan<const LANE_FLOOR: bool>(&self, x: Vec3, r: f32) -> Query {
         let m = self.sorted.len();
         if m == 0 || r.is_nan() || r < 0.0 || x.is_nan() {
             return Query::Nothing;
@@ -547,8 +558,18 @@ impl Grid {
         // distance test (relative 2⁻²² plus underflow), so it holds every point the test
         // accepts; the rounding of `x ± reach` itself only widens the box.
         let reach = r * (1.0 + 1.0e-6) + 1.0e-20;
-        let lo = cell_of(x - Vec3::splat(reach), self.inv_cell);
-        let hi = cell_of(x + Vec3::splat(reach), self.inv_cell);
+        let (lo, hi) = if LANE_FLOOR {
+            box_cells(
+                x - Vec3::splat(reach),
+                x + Vec3::splat(reach),
+                self.inv_cell,
+            )
+        } else {
+            (
+                cell_of(x - Vec3::splat(reach), self.inv_cell),
+                cell_of(x + Vec3::splat(reach), self.inv_cell),
+            )
+        };
         let nx = hi[0] as i64 - lo[0] as i64 + 1;
         let ny = hi[1] as i64 - lo[1] as i64 + 1;
         let nz = hi[2] as i64 - lo[2] as i64 + 1;
@@ -577,15 +598,15 @@ impl Grid {
     #[inline(always)]
     fn row_runs(&self, x0: i32, nx: usize, cy: i32, cz: i32) -> [(u32, u32); 2] {
         let table = self.mask + 1;
+        // One bounds check here instead of one per lookup: `b0 ≤ mask` and, in the first
+        // arm, `b1 ≤ table`.
+        let start = &self.start[..=table];
         let b0 = hash([x0, cy, cz], self.mask);
         let b1 = b0 + nx;
         if b1 <= table {
-            [(self.start[b0], self.start[b1]), (0, 0)]
+            [(start[b0], start[b1]), (0, 0)]
         } else {
-            [
-                (self.start[b0], self.start[table]),
-                (self.start[0], self.start[b1 - table]),
-            ]
+            [(start[b0], start[table]), (start[0], start[b1 - table])]
         }
     }
 
@@ -620,9 +641,13 @@ impl Grid {
     /// coordinate arrays are padded by `LANES − 1`, so lanes past `e` exist.
     #[inline(always)]
     fn lane_distances(&self, k: usize, e: usize, xs: [f32x8; 3], r2s: f32x8) -> (u32, f32x8) {
-        let dx = load8(&self.px, k) - xs[0];
-        let dy = load8(&self.py, k) - xs[1];
-        let dz = load8(&self.pz, k) - xs[2];
+        // Sliced to what the run `..e` may load, so that with `k < e` the loads need no
+        // bounds checks of their own.
+        let end = e + LANES - 1;
+        let (px, py, pz) = (&self.px[..end], &self.py[..end], &self.pz[..end]);
+        let dx = load8(px, k) - xs[0];
+        let dy = load8(py, k) - xs[1];
+        let dz = load8(pz, k) - xs[2];
         let d2 = dx * dx + dy * dy + dz * dz;
         let mut mask = d2.simd_le(r2s).to_bitmask();
         if e - k < LANES {
@@ -705,7 +730,7 @@ impl Grid {
     /// value [`Grid::for_each_within`] reports). Every point within `r` is in exactly one
     /// call with its bit set; lanes with a clear bit may be padding and must be ignored.
     pub fn for_each_lanes_within(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, u32, f32x8)) {
-        match self.plan(x, r) {
+        match self.plan::<true>(x, r) {
             Query::Nothing => {}
             Query::Scan { r2 } => {
                 self.lanes::<false>(0, self.sorted.len() as u32, 0, 0, x, r2, &mut f)
