@@ -11,8 +11,9 @@ use phyxel::implicit::{ImplicitSurface, SurfelRows, grid_cell};
 use phyxel::shape::Shape;
 use std::hint::black_box;
 
-/// Implicit-surface kernel sums (eq. 1): the batched SIMD kernel (hits in batches,
-/// lane `exp`, one row multiply-add per hit over `SurfelRows`) against the scalar
+/// Implicit-surface kernel sums (eq. 1): the SIMD kernel (each lane group of the grid
+/// query with a hit becomes eight lane weights, `exp_neg`, added with the surfels'
+/// `SurfelRows` columns into lane sums) against the scalar
 /// reference (scalar grid query, libm `exp`, per-hit adds) and against the per-hit
 /// kernel over the lane query, at 4096 points within ±1.5 spacings of a sphere of radius 0.1 m
 /// sampled with 10k surfels (each point a fresh grid query).

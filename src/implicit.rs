@@ -5,7 +5,7 @@
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
 use crate::broad_phase::Aabb;
-use crate::columns::{LANES, Vec3s};
+use crate::columns::{LANES, Vec3s, lane_mask, load8};
 use crate::grid::{Grid, LazyGrid};
 use glam::Vec3;
 use wide::f32x8;
@@ -59,85 +59,91 @@ pub fn exp_neg(q: f32x8) -> f32x8 {
     p * scale
 }
 
-/// One row per surfel in a grid's sorted order, `[x, y, z, nx, ny, nz, 1, σ]`: the
-/// batched kernel adds `θ · row` to a single `f32x8`, so Σθ, Σθ s and Σθ n take one
-/// multiply-add per hit, and the hits of a query are a few nearby rows.
-/// Rebuilt after each grid rebuild (surfels move); keeps its buffer.
+/// The surfels' normals and kernel widths σ in a grid's sorted order, as columns
+/// padded by `LANES − 1` like the grid's own sorted positions: the kernel sums then
+/// read every surfel datum in whole lane groups, next to the grid's distance test, with
+/// no gather per hit. Rebuilt after each grid rebuild (surfels move); keeps its buffers.
 #[derive(Clone, Debug, Default)]
 pub struct SurfelRows {
-    rows: Vec<f32x8>,
+    normal: [Vec<f32>; 3],
+    sigma: Vec<f32>,
 }
 
 impl SurfelRows {
-    /// Rows of `grid`'s points (`pos`, the positions it was built over) in its sorted
-    /// order.
+    /// Columns of `grid`'s points (`pos`, the positions it was built over, whose
+    /// `normal` and `radius` these are) in its sorted order.
     pub fn rebuild(&mut self, grid: &Grid, pos: &Vec3s, normal: &Vec3s, radius: &[f32]) {
-        self.rows.clear();
-        self.rows.extend(grid.sorted().iter().map(|&i| {
-            let i = i as usize;
-            f32x8::from([
-                pos.x[i],
-                pos.y[i],
-                pos.z[i],
-                normal.x[i],
-                normal.y[i],
-                normal.z[i],
-                1.0,
-                SIGMA_PER_RADIUS * radius[i],
-            ])
-        }));
+        debug_assert_eq!(grid.len(), pos.len());
+        let sorted = grid.sorted();
+        let fill = |col: &mut Vec<f32>, value: &dyn Fn(usize) -> f32| {
+            col.clear();
+            col.extend(sorted.iter().map(|&i| value(i as usize)));
+            col.resize(sorted.len() + LANES - 1, 0.0);
+        };
+        fill(&mut self.normal[0], &|i| normal.x[i]);
+        fill(&mut self.normal[1], &|i| normal.y[i]);
+        fill(&mut self.normal[2], &|i| normal.z[i]);
+        fill(&mut self.sigma, &|i| SIGMA_PER_RADIUS * radius[i]);
     }
 }
 
-/// Adds `θ_k · row_k` to `sum` for the sorted positions in `batch`: eight distances at
-/// a time become weights in lanes, then one lane multiply-add per hit.
-#[inline(always)]
-fn add_kernels(rows: &[f32x8], x: Vec3, batch: &[u32], sum: &mut f32x8) {
-    let cutoff = f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS);
-    for group in batch.chunks(LANES) {
-        // Padding lanes: infinite distance, so weight 0.
-        let (mut d2, mut sigma) = ([f32::INFINITY; LANES], [1.0f32; LANES]);
-        for (l, &j) in group.iter().enumerate() {
-            let r = rows[j as usize].as_array();
-            // The f32 operations of the scalar reference, hence the same q.
-            let (dx, dy, dz) = (r[0] - x.x, r[1] - x.y, r[2] - x.z);
-            d2[l] = dx * dx + dy * dy + dz * dz;
-            sigma[l] = r[7];
-        }
-        let sigma = f32x8::from(sigma);
-        let q = f32x8::from(d2) / (sigma * sigma);
+/// `Σθ`, `Σθ s` and `Σθ n` as lane sums: each lane group of a query adds its eight
+/// weights (zero outside its mask and beyond the cutoff) times the eight surfels'
+/// data, and the lanes are added up once at the end.
+#[derive(Clone, Copy, Default)]
+struct LaneSums {
+    w: f32x8,
+    s: [f32x8; 3],
+    n: [f32x8; 3],
+}
+
+impl LaneSums {
+    /// Adds the surfels at sorted positions `k..k + 8` whose bit is set in `mask`,
+    /// with squared distances `d2` (the grid's sorted positions `points`).
+    #[inline(always)]
+    fn add(&mut self, points: [&[f32]; 3], rows: &SurfelRows, k: usize, mask: u32, d2: f32x8) {
+        let sigma = load8(&rows.sigma, k);
+        let q = d2 / (sigma * sigma);
         // Beyond the cutoff (and NaN from a zero radius) weigh 0.
-        let w = q.simd_lt(cutoff).select(exp_neg(q), f32x8::ZERO);
-        let w = w.as_array();
-        for (l, &j) in group.iter().enumerate() {
-            *sum += f32x8::splat(w[l]) * rows[j as usize];
+        let on = lane_mask(mask) & q.simd_lt(f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS));
+        let w = on.select(exp_neg(q), f32x8::ZERO);
+        self.w += w;
+        for a in 0..3 {
+            self.s[a] += w * load8(points[a], k);
+            self.n[a] += w * load8(&rows.normal[a], k);
         }
+    }
+
+    /// The squared distances to `x` of the points at sorted positions `k..k + 8` (the
+    /// grid's f32 operations, hence its values).
+    #[inline(always)]
+    fn d2(points: [&[f32]; 3], k: usize, x: Vec3) -> f32x8 {
+        let d = |a: usize, c: f32| load8(points[a], k) - f32x8::splat(c);
+        let (dx, dy, dz) = (d(0, x.x), d(1, x.y), d(2, x.z));
+        dx * dx + dy * dy + dz * dz
+    }
+
+    /// `(Σθ, Σθ s, Σθ n)`.
+    fn totals(&self) -> (f32, Vec3, Vec3) {
+        let v = |l: [f32x8; 3]| Vec3::new(l[0].reduce_add(), l[1].reduce_add(), l[2].reduce_add());
+        (self.w.reduce_add(), v(self.s), v(self.n))
     }
 }
 
-/// `(Σθ, Σθ s, Σθ n)` from the lanes of a row sum.
-fn lane_totals(sum: f32x8) -> (f32, Vec3, Vec3) {
-    let t = sum.as_array();
-    (
-        t[6],
-        Vec3::new(t[0], t[1], t[2]),
-        Vec3::new(t[3], t[4], t[5]),
-    )
-}
-
-/// Most hits [`NearHits`] keeps (a kernel query finds about 12 at the paper's sampling).
-pub const NEAR_HITS: usize = 96;
+/// Most lane groups [`NearHits`] keeps (a kernel query meets about 10 at the paper's
+/// sampling).
+pub const NEAR_HITS: usize = 48;
 /// How far from a kept query's centre its hits still serve, in kernel reaches.
 pub const NEAR_HITS_SLACK: f32 = 0.02;
 
-/// The hits (sorted grid positions) of the last query of
+/// The lane groups with hits (sorted grid position and hit mask) of the last query of
 /// [`ImplicitSurface::sample_near_kept`], for samples close to it.
 #[derive(Clone, Copy, Debug)]
 pub struct NearHits {
     centre: Vec3,
     /// Number kept; above [`NEAR_HITS`] when none are (none yet, or too many).
     len: usize,
-    pos: [u32; NEAR_HITS],
+    groups: [(u32, u32); NEAR_HITS],
 }
 
 impl Default for NearHits {
@@ -145,7 +151,7 @@ impl Default for NearHits {
         Self {
             centre: Vec3::ZERO,
             len: usize::MAX,
-            pos: [0; NEAR_HITS],
+            groups: [(0, 0); NEAR_HITS],
         }
     }
 }
@@ -392,10 +398,10 @@ impl<'a> ImplicitSurface<'a> {
 
     /// `(Σθ_k, Σθ_k s_k, Σθ_k n_k)` at `x` over the surfels within reach: the kernel
     /// sums of eq. 1. With [`ImplicitSurface::with_rows`] (and the query inside the
-    /// grid's region) the grid's hits come in batches of sorted positions: eight
-    /// distances at a time become weights in `f32x8` lanes (`exp_neg`), and each hit adds
-    /// `θ · row` with one lane multiply-add. Otherwise each hit adds its weight on its own
-    /// (the same sums as the scalar reference, over the lane query).
+    /// grid's region) each lane group of the grid query that holds a hit becomes eight
+    /// weights in `f32x8` lanes (`exp_neg`) and adds them, times the eight surfels'
+    /// positions and normals, to lane sums. Otherwise each hit adds its weight on its
+    /// own (the same sums as the scalar reference, over the lane query).
     pub fn weighted_sums(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         let in_grid = self
             .region
@@ -403,18 +409,20 @@ impl<'a> ImplicitSurface<'a> {
         let Some(rows) = self.rows.filter(|_| in_grid) else {
             return self.sums_per_hit::<false>(x);
         };
-        let mut sum = f32x8::ZERO;
-        self.grid.for_each_hit_batch(x, self.reach, |batch| {
-            add_kernels(&rows.rows, x, batch, &mut sum);
-        });
-        lane_totals(sum)
+        let points = self.grid.sorted_points();
+        let mut sums = LaneSums::default();
+        self.grid
+            .for_each_lanes_within(x, self.reach, |k, mask, d2| {
+                sums.add(points, rows, k, mask, d2);
+            });
+        sums.totals()
     }
 
-    /// [`ImplicitSurface::sample_near`] that keeps the query's hits in `hits` for the
-    /// next samples: one within [`NEAR_HITS_SLACK`] reaches of the last query's centre
-    /// reads the kept hits instead of the grid (a root search's last evaluations lie
-    /// within its tolerance of each other). Same weights and sums as `sample_near` up to
-    /// summation order (`tests/detect.rs`).
+    /// [`ImplicitSurface::sample_near`] that keeps the query's lane groups in `hits`
+    /// for the next samples: one within [`NEAR_HITS_SLACK`] reaches of the last query's
+    /// centre reads the kept groups instead of the grid (a root search's last
+    /// evaluations lie within its tolerance of each other). Same weights and sums as
+    /// `sample_near` up to summation order (`tests/detect.rs`).
     pub fn sample_near_kept(&self, x: Vec3, hits: &mut NearHits) -> Option<SurfaceSample> {
         let slack = NEAR_HITS_SLACK * self.reach;
         let wide = self.reach + slack;
@@ -422,24 +430,27 @@ impl<'a> ImplicitSurface<'a> {
         let Some(rows) = self.rows.filter(|_| in_grid) else {
             return self.sample_near(x);
         };
-        let mut sum = f32x8::ZERO;
+        let points = self.grid.sorted_points();
+        let mut sums = LaneSums::default();
         if hits.len <= NEAR_HITS && (x - hits.centre).length_squared() <= slack * slack {
-            add_kernels(&rows.rows, x, &hits.pos[..hits.len], &mut sum);
+            for &(k, mask) in &hits.groups[..hits.len] {
+                let k = k as usize;
+                sums.add(points, rows, k, mask, LaneSums::d2(points, k, x));
+            }
         } else {
             // Hits between `reach` and `wide` weigh 0 here (beyond every cutoff).
-            let (mut len, mut fits) = (0, true);
-            self.grid.for_each_hit_batch(x, wide, |batch| {
-                add_kernels(&rows.rows, x, batch, &mut sum);
-                fits &= len + batch.len() <= NEAR_HITS;
-                if fits {
-                    hits.pos[len..len + batch.len()].copy_from_slice(batch);
-                    len += batch.len();
+            let mut len = 0;
+            self.grid.for_each_lanes_within(x, wide, |k, mask, d2| {
+                sums.add(points, rows, k, mask, d2);
+                if let Some(slot) = hits.groups.get_mut(len) {
+                    *slot = (k as u32, mask);
                 }
+                len += 1;
             });
             hits.centre = x;
-            hits.len = if fits { len } else { usize::MAX };
+            hits.len = if len <= NEAR_HITS { len } else { usize::MAX };
         }
-        let (w_sum, ws, wn) = lane_totals(sum);
+        let (w_sum, ws, wn) = sums.totals();
         if w_sum <= 1.0e-30 {
             return None;
         }

@@ -37,7 +37,7 @@ impl Sampled {
         ImplicitSurface::new(&self.pos, &self.normal, &self.radius, &self.grid)
     }
 
-    /// The grid's surfel rows, for the batched kernel (`with_rows`).
+    /// The grid's surfel columns, for the SIMD kernel (`with_rows`).
     fn rows(&self) -> SurfelRows {
         let mut rows = SurfelRows::default();
         rows.rebuild(&self.grid, &self.pos, &self.normal, &self.radius);
@@ -361,8 +361,8 @@ fn disjoint_objects_cost_no_narrow_phase() {
     assert_eq!(world.max_penetration, 0.0);
 }
 
-/// The SIMD kernel sums of the implicit surface (the grid's hits in batches, eight
-/// weights per lane-wise `exp`, one row multiply-add per hit) against the scalar
+/// The SIMD kernel sums of the implicit surface (each lane group of the grid query
+/// with a hit: eight weights by a lane-wise `exp`, added into lane sums) against the scalar
 /// reference, at 2000 points within ±1.5 spacings of a sampled sphere (R = 0.1 m, spacing 3.5 mm). Tolerance: relative 1e-5 of Σθ and of
 /// |Σθ s|, |Σθ n| (f32 summation order and `exp` rounding differ, nothing else).
 #[test]
