@@ -108,9 +108,14 @@ impl LaneSums {
         let on = lane_mask(mask) & q.simd_lt(f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS));
         let w = on.select(exp_neg(q), f32x8::ZERO);
         self.w += w;
-        for a in 0..3 {
-            self.s[a] += w * load8(points[a], k);
-            self.n[a] += w * load8(&rows.normal[a], k);
+        for ((s, n), (p, nc)) in self
+            .s
+            .iter_mut()
+            .zip(&mut self.n)
+            .zip(points.iter().zip(&rows.normal))
+        {
+            *s += w * load8(p, k);
+            *n += w * load8(nc, k);
         }
     }
 
