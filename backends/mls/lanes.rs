@@ -453,8 +453,15 @@ fn gather<const W: usize>(rows: &[[f32; W]], idx: &[u32], half: usize) -> [f32x8
 
 /// `∇u` and `∇v` of a group's eight rows: `Σ_j (u_j − u_i) d_ijᵀ` (`∇v` only with
 /// `velocity`).
+///
+/// `VELOCITY` is a constant so that each case gets its own loop: a run-time flag inside
+/// the slot loop cost the elastic case its register allocation.
 #[inline(always)]
-fn lane_gradients(st: &LaneStencil, state: &[[f32; 8]], g: usize, velocity: bool) -> (M3, M3) {
+fn lane_gradients<const VELOCITY: bool>(
+    st: &LaneStencil,
+    state: &[[f32; 8]],
+    g: usize,
+) -> (M3, M3) {
     let own_idx: [u32; LANES] = std::array::from_fn(|l| (g * LANES + l) as u32);
     let own = gather(state, &own_idx, 0);
     let (mut gu, mut gv) = (M3::ZERO, M3::ZERO);
@@ -463,7 +470,7 @@ fn lane_gradients(st: &LaneStencil, state: &[[f32; 8]], g: usize, velocity: bool
         let d = st.rows.weight(s);
         let du: [f32x8; 3] = std::array::from_fn(|r| nb[r] - own[r]);
         gu.add_outer(du, d);
-        if velocity {
+        if VELOCITY {
             gv.add_outer(std::array::from_fn(|r| nb[3 + r] - own[3 + r]), d);
         }
     }
@@ -480,7 +487,11 @@ fn group(
     stress: &mut [StressRow],
 ) -> f32 {
     let velocity = input.law.tau > 0.0;
-    let (gu, gv) = lane_gradients(st, input.state, g, velocity);
+    let (gu, gv) = if velocity {
+        lane_gradients::<true>(st, input.state, g)
+    } else {
+        lane_gradients::<false>(st, input.state, g)
+    };
     gu.store(grad);
     let gv = velocity.then_some(gv);
     let volume = load8(input.volume, g * LANES);
