@@ -177,7 +177,7 @@ pub struct ImplicitSurface<'a> {
     /// their nearest-surfel search short, built only if some point needs it); `grid`
     /// unless set.
     far: Option<&'a LazyGrid>,
-    /// `grid`'s surfel rows, for the batched SIMD kernel sums.
+    /// `grid`'s surfel columns, for the SIMD kernel sums over lane groups.
     rows: Option<&'a SurfelRows>,
     /// When `grid` indexes only the surfels in a box: see [`Region`].
     region: Option<Region<'a>>,
@@ -375,7 +375,7 @@ impl<'a> ImplicitSurface<'a> {
         self
     }
 
-    /// Evaluates the kernel sums with the batched SIMD kernel over `rows` (rebuilt from
+    /// Evaluates the kernel sums with the SIMD lane-group kernel over `rows` (rebuilt from
     /// this surface's surfels after its grid's last rebuild).
     pub fn with_rows(mut self, rows: &'a SurfelRows) -> Self {
         self.rows = Some(rows);

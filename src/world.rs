@@ -127,7 +127,7 @@ struct SurfaceGrids {
     far_region: LazyGrid,
     /// Smallest and largest surfel disk radius at the last rebuild.
     radius_range: (f32, f32),
-    /// The kernel grid's surfel rows (the batched SIMD kernel sums).
+    /// The kernel grid's surfel columns (the SIMD kernel sums over lane groups).
     rows: SurfelRows,
 }
 

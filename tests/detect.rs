@@ -236,7 +236,7 @@ fn region_grid_matches_the_whole_surface() {
     grid.rebuild_subset(&sphere.pos, &members, sphere.grid.cell());
     let far = phyxel::grid::LazyGrid::default();
     let all = phyxel::grid::LazyGrid::default();
-    // As the step builds it: the batched kernel over the region grid's rows.
+    // As the step builds it: the lane-group kernel over the region grid's columns.
     let mut rows = SurfelRows::default();
     rows.rebuild(&grid, &sphere.pos, &sphere.normal, &sphere.radius);
     let part = ImplicitSurface::new(&sphere.pos, &sphere.normal, &sphere.radius, &grid)
