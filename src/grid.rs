@@ -879,20 +879,20 @@ impl LazyGrid {
     /// The grid of `points` with cell edge `cell`, built by the first call after a reset.
     /// Later calls return that build: they must pass the same points and cell.
     pub fn get(&self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) -> &Grid {
-        self.built.get_or_init(|| {
-            let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
-            let mut g = std::mem::take(&mut *spare);
-            g.rebuild(points, cell);
-            g
-        })
+        self.get_with(|g| g.rebuild(points, cell))
     }
 
     /// [`LazyGrid::get`] over the points `subset` of `pos` ([`Grid::rebuild_subset`]).
     pub fn get_subset(&self, pos: &Vec3s, subset: &[u32], cell: f32) -> &Grid {
+        self.get_with(|g| g.rebuild_subset(pos, subset, cell))
+    }
+
+    /// The current build, made by `rebuild` on the spare grid's buffers if there is none.
+    fn get_with(&self, rebuild: impl FnOnce(&mut Grid)) -> &Grid {
         self.built.get_or_init(|| {
             let mut spare = self.spare.lock().unwrap_or_else(|e| e.into_inner());
             let mut g = std::mem::take(&mut *spare);
-            g.rebuild_subset(pos, subset, cell);
+            rebuild(&mut g);
             g
         })
     }
