@@ -1,8 +1,9 @@
 //! Spatial hash grid vs the `kiddo` k-d tree on a 100,000-point jittered cubic lattice
 //! (spacing 1, jitter ±0.25 per coordinate, fixed seed), single thread.
 //!
-//! - `build`: grid rebuild in place (the per-step case; buckets in lanes, and the scalar
-//!   reference `rebuild_scalar`) and a fresh grid;
+//! - `build`: grid rebuild in place (the per-step case: `rebuild` is
+//!   `Grid::rebuild_columns` from SoA columns, buckets and prefix sum in lanes;
+//!   `rebuild_scalar` is the scalar reference `Grid::rebuild`) and a fresh grid;
 //! - `range`: build + a fixed-radius query (~30 neighbours) at every point;
 //! - `knn16`: build + the 16 nearest points of every point;
 //! - `sphere_1m/rebuild`: rebuild over the 1M surfels of a scale-scene sphere (radius
@@ -16,6 +17,7 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
+use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
 use std::hint::black_box;
 use std::num::NonZeroUsize;
@@ -108,6 +110,7 @@ fn kiddo_knn(arr: &[[f32; 3]]) -> usize {
 fn grid_vs_kiddo(c: &mut Criterion) {
     let pts = lattice();
     let arr: Vec<[f32; 3]> = pts.iter().map(|p| p.to_array()).collect();
+    let cols = Vec3s::from_points(&pts);
     let n = pts.len();
 
     // Sanity: same neighbourhoods from both structures.
@@ -143,10 +146,10 @@ fn grid_vs_kiddo(c: &mut Criterion) {
     g.throughput(Throughput::Elements(n as u64));
     g.sample_size(20);
     g.bench_function("build/rebuild", |b| {
-        b.iter(|| grid.rebuild(black_box(&pts).iter().copied(), RADIUS))
+        b.iter(|| grid.rebuild_columns(black_box(&cols), RADIUS))
     });
     g.bench_function("build/rebuild_scalar", |b| {
-        b.iter(|| grid.rebuild_reference(black_box(&pts).iter().copied(), RADIUS))
+        b.iter(|| grid.rebuild(black_box(&cols).iter(), RADIUS))
     });
     g.bench_function("build/fresh", |b| {
         b.iter(|| Grid::build(black_box(&pts).iter().copied(), RADIUS))
@@ -185,14 +188,15 @@ fn sphere_rebuild(c: &mut Criterion) {
     let spacing = (4.0 * std::f32::consts::PI * 0.01 / pts.len() as f32).sqrt();
     let cell = 2.5 * spacing;
     let mut grid = Grid::build(pts.iter().copied(), cell);
+    let cols = Vec3s::from_points(&pts);
     let mut g = c.benchmark_group("grid");
     g.throughput(Throughput::Elements(pts.len() as u64));
     g.sample_size(20);
     g.bench_function("sphere_1m/rebuild", |b| {
-        b.iter(|| grid.rebuild(black_box(&pts).iter().copied(), cell))
+        b.iter(|| grid.rebuild_columns(black_box(&cols), cell))
     });
     g.bench_function("sphere_1m/rebuild_scalar", |b| {
-        b.iter(|| grid.rebuild_reference(black_box(&pts).iter().copied(), cell))
+        b.iter(|| grid.rebuild(black_box(&cols).iter(), cell))
     });
     g.finish();
 }

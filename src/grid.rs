@@ -34,7 +34,7 @@
 use crate::columns::Vec3s;
 use glam::Vec3;
 use std::sync::{Mutex, OnceLock};
-use wide::{f32x8, i32x8};
+use wide::{f32x8, i32x8, u32x8};
 
 /// SIMD width of the distance tests.
 const LANES: usize = 8;
@@ -204,13 +204,11 @@ fn box_cells(lo: Vec3, hi: Vec3, inv_cell: f32) -> ([i32; 3], [i32; 3]) {
     ([c[0], c[1], c[2]], [c[3], c[4], c[5]])
 }
 
-/// The buckets of eight points ([`hash`] of [`cell_of`]), [`SKIPPED`] for a point with
-/// a NaN coordinate.
+/// The buckets of eight points ([`hash`] of [`cell_of`]) given as x, y, z lanes,
+/// [`SKIPPED`] for a point with a NaN coordinate.
 #[inline(always)]
-fn lane_buckets(group: &[Vec3; LANES], inv_cell: f32, mask: usize) -> [u32; LANES] {
+fn lane_buckets([x, y, z]: [f32x8; 3], inv_cell: f32, mask: usize) -> [u32; LANES] {
     let inv = f32x8::splat(inv_cell);
-    let axis = |a: usize| f32x8::from(group.map(|p| p.to_array()[a]));
-    let (x, y, z) = (axis(0), axis(1), axis(2));
     let c = [
         floor_lanes(x * inv),
         floor_lanes(y * inv),
@@ -222,6 +220,83 @@ fn lane_buckets(group: &[Vec3; LANES], inv_cell: f32, mask: usize) -> [u32; LANE
     nan.select(i32x8::splat(SKIPPED as i32), h)
         .to_array()
         .map(|b| b as u32)
+}
+
+/// The slices the counting sort's scatter writes: after the prefix sum, `start[b + 1]`
+/// is where the next point of bucket `b` goes; after the scatter, `start[b]` is where
+/// bucket `b` begins.
+struct Scatter<'a> {
+    start: &'a mut [u32],
+    sorted: &'a mut [u32],
+    px: &'a mut [f32],
+    py: &'a mut [f32],
+    pz: &'a mut [f32],
+}
+
+impl Scatter<'_> {
+    /// Puts point `i` at `p` next in its bucket `b` (nothing for [`SKIPPED`]).
+    #[inline(always)]
+    fn place(&mut self, i: usize, p: Vec3, b: u32) {
+        if b != SKIPPED {
+            let slot = &mut self.start[b as usize + 1];
+            let s = *slot as usize;
+            *slot += 1;
+            self.put(s, i, p);
+        }
+    }
+
+    /// Writes point `i` at `p` to sorted position `s`.
+    #[inline(always)]
+    fn put(&mut self, s: usize, i: usize, p: Vec3) {
+        self.sorted[s] = i as u32;
+        self.px[s] = p.x;
+        self.py[s] = p.y;
+        self.pz[s] = p.z;
+    }
+}
+
+/// Counts each bucket of `buckets` in `start[b + 2]` (the counting sort's first pass).
+fn count_buckets(start: &mut [u32], buckets: &[u32]) {
+    for &b in buckets {
+        if b != SKIPPED {
+            start[b as usize + 2] += 1;
+        }
+    }
+}
+
+/// In-place inclusive prefix sum, one entry at a time (the scalar reference of
+/// [`prefix_sum_lanes`]).
+fn prefix_sum(c: &mut [u32]) {
+    let mut acc = 0u32;
+    for v in c {
+        acc += *v;
+        *v = acc;
+    }
+}
+
+/// [`prefix_sum`] eight entries at a time: an in-register scan (three shifted adds)
+/// plus the running total of the earlier groups.
+fn prefix_sum_lanes(c: &mut [u32]) {
+    let mut carry = u32x8::splat(0);
+    let mut groups = c.chunks_exact_mut(LANES);
+    for g in &mut groups {
+        let mut v = u32x8::from(<[u32; LANES]>::try_from(&*g).expect("eight entries"));
+        let a = v.to_array();
+        v += u32x8::from([0, a[0], a[1], a[2], a[3], a[4], a[5], a[6]]);
+        let a = v.to_array();
+        v += u32x8::from([0, 0, a[0], a[1], a[2], a[3], a[4], a[5]]);
+        let a = v.to_array();
+        v += u32x8::from([0, 0, 0, 0, a[0], a[1], a[2], a[3]]);
+        v += carry;
+        let a = v.to_array();
+        g.copy_from_slice(&a);
+        carry = u32x8::splat(a[LANES - 1]);
+    }
+    let mut acc = carry.to_array()[0];
+    for v in groups.into_remainder() {
+        acc += *v;
+        *v = acc;
+    }
 }
 
 /// Additive spatial hash: consecutive x cells map to consecutive buckets (mod table).
@@ -293,108 +368,115 @@ impl Grid {
     ///
     /// For fixed-radius queries of radius `r`, `cell = r` is a good choice (a query
     /// reads 3 × 3 runs of 3 cells each).
+    ///
+    /// One point at a time: this is also the scalar reference of
+    /// [`Grid::rebuild_columns`], which builds the same grid bit for bit.
     pub fn rebuild(&mut self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) {
-        self.rebuild_with::<true>(points, cell);
-    }
-
-    /// Scalar reference of [`Grid::rebuild`]: each point's bucket one at a time (the
-    /// same grid, bit for bit; tests and benches).
-    pub fn rebuild_reference(
-        &mut self,
-        points: impl ExactSizeIterator<Item = Vec3> + Clone,
-        cell: f32,
-    ) {
-        self.rebuild_with::<false>(points, cell);
-    }
-
-    /// The build, with the buckets computed eight points at a time (`LANES_HASH`) or
-    /// one at a time.
-    fn rebuild_with<const LANES_HASH: bool>(
-        &mut self,
-        points: impl ExactSizeIterator<Item = Vec3> + Clone,
-        cell: f32,
-    ) {
-        assert!(cell.is_finite() && cell > 0.0, "grid cell size must be > 0");
         let n = points.len();
+        let table = self.begin(n, cell);
+        let (inv_cell, mask) = (self.inv_cell, self.mask);
+        // The counts go through a local slice, not `self`: stores through `self`'s vectors
+        // would make the compiler reload every vector's pointer and length per point.
+        let start = &mut self.start[..];
+        self.bucket_of.clear();
+        self.bucket_of.extend(points.clone().map(|p| {
+            if p.is_nan() {
+                return SKIPPED;
+            }
+            let b = hash(cell_of(p, inv_cell), mask);
+            start[b + 2] += 1;
+            b as u32
+        }));
+        prefix_sum(&mut start[..table + 2]);
+        self.scatter(points, table);
+    }
+
+    /// [`Grid::rebuild`] over SoA columns: the buckets eight points at a time, straight
+    /// from the columns, and the counting sort's prefix sum eight buckets at a time. The
+    /// grid is the same as [`Grid::rebuild`] of `pos.iter()`, bit for bit.
+    pub fn rebuild_columns(&mut self, pos: &Vec3s, cell: f32) {
+        let n = pos.len();
+        let table = self.begin(n, cell);
+        let (inv_cell, mask) = (self.inv_cell, self.mask);
+        let (x, y, z) = (&pos.x[..n], &pos.y[..n], &pos.z[..n]);
+        self.bucket_of.resize(n, 0);
+        let whole = n / LANES * LANES;
+        let start = &mut self.start[..];
+        let (lanes, tail) = self.bucket_of.split_at_mut(whole);
+        for (k, out) in lanes.chunks_exact_mut(LANES).enumerate() {
+            let at = k * LANES;
+            let b = lane_buckets([load8(x, at), load8(y, at), load8(z, at)], inv_cell, mask);
+            out.copy_from_slice(&b);
+            count_buckets(start, &b);
+        }
+        for (i, out) in (whole..n).zip(&mut *tail) {
+            let p = Vec3::new(x[i], y[i], z[i]);
+            *out = if p.is_nan() {
+                SKIPPED
+            } else {
+                hash(cell_of(p, inv_cell), mask) as u32
+            };
+        }
+        count_buckets(start, tail);
+        prefix_sum_lanes(&mut start[..table + 2]);
+        let points = x
+            .iter()
+            .zip(y)
+            .zip(z)
+            .map(|((&x, &y), &z)| Vec3::new(x, y, z));
+        self.scatter(points, table);
+    }
+
+    /// Sets the cell size and the table for `n` points and clears the bucket counts;
+    /// returns the table size.
+    fn begin(&mut self, n: usize, cell: f32) -> usize {
+        assert!(cell.is_finite() && cell > 0.0, "grid cell size must be > 0");
         assert!(n < u32::MAX as usize, "too many points for a grid");
         let table = (2 * n).next_power_of_two().max(16);
         let mask = table - 1;
-        let inv_cell = 1.0 / cell;
         self.cell = cell;
-        self.inv_cell = inv_cell;
+        self.inv_cell = 1.0 / cell;
         if self.mask != mask || self.start.is_empty() {
             self.row_sep = row_separation(mask);
         }
         self.mask = mask;
         self.n_input = n;
-
-        // Counting sort by bucket: `start[b + 2]` counts bucket `b` ...
+        // Counting sort by bucket: `start[b + 2]` counts bucket `b` (filled by the
+        // caller), so that after the prefix sum `start[b + 1]` is where bucket `b`
+        // begins ...
         self.start.clear();
         self.start.resize(table + 2, 0);
-        self.bucket_of.clear();
-        let start = &mut self.start[..];
-        // The counts go through a local slice, not `self`: stores through `self`'s vectors
-        // would make the compiler reload every vector's pointer and length per point.
-        if LANES_HASH {
-            let mut it = points.clone();
-            loop {
-                let mut group = [Vec3::ZERO; LANES];
-                let mut len = 0;
-                for (slot, p) in group.iter_mut().zip(&mut it) {
-                    *slot = p;
-                    len += 1;
-                }
-                for &b in &lane_buckets(&group, inv_cell, mask)[..len] {
-                    if b != SKIPPED {
-                        start[b as usize + 2] += 1;
-                    }
-                    self.bucket_of.push(b);
-                }
-                if len < LANES {
-                    break;
-                }
-            }
-        } else {
-            self.bucket_of.extend(points.clone().map(|p| {
-                if p.is_nan() {
-                    return SKIPPED;
-                }
-                let b = hash(cell_of(p, inv_cell), mask);
-                start[b + 2] += 1;
-                b as u32
-            }));
-        }
-        // ... so that after the prefix sum `start[b + 1]` is where bucket `b` begins ...
-        for b in 2..table + 2 {
-            start[b] += start[b - 1];
-        }
-        let m = start[table + 1] as usize;
+        table
+    }
+
+    /// The counting sort's output after the prefix sum: the sorted arrays sized for
+    /// the points kept, and the bucket of every input point.
+    fn scatter_buffers(&mut self, table: usize) -> (Scatter<'_>, &[u32]) {
+        let m = self.start[table + 1] as usize;
         self.sorted.resize(m, 0);
         // Padded so that SIMD loads of a run's last lanes stay in bounds.
         self.px.resize(m + LANES - 1, 0.0);
         self.py.resize(m + LANES - 1, 0.0);
         self.pz.resize(m + LANES - 1, 0.0);
-        // ... and after the scatter `start[b]` is where bucket `b` begins. (Local slices
-        // again, so the four stores per point do not force reloads of `self`.)
-        let (sorted, px, py, pz) = (
-            &mut self.sorted[..],
-            &mut self.px[..m],
-            &mut self.py[..m],
-            &mut self.pz[..m],
-        );
-        for ((i, p), &b) in points.enumerate().zip(&self.bucket_of) {
-            if b == SKIPPED {
-                continue;
-            }
-            let slot = &mut start[b as usize + 1];
-            let s = *slot as usize;
-            *slot += 1;
-            sorted[s] = i as u32;
-            px[s] = p.x;
-            py[s] = p.y;
-            pz[s] = p.z;
+        // Local slices, so that the stores per point do not force reloads of `self`.
+        let out = Scatter {
+            start: &mut self.start[..],
+            sorted: &mut self.sorted[..m],
+            px: &mut self.px[..m],
+            py: &mut self.py[..m],
+            pz: &mut self.pz[..m],
+        };
+        (out, &self.bucket_of)
+    }
+
+    /// The counting sort's scatter, after the bucket pass and the prefix sum: `points`
+    /// again, in the order the buckets were computed.
+    fn scatter(&mut self, points: impl Iterator<Item = Vec3>, table: usize) {
+        let (mut out, bucket_of) = self.scatter_buffers(table);
+        for ((i, p), &b) in points.enumerate().zip(bucket_of) {
+            out.place(i, p, b);
         }
-        debug_assert_eq!(start[table] as usize, m);
+        debug_assert_eq!(self.start[table], self.start[table + 1]);
     }
 
     /// Rebuilds the grid over the points `subset` of `pos` only, reporting them by their
@@ -876,10 +958,11 @@ impl LazyGrid {
         }
     }
 
-    /// The grid of `points` with cell edge `cell`, built by the first call after a reset.
-    /// Later calls return that build: they must pass the same points and cell.
-    pub fn get(&self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) -> &Grid {
-        self.get_with(|g| g.rebuild(points, cell))
+    /// The grid of `pos` with cell edge `cell` ([`Grid::rebuild_columns`]), built by the
+    /// first call after a reset. Later calls return that build: they must pass the same
+    /// points and cell.
+    pub fn get(&self, pos: &Vec3s, cell: f32) -> &Grid {
+        self.get_with(|g| g.rebuild_columns(pos, cell))
     }
 
     /// [`LazyGrid::get`] over the points `subset` of `pos` ([`Grid::rebuild_subset`]).

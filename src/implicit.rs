@@ -315,9 +315,7 @@ impl<'a> ImplicitSurface<'a> {
     #[inline]
     fn grid_for(&self, x: Vec3, r: f32) -> &'a Grid {
         match self.region {
-            Some(g) if !ball_inside(&g.bounds, x, r) => {
-                g.all.get(self.pos.iter(), self.grid.cell())
-            }
+            Some(g) if !ball_inside(&g.bounds, x, r) => g.all.get(self.pos, self.grid.cell()),
             _ => self.grid,
         }
     }
@@ -349,7 +347,7 @@ impl<'a> ImplicitSurface<'a> {
             }
         }
         let far = match self.far {
-            Some(lazy) => lazy.get(self.pos.iter(), FAR_GRID_FACTOR * self.grid.cell()),
+            Some(lazy) => lazy.get(self.pos, FAR_GRID_FACTOR * self.grid.cell()),
             None => self.grid_for(x, f32::INFINITY),
         };
         far.k_nearest_from(x, FAR_NEIGHBOURS, r0, near);
@@ -365,7 +363,7 @@ impl<'a> ImplicitSurface<'a> {
         if found.is_some_and(|(_, d2)| ball_inside(&g.bounds, x, d2.sqrt() * (1.0 + 1.0e-6))) {
             return found;
         }
-        g.all.get(self.pos.iter(), self.grid.cell()).nearest(x)
+        g.all.get(self.pos, self.grid.cell()).nearest(x)
     }
 
     /// Uses `coarse` (built on demand over the same surfels, with cells

@@ -407,7 +407,7 @@ impl World {
                     || {
                         let g = g.get_or_insert_default();
                         if whole {
-                            g.rebuild(o.surfels.pos.iter(), cell)
+                            g.rebuild_columns(&o.surfels.pos, cell)
                         } else {
                             g.rebuild_subset(&o.surfels.pos, members, cell);
                         }
@@ -416,7 +416,7 @@ impl World {
                     },
                     || {
                         pg.get_or_insert_default()
-                            .rebuild(o.phyxels.pos.iter(), phyxel_cell)
+                            .rebuild_columns(&o.phyxels.pos, phyxel_cell)
                     },
                 );
                 let indexed = if whole {

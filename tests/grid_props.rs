@@ -9,6 +9,7 @@
 //! Run: `cargo test --release --test grid_props`.
 
 use glam::Vec3;
+use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -260,24 +261,36 @@ fn build_points() -> impl Strategy<Value = Vec<Vec3>> {
 }
 
 proptest! {
-    /// `Grid::rebuild` (buckets eight points at a time) builds the grid of the scalar
-    /// `Grid::rebuild_reference` bit for bit: the same sorted order and coordinates,
-    /// hence the same answer to every query. Every length mod 8 occurs (0..200 points).
+    /// `Grid::rebuild_columns` (buckets eight points at a time from SoA columns, the
+    /// prefix sum eight buckets at a time) builds the grid of the scalar `Grid::rebuild`
+    /// bit for bit: the same sorted order and coordinates, and the same bucket table
+    /// (every query at every point and a few others reports the same indices and d²).
+    /// Every length mod 8 occurs (0..200 points).
     #[test]
     fn lane_build_matches_scalar_build(
         points in build_points(),
         cell in prop_oneof![Just(0.25f32), 1e-3f32..1e3],
+        extra in vec(vec3(-7.0, 7.0), 0..4),
+        r in prop_oneof![Just(0.0f32), 0.0f32..3.0],
     ) {
         let mut lanes = Grid::default();
         let mut scalar = Grid::default();
-        lanes.rebuild(points.iter().copied(), cell);
-        scalar.rebuild_reference(points.iter().copied(), cell);
+        lanes.rebuild_columns(&Vec3s::from_points(&points), cell);
+        scalar.rebuild(points.iter().copied(), cell);
         prop_assert_eq!(lanes.sorted(), scalar.sorted());
         let bits = |g: &Grid| {
             g.sorted_points().map(|c| c.iter().map(|v| v.to_bits()).collect::<Vec<u32>>())
         };
         prop_assert_eq!(bits(&lanes), bits(&scalar));
         prop_assert_eq!(lanes.len(), scalar.len());
+        for x in queries(&points, extra) {
+            let hits = |g: &Grid| {
+                let mut h = Vec::new();
+                g.for_each_within(x, r * cell, |i, d2| h.push((i, d2.to_bits())));
+                h
+            };
+            prop_assert_eq!(hits(&lanes), hits(&scalar));
+        }
     }
 }
 
