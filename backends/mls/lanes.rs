@@ -17,7 +17,7 @@
 
 use super::Law;
 use glam::Mat3;
-use phyxel::columns::{LANES, load8, store8};
+use phyxel::columns::{LANES, Vec3s, load8, store8};
 use phyxel::mls::MlsStencil;
 use wide::f32x8;
 
@@ -27,40 +27,69 @@ const GROUP_GRAIN: usize = 16;
 /// Stress `P` of a phyxel as 16 floats (9 used): two aligned lane rows.
 pub type StressRow = [f32; 16];
 
-/// A sparse table in lane layout: per group of eight phyxels, a few slots of eight
-/// (index, weight) entries.
+/// Phyxels per window: within a window, a table's lanes take the phyxels in order of
+/// list length, so the eight lists of a group have nearly equal lengths and the group
+/// pads little (its slot count is its longest list). Windows are whole groups, and the
+/// parallel split never cuts one, so a task writes only its own phyxels.
+const WINDOW: usize = 64;
+const WINDOW_GROUPS: usize = WINDOW / LANES;
+const _: () = assert!(WINDOW.is_multiple_of(LANES) && GROUP_GRAIN >= 2 * WINDOW_GROUPS);
+
+/// A sparse table in lane layout: per group of eight lanes, a few slots of eight
+/// (index, weight) entries. Lane position `p` (group `p / 8`, lane `p % 8`) holds the
+/// list of phyxel `order[p]`.
 #[derive(Clone, Debug, Default)]
 struct Sliced {
     /// Slots of group g: `slot_off[g]..slot_off[g + 1]`.
     slot_off: Vec<u32>,
-    /// Phyxel index per slot lane (the lane's own phyxel in padding entries).
+    /// Index per slot lane (`pad(order[p])` in padding entries).
     index: Vec<u32>,
     /// Weight vector per slot lane, one column per axis (zero in padding entries).
     w: [Vec<f32>; 3],
+    /// The phyxel of each lane position, padded to whole groups (`order[p] = p` past the
+    /// last phyxel); a permutation of its window.
+    order: Vec<u32>,
 }
 
 impl Sliced {
-    /// The table of `lists(i)` for phyxels `0..n`.
-    fn new<I: Iterator<Item = (u32, glam::Vec3)>>(n: usize, lists: impl Fn(usize) -> I) -> Self {
+    /// The table of `lists(i)` for phyxels `0..n`; padding entries get the index
+    /// `pad(i)` of their lane's phyxel `i` (and weight zero).
+    fn new<I: Iterator<Item = (u32, glam::Vec3)>>(
+        n: usize,
+        lists: impl Fn(usize) -> I,
+        pad: impl Fn(usize) -> u32,
+    ) -> Self {
         let groups = n.div_ceil(LANES);
+        let len: Vec<usize> = (0..n).map(|i| lists(i).count()).collect();
+        let mut order: Vec<u32> = (0..(groups * LANES) as u32).collect();
+        for window in order[..n].chunks_mut(WINDOW) {
+            window.sort_by_key(|&i| len[i as usize]);
+        }
         let mut slot_off = Vec::with_capacity(groups + 1);
         slot_off.push(0u32);
         for g in 0..groups {
-            let longest = (g * LANES..((g + 1) * LANES).min(n))
-                .map(|i| lists(i).count())
+            let longest = order[g * LANES..(g + 1) * LANES]
+                .iter()
+                .filter(|&&i| (i as usize) < n)
+                .map(|&i| len[i as usize])
                 .max()
                 .unwrap_or(0);
             slot_off.push(slot_off[g] + longest as u32);
         }
-        let len = *slot_off.last().unwrap_or(&0) as usize * LANES;
-        let mut index = vec![0u32; len];
-        let mut w = [vec![0.0f32; len], vec![0.0f32; len], vec![0.0f32; len]];
+        let entries = *slot_off.last().unwrap_or(&0) as usize * LANES;
+        let mut index = vec![0u32; entries];
+        let mut w = [
+            vec![0.0f32; entries],
+            vec![0.0f32; entries],
+            vec![0.0f32; entries],
+        ];
         for g in 0..groups {
             let slots = slot_off[g] as usize..slot_off[g + 1] as usize;
             for lane in 0..LANES {
-                let i = g * LANES + lane;
+                let i = order[g * LANES + lane] as usize;
+                let own = if i < n { pad(i) } else { i as u32 };
                 for s in slots.clone() {
-                    index[s * LANES + lane] = i as u32;
+                    index[s * LANES + lane] = own;
                 }
                 if i >= n {
                     continue;
@@ -72,7 +101,20 @@ impl Sliced {
                 }
             }
         }
-        Self { slot_off, index, w }
+        Self {
+            slot_off,
+            index,
+            w,
+            order,
+        }
+    }
+
+    /// The phyxels of group `g`'s lanes.
+    #[inline(always)]
+    fn phyxels(&self, g: usize) -> [u32; LANES] {
+        self.order[g * LANES..(g + 1) * LANES]
+            .try_into()
+            .expect("whole groups")
     }
 
     fn slots(&self, g: usize) -> std::ops::Range<usize> {
@@ -111,15 +153,28 @@ impl LaneStencil {
     /// `MlsDynamics` keeps them (rows in increasing order).
     pub fn new(st: &MlsStencil, in_off: &[u32], incoming: &[(u32, u32)]) -> Self {
         let n = st.len();
-        let rows = Sliced::new(n, |i| st.row(i).map(|k| (st.neighbours[k], st.d[k])));
-        let targets = Sliced::new(n, |j| {
-            let own = std::iter::once((j as u32, st.d_self[j]));
-            own.chain(
-                incoming[in_off[j] as usize..in_off[j + 1] as usize]
-                    .iter()
-                    .map(|&(i, k)| (i, st.d[k as usize])),
-            )
-        });
+        let rows = Sliced::new(
+            n,
+            |i| st.row(i).map(|k| (st.neighbours[k], st.d[k])),
+            |i| i as u32,
+        );
+        // The stress pass writes `P` at its lane positions: the force lists name those.
+        let mut position = vec![0u32; rows.order.len()];
+        for (p, &i) in rows.order.iter().enumerate() {
+            position[i as usize] = p as u32;
+        }
+        let targets = Sliced::new(
+            n,
+            |j| {
+                let own = std::iter::once((position[j], st.d_self[j]));
+                own.chain(
+                    incoming[in_off[j] as usize..in_off[j + 1] as usize]
+                        .iter()
+                        .map(|&(i, k)| (position[i as usize], st.d[k as usize])),
+                )
+            },
+            |j| position[j],
+        );
         Self { n, rows, targets }
     }
 
@@ -265,11 +320,11 @@ impl M3 {
             + x[2] * (y[0] * z[1] - y[1] * z[0])
     }
 
-    /// Lanes from up to eight matrices (missing lanes zero).
-    fn load(ms: &[Mat3]) -> Self {
+    /// Lanes from the matrices `ms[at[l]]` of the lanes `l < count` (the others zero).
+    fn load(ms: &[Mat3], at: &[usize; LANES], count: usize) -> Self {
         let mut a = [[0.0f32; 8]; 9];
-        for (lane, m) in ms.iter().enumerate() {
-            for (k, v) in m.to_cols_array().into_iter().enumerate() {
+        for (lane, &i) in at.iter().enumerate().take(count) {
+            for (k, v) in ms[i].to_cols_array().into_iter().enumerate() {
                 a[k][lane] = v;
             }
         }
@@ -278,11 +333,11 @@ impl M3 {
         }
     }
 
-    /// Writes the first `out.len()` lanes back as matrices.
-    fn store(&self, out: &mut [Mat3]) {
+    /// Writes lane `l` to `out[at[l]]`, for the lanes `l < count`.
+    fn store(&self, out: &mut [Mat3], at: &[usize; LANES], count: usize) {
         let a = self.c.map(|v| v.to_array());
-        for (lane, m) in out.iter_mut().enumerate() {
-            *m = Mat3::from_cols_array(&std::array::from_fn(|k| a[k][lane]));
+        for (lane, &i) in at.iter().enumerate().take(count) {
+            out[i] = Mat3::from_cols_array(&std::array::from_fn(|k| a[k][lane]));
         }
     }
 }
@@ -354,6 +409,37 @@ impl Law {
     }
 }
 
+/// Packs the stress pass's state rows `[u, v, 0, 0]` of every phyxel, eight at a time
+/// (lane loads of the columns, one lane transpose): `u = pos − rest`, and `v = vel`
+/// when `vel` is given (zero otherwise). `state` has [`LaneStencil::padded`] rows; the
+/// columns' zero padding gives zero rows past the last phyxel.
+pub fn pack_state(pos: &Vec3s, rest: &Vec3s, vel: Option<&Vec3s>, state: &mut [[f32; 8]]) {
+    use rayon::prelude::*;
+    state
+        .par_chunks_mut(LANES)
+        .enumerate()
+        .with_min_len(GROUP_GRAIN)
+        .for_each(|(g, rows)| {
+            let at = g * LANES;
+            let u = |c: &[f32], r: &[f32]| load8(c, at) - load8(r, at);
+            let v = |axis: fn(&Vec3s) -> &[f32]| vel.map_or(f32x8::ZERO, |v| load8(axis(v), at));
+            let z = f32x8::ZERO;
+            let t = f32x8::transpose([
+                u(&pos.x, &rest.x),
+                u(&pos.y, &rest.y),
+                u(&pos.z, &rest.z),
+                v(|v| &v.x),
+                v(|v| &v.y),
+                v(|v| &v.z),
+                z,
+                z,
+            ]);
+            for (row, t) in rows.iter_mut().zip(t) {
+                *row = t.to_array();
+            }
+        });
+}
+
 /// Per-step inputs of the stress pass.
 pub struct LaneInputs<'a> {
     pub law: Law,
@@ -380,7 +466,9 @@ pub fn stress_pass(st: &LaneStencil, input: &LaneInputs<'_>, out: LaneOutputs<'_
     groups_pass(st, input, 0..st.groups(), out)
 }
 
-/// Splits the outputs at group boundaries and runs the groups in parallel tasks.
+/// Splits the outputs at window boundaries and runs the groups in parallel tasks.
+/// `out.grad` and `out.plastic` start at the first phyxel of `groups`; `out.stress` at
+/// its first lane position.
 fn groups_pass(
     st: &LaneStencil,
     input: &LaneInputs<'_>,
@@ -388,30 +476,23 @@ fn groups_pass(
     out: LaneOutputs<'_>,
 ) -> f32 {
     if groups.len() <= GROUP_GRAIN {
+        let base = groups.start * LANES;
         let LaneOutputs {
-            mut grad,
-            mut plastic,
+            grad,
+            plastic,
             mut stress,
         } = out;
         let mut max = 0.0f32;
         for g in groups {
-            let rows = (st.n - g * LANES).min(LANES);
-            let (gr, rest) = grad.split_at_mut(rows);
-            grad = rest;
-            let pl = if plastic.is_empty() {
-                None
-            } else {
-                let (pl, rest) = plastic.split_at_mut(rows);
-                plastic = rest;
-                Some(pl)
-            };
             let (p, rest) = stress.split_at_mut(LANES);
             stress = rest;
-            max = max.max(group(st, input, g, gr, pl, p));
+            let plastic = (!plastic.is_empty()).then_some(&mut *plastic);
+            max = max.max(group(st, input, g, base, &mut *grad, plastic, p));
         }
         return max;
     }
-    let mid = groups.start + groups.len() / 2;
+    // Whole windows on each side: a window's phyxels are its lanes' phyxels.
+    let mid = groups.start + groups.len() / 2 / WINDOW_GROUPS * WINDOW_GROUPS;
     let rows = (mid - groups.start) * LANES;
     let (g0, g1) = out.grad.split_at_mut(rows);
     let (p0, p1) = if out.plastic.is_empty() {
@@ -462,8 +543,7 @@ fn lane_gradients<const VELOCITY: bool>(
     state: &[[f32; 8]],
     g: usize,
 ) -> (M3, M3) {
-    let own_idx: [u32; LANES] = std::array::from_fn(|l| (g * LANES + l) as u32);
-    let own = gather(state, &own_idx, 0);
+    let own = gather(state, &st.rows.phyxels(g), 0);
     let (mut gu, mut gv) = (M3::ZERO, M3::ZERO);
     for s in st.rows.slots(g) {
         let nb = gather(state, st.rows.indices(s), 0);
@@ -477,11 +557,13 @@ fn lane_gradients<const VELOCITY: bool>(
     (gu, gv)
 }
 
-/// One group: gradients and the law; returns the largest strain.
+/// One group: gradients and the law; returns the largest strain. `grad` and
+/// `plastic` start at phyxel `base`; `stress` is the group's eight lane positions.
 fn group(
     st: &LaneStencil,
     input: &LaneInputs<'_>,
     g: usize,
+    base: usize,
     grad: &mut [Mat3],
     plastic: Option<&mut [Mat3]>,
     stress: &mut [StressRow],
@@ -492,16 +574,20 @@ fn group(
     } else {
         lane_gradients::<false>(st, input.state, g)
     };
-    gu.store(grad);
+    let phyxels = st.rows.phyxels(g);
+    // Lanes past the last phyxel come last in a group (the order pads with `p = i`).
+    let count = (st.n - g * LANES).min(LANES);
+    let at = phyxels.map(|i| (i as usize).wrapping_sub(base));
+    gu.store(grad, &at, count);
     let gv = velocity.then_some(gv);
-    let volume = load8(input.volume, g * LANES);
+    let volume = f32x8::from(phyxels.map(|i| input.volume[i as usize]));
     let (p, strain) = match plastic {
         Some(pl) => {
-            let mut ep = M3::load(pl);
+            let mut ep = M3::load(pl, &at, count);
             let r = input
                 .law
                 .lane_stress_force(&gu, gv.as_ref(), Some(&mut ep), volume);
-            ep.store(pl);
+            ep.store(pl, &at, count);
             r
         }
         None => input.law.lane_stress_force(&gu, gv.as_ref(), None, volume),
@@ -513,7 +599,7 @@ fn group(
         store8(row, 0, lo[l]);
         store8(row, 8, hi[l]);
     }
-    strain.to_array()[..grad.len()]
+    strain.to_array()[..count]
         .iter()
         .fold(0.0f32, |a, &b| a.max(b))
 }
@@ -527,27 +613,33 @@ pub fn force_pass(
     fz: &mut [f32],
 ) {
     use rayon::prelude::*;
-    fx.par_chunks_mut(LANES)
-        .zip(fy.par_chunks_mut(LANES))
-        .zip(fz.par_chunks_mut(LANES))
+    let groups = st.groups();
+    fx.par_chunks_mut(WINDOW)
+        .zip(fy.par_chunks_mut(WINDOW))
+        .zip(fz.par_chunks_mut(WINDOW))
         .enumerate()
-        .with_min_len(GROUP_GRAIN)
-        .for_each(|(g, ((x, y), z))| {
-            let mut f = [f32x8::ZERO; 3];
-            for s in st.targets.slots(g) {
-                let idx = st.targets.indices(s);
-                let lo = gather(stress, idx, 0);
-                let p8 = f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
-                    stress[idx[l] as usize][8]
-                }));
-                let p = |k: usize| if k < 8 { lo[k] } else { p8 };
-                let d = st.targets.weight(s);
-                for (row, fr) in f.iter_mut().enumerate() {
-                    *fr += p(row) * d[0] + p(3 + row) * d[1] + p(6 + row) * d[2];
+        .with_min_len(GROUP_GRAIN / WINDOW_GROUPS)
+        .for_each(|(w, ((x, y), z))| {
+            let base = w * WINDOW;
+            for g in w * WINDOW_GROUPS..((w + 1) * WINDOW_GROUPS).min(groups) {
+                let mut f = [f32x8::ZERO; 3];
+                for s in st.targets.slots(g) {
+                    let idx = st.targets.indices(s);
+                    let lo = gather(stress, idx, 0);
+                    let p8 = f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
+                        stress[idx[l] as usize][8]
+                    }));
+                    let p = |k: usize| if k < 8 { lo[k] } else { p8 };
+                    let d = st.targets.weight(s);
+                    for (row, fr) in f.iter_mut().enumerate() {
+                        *fr += p(row) * d[0] + p(3 + row) * d[1] + p(6 + row) * d[2];
+                    }
+                }
+                let f = f.map(|v| v.to_array());
+                for (l, &j) in st.targets.phyxels(g).iter().enumerate() {
+                    let j = j as usize - base;
+                    (x[j], y[j], z[j]) = (f[0][l], f[1][l], f[2][l]);
                 }
             }
-            store8(x, 0, f[0]);
-            store8(y, 0, f[1]);
-            store8(z, 0, f[2]);
         });
 }

@@ -211,21 +211,9 @@ impl MlsDynamics {
     /// kernel (eight phyxels per `f32x8`, see `lanes`). `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let law = Law::new(material, dt, self.tau(material));
-        let n = self.stencil.len();
         self.state.resize(self.lanes.padded(), [0.0; 8]);
-        let viscous = law.tau > 0.0;
-        self.state[..n]
-            .par_iter_mut()
-            .enumerate()
-            .for_each(|(i, s)| {
-                let u = phyxels.pos.get(i) - phyxels.rest.get(i);
-                let v = if viscous {
-                    phyxels.vel.get(i)
-                } else {
-                    Vec3::ZERO
-                };
-                *s = [u.x, u.y, u.z, v.x, v.y, v.z, 0.0, 0.0];
-            });
+        let vel = (law.tau > 0.0).then_some(&phyxels.vel);
+        lanes::pack_state(&phyxels.pos, &phyxels.rest, vel, &mut self.state);
         self.stress_rows.resize(self.lanes.padded(), [0.0; 16]);
         let input = LaneInputs {
             law,
