@@ -274,30 +274,55 @@ fn prefix_sum(c: &mut [u32]) {
     }
 }
 
+/// Inclusive scan of eight entries in place, plus `carry` (every lane holds the total of
+/// the entries before them); returns the new carry.
+#[inline(always)]
+fn scan8(g: &mut [u32], carry: u32x8) -> u32x8 {
+    let mut v = u32x8::from(<[u32; LANES]>::try_from(&*g).expect("eight entries"));
+    let a = v.to_array();
+    v += u32x8::from([0, a[0], a[1], a[2], a[3], a[4], a[5], a[6]]);
+    let a = v.to_array();
+    v += u32x8::from([0, 0, a[0], a[1], a[2], a[3], a[4], a[5]]);
+    let a = v.to_array();
+    v += u32x8::from([0, 0, 0, 0, a[0], a[1], a[2], a[3]]);
+    let a = (v + carry).to_array();
+    g.copy_from_slice(&a);
+    u32x8::splat(a[LANES - 1])
+}
+
 /// [`prefix_sum`] eight entries at a time: an in-register scan (three shifted adds)
-/// plus the running total of the earlier groups.
+/// plus the running total. The entries are cut into [`SCAN_STREAMS`] spans whose totals
+/// are summed first, so the spans are then scanned interleaved, each with its own
+/// running total: the carry from group to group no longer bounds the loop.
 fn prefix_sum_lanes(c: &mut [u32]) {
-    let mut carry = u32x8::splat(0);
-    let mut groups = c.chunks_exact_mut(LANES);
-    for g in &mut groups {
-        let mut v = u32x8::from(<[u32; LANES]>::try_from(&*g).expect("eight entries"));
-        let a = v.to_array();
-        v += u32x8::from([0, a[0], a[1], a[2], a[3], a[4], a[5], a[6]]);
-        let a = v.to_array();
-        v += u32x8::from([0, 0, a[0], a[1], a[2], a[3], a[4], a[5]]);
-        let a = v.to_array();
-        v += u32x8::from([0, 0, 0, 0, a[0], a[1], a[2], a[3]]);
-        v += carry;
-        let a = v.to_array();
-        g.copy_from_slice(&a);
-        carry = u32x8::splat(a[LANES - 1]);
+    let span = c.len() / (SCAN_STREAMS * LANES) * LANES;
+    if span == 0 {
+        return prefix_sum(c);
     }
-    let mut acc = carry.to_array()[0];
-    for v in groups.into_remainder() {
+    let mut carry = [u32x8::splat(0); SCAN_STREAMS];
+    let mut total = 0u32;
+    for (k, part) in c.chunks_exact(span).take(SCAN_STREAMS).enumerate() {
+        carry[k] = u32x8::splat(total);
+        total += part.iter().sum::<u32>();
+    }
+    let (spans, tail) = c.split_at_mut(span * SCAN_STREAMS);
+    let mut parts = spans.chunks_exact_mut(span);
+    let mut parts: [&mut [u32]; SCAN_STREAMS] =
+        std::array::from_fn(|_| parts.next().expect("SCAN_STREAMS spans"));
+    for g in (0..span).step_by(LANES) {
+        for (part, carry) in parts.iter_mut().zip(&mut carry) {
+            *carry = scan8(&mut part[g..g + LANES], *carry);
+        }
+    }
+    let mut acc = total;
+    for v in tail {
         acc += *v;
         *v = acc;
     }
 }
+
+/// Spans scanned side by side by [`prefix_sum_lanes`].
+const SCAN_STREAMS: usize = 4;
 
 /// Additive spatial hash: consecutive x cells map to consecutive buckets (mod table).
 /// It is linear modulo the table size, so whether two cells collide depends only on
