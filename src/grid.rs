@@ -204,8 +204,8 @@ fn box_cells(lo: Vec3, hi: Vec3, inv_cell: f32) -> ([i32; 3], [i32; 3]) {
     ([c[0], c[1], c[2]], [c[3], c[4], c[5]])
 }
 
-/// The buckets of eight points ([`hash`] of [`cell_of`]) given as x, y, z lanes,
-/// [`SKIPPED`] for a point with a NaN coordinate.
+/// [`bucket`] of eight points given as x, y, z lanes (the same buckets,
+/// [`SKIPPED`] for a point with a NaN coordinate).
 #[inline(always)]
 fn lane_buckets([x, y, z]: [f32x8; 3], inv_cell: f32, mask: usize) -> [u32; LANES] {
     let inv = f32x8::splat(inv_cell);
@@ -324,6 +324,16 @@ fn prefix_sum_lanes(c: &mut [u32]) {
 /// Spans scanned side by side by [`prefix_sum_lanes`].
 const SCAN_STREAMS: usize = 4;
 
+/// The bucket of point `p` ([`hash`] of [`cell_of`]), [`SKIPPED`] for a NaN coordinate.
+#[inline(always)]
+fn bucket(p: Vec3, inv_cell: f32, mask: usize) -> u32 {
+    if p.is_nan() {
+        SKIPPED
+    } else {
+        hash(cell_of(p, inv_cell), mask) as u32
+    }
+}
+
 /// Additive spatial hash: consecutive x cells map to consecutive buckets (mod table).
 /// It is linear modulo the table size, so whether two cells collide depends only on
 /// their offset (see [`row_separation`]).
@@ -405,12 +415,11 @@ impl Grid {
         let start = &mut self.start[..];
         self.bucket_of.clear();
         self.bucket_of.extend(points.clone().map(|p| {
-            if p.is_nan() {
-                return SKIPPED;
+            let b = bucket(p, inv_cell, mask);
+            if b != SKIPPED {
+                start[b as usize + 2] += 1;
             }
-            let b = hash(cell_of(p, inv_cell), mask);
-            start[b + 2] += 1;
-            b as u32
+            b
         }));
         prefix_sum(&mut start[..table + 2]);
         self.scatter(points, table);
@@ -435,12 +444,7 @@ impl Grid {
             count_buckets(start, &b);
         }
         for (i, out) in (whole..n).zip(&mut *tail) {
-            let p = Vec3::new(x[i], y[i], z[i]);
-            *out = if p.is_nan() {
-                SKIPPED
-            } else {
-                hash(cell_of(p, inv_cell), mask) as u32
-            };
+            *out = bucket(Vec3::new(x[i], y[i], z[i]), inv_cell, mask);
         }
         count_buckets(start, tail);
         prefix_sum_lanes(&mut start[..table + 2]);
