@@ -222,39 +222,6 @@ fn lane_buckets([x, y, z]: [f32x8; 3], inv_cell: f32, mask: usize) -> [u32; LANE
         .map(|b| b as u32)
 }
 
-/// The slices the counting sort's scatter writes: after the prefix sum, `start[b + 1]`
-/// is where the next point of bucket `b` goes; after the scatter, `start[b]` is where
-/// bucket `b` begins.
-struct Scatter<'a> {
-    start: &'a mut [u32],
-    sorted: &'a mut [u32],
-    px: &'a mut [f32],
-    py: &'a mut [f32],
-    pz: &'a mut [f32],
-}
-
-impl Scatter<'_> {
-    /// Puts point `i` at `p` next in its bucket `b` (nothing for [`SKIPPED`]).
-    #[inline(always)]
-    fn place(&mut self, i: usize, p: Vec3, b: u32) {
-        if b != SKIPPED {
-            let slot = &mut self.start[b as usize + 1];
-            let s = *slot as usize;
-            *slot += 1;
-            self.put(s, i, p);
-        }
-    }
-
-    /// Writes point `i` at `p` to sorted position `s`.
-    #[inline(always)]
-    fn put(&mut self, s: usize, i: usize, p: Vec3) {
-        self.sorted[s] = i as u32;
-        self.px[s] = p.x;
-        self.py[s] = p.y;
-        self.pz[s] = p.z;
-    }
-}
-
 /// Counts each bucket of `buckets` in `start[b + 2]` (the counting sort's first pass).
 fn count_buckets(start: &mut [u32], buckets: &[u32]) {
     for &b in buckets {
@@ -264,10 +231,9 @@ fn count_buckets(start: &mut [u32], buckets: &[u32]) {
     }
 }
 
-/// In-place inclusive prefix sum, one entry at a time (the scalar reference of
-/// [`prefix_sum_lanes`]).
-fn prefix_sum(c: &mut [u32]) {
-    let mut acc = 0u32;
+/// In-place inclusive prefix sum plus `acc`, one entry at a time (the scalar reference
+/// of [`prefix_sum_lanes`]).
+fn prefix_sum(c: &mut [u32], mut acc: u32) {
     for v in c {
         acc += *v;
         *v = acc;
@@ -297,7 +263,7 @@ fn scan8(g: &mut [u32], carry: u32x8) -> u32x8 {
 fn prefix_sum_lanes(c: &mut [u32]) {
     let span = c.len() / (SCAN_STREAMS * LANES) * LANES;
     if span == 0 {
-        return prefix_sum(c);
+        return prefix_sum(c, 0);
     }
     let mut carry = [u32x8::splat(0); SCAN_STREAMS];
     let mut total = 0u32;
@@ -314,11 +280,7 @@ fn prefix_sum_lanes(c: &mut [u32]) {
             *carry = scan8(&mut part[g..g + LANES], *carry);
         }
     }
-    let mut acc = total;
-    for v in tail {
-        acc += *v;
-        *v = acc;
-    }
+    prefix_sum(tail, total);
 }
 
 /// Spans scanned side by side by [`prefix_sum_lanes`].
@@ -421,7 +383,7 @@ impl Grid {
             }
             b
         }));
-        prefix_sum(&mut start[..table + 2]);
+        prefix_sum(&mut start[..table + 2], 0);
         self.scatter(points, table);
     }
 
@@ -478,34 +440,29 @@ impl Grid {
         table
     }
 
-    /// The counting sort's output after the prefix sum: the sorted arrays sized for
-    /// the points kept, and the bucket of every input point.
-    fn scatter_buffers(&mut self, table: usize) -> (Scatter<'_>, &[u32]) {
+    /// The counting sort's scatter, after the bucket pass and the prefix sum: `points`
+    /// again, in the order the buckets were computed.
+    fn scatter(&mut self, points: impl Iterator<Item = Vec3>, table: usize) {
         let m = self.start[table + 1] as usize;
         self.sorted.resize(m, 0);
         // Padded so that SIMD loads of a run's last lanes stay in bounds.
         self.px.resize(m + LANES - 1, 0.0);
         self.py.resize(m + LANES - 1, 0.0);
         self.pz.resize(m + LANES - 1, 0.0);
-        // Local slices, so that the stores per point do not force reloads of `self`.
-        let out = Scatter {
-            start: &mut self.start[..],
-            sorted: &mut self.sorted[..m],
-            px: &mut self.px[..m],
-            py: &mut self.py[..m],
-            pz: &mut self.pz[..m],
-        };
-        (out, &self.bucket_of)
-    }
-
-    /// The counting sort's scatter, after the bucket pass and the prefix sum: `points`
-    /// again, in the order the buckets were computed.
-    fn scatter(&mut self, points: impl Iterator<Item = Vec3>, table: usize) {
-        let (mut out, bucket_of) = self.scatter_buffers(table);
-        for ((i, p), &b) in points.enumerate().zip(bucket_of) {
-            out.place(i, p, b);
+        // ... and after the scatter `start[b]` is where bucket `b` begins. (Local slices,
+        // so that the four stores per point do not force reloads of `self`.)
+        let (start, sorted) = (&mut self.start[..], &mut self.sorted[..m]);
+        let (px, py, pz) = (&mut self.px[..m], &mut self.py[..m], &mut self.pz[..m]);
+        for ((i, p), &b) in points.enumerate().zip(&self.bucket_of) {
+            if b == SKIPPED {
+                continue;
+            }
+            let slot = &mut start[b as usize + 1];
+            let s = *slot as usize;
+            *slot += 1;
+            (sorted[s], px[s], py[s], pz[s]) = (i as u32, p.x, p.y, p.z);
         }
-        debug_assert_eq!(self.start[table], self.start[table + 1]);
+        debug_assert_eq!(start[table], start[table + 1]);
     }
 
     /// Rebuilds the grid over the points `subset` of `pos` only, reporting them by their
