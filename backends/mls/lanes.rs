@@ -243,9 +243,9 @@ impl M3 {
         Self {
             c: std::array::from_fn(|k| {
                 let (row, col) = (k % 3, k / 3);
-                self.at(row, 0) * o.at(0, col)
-                    + self.at(row, 1) * o.at(1, col)
-                    + self.at(row, 2) * o.at(2, col)
+                let s = self.at(row, 0) * o.at(0, col);
+                let s = self.at(row, 1).mul_add(o.at(1, col), s);
+                self.at(row, 2).mul_add(o.at(2, col), s)
             }),
         }
     }
@@ -256,9 +256,9 @@ impl M3 {
         Self {
             c: std::array::from_fn(|k| {
                 let (row, col) = (k % 3, k / 3);
-                self.at(0, row) * o.at(0, col)
-                    + self.at(1, row) * o.at(1, col)
-                    + self.at(2, row) * o.at(2, col)
+                let s = self.at(0, row) * o.at(0, col);
+                let s = self.at(1, row).mul_add(o.at(1, col), s);
+                self.at(2, row).mul_add(o.at(2, col), s)
             }),
         }
     }
@@ -268,7 +268,7 @@ impl M3 {
     fn add_outer(&mut self, a: [f32x8; 3], b: [f32x8; 3]) {
         for (col, bc) in b.into_iter().enumerate() {
             for (row, ar) in a.into_iter().enumerate() {
-                self.c[3 * col + row] += ar * bc;
+                self.c[3 * col + row] = ar.mul_add(bc, self.c[3 * col + row]);
             }
         }
     }
@@ -632,7 +632,9 @@ pub fn force_pass(
                     let p = |k: usize| if k < 8 { lo[k] } else { p8 };
                     let d = st.targets.weight(s);
                     for (row, fr) in f.iter_mut().enumerate() {
-                        *fr += p(row) * d[0] + p(3 + row) * d[1] + p(6 + row) * d[2];
+                        let s = p(row).mul_add(d[0], *fr);
+                        let s = p(3 + row).mul_add(d[1], s);
+                        *fr = p(6 + row).mul_add(d[2], s);
                     }
                 }
                 let f = f.map(|v| v.to_array());
