@@ -281,11 +281,13 @@ pub const SELF_CONTACT_STIFFNESS: f32 = 25.0;
 pub const SELF_CONTACT_MAX_RATE: f32 = 0.3;
 
 /// Self-collision of one object (paper §8): the rest neighbours within the influence
-/// radius, as sorted rows.
+/// radius, as sorted rows, and the grid of the current positions (kept, so that a step
+/// allocates nothing).
 #[derive(Clone, Debug, Default)]
 pub struct SelfCollision {
     offsets: Vec<u32>,
     neighbours: Vec<u32>,
+    grid: Grid,
 }
 
 impl SelfCollision {
@@ -311,6 +313,7 @@ impl SelfCollision {
         let mut s = Self {
             offsets: vec![0],
             neighbours: Vec::new(),
+            grid: Grid::default(),
         };
         for row in rows {
             s.neighbours.extend_from_slice(&row);
@@ -331,53 +334,77 @@ impl SelfCollision {
     /// speed, `k` = min([`SELF_CONTACT_STIFFNESS`] · `contact_stiffness` · `E r̄`,
     /// `m̄ (`[`SELF_CONTACT_MAX_RATE`]`/dt)²`), `c` = `2 ζ √(k m̄/2)` with ζ = the
     /// material's `contact_damping` (at most 1). Returns the pairs pushed.
-    pub fn apply(&self, phyxels: &mut Phyxels, material: &Material, dt: f32) -> u64 {
+    ///
+    /// Each phyxel sums its own pairs (a pair is evaluated from both ends), so phyxels
+    /// run in parallel without a shared scatter, in an order fixed by the grid alone.
+    /// The two ends compute the same force to the bit with opposite signs (the
+    /// difference, distance and approach speed only change sign), so Newton's third law
+    /// holds pair by pair.
+    pub fn apply(&mut self, phyxels: &mut Phyxels, material: &Material, dt: f32) -> u64 {
         let n = phyxels.len();
         if n < 2 {
             return 0;
         }
         let r_max = phyxels.spacing[..n].iter().fold(0.0f32, |a, &b| a.max(b));
-        let grid = Grid::build(phyxels.pos.iter(), r_max.max(1e-6));
+        self.grid.rebuild_columns(&phyxels.pos, r_max.max(1e-6));
         let zeta = material.contact_damping.clamp(0.0, 1.0);
         let k_material = SELF_CONTACT_STIFFNESS * material.contact_stiffness * material.young;
         let rate2 = (SELF_CONTACT_MAX_RATE / dt.max(f32::MIN_POSITIVE)).powi(2);
-        let p = &*phyxels;
-        let pushes: Vec<(u32, u32, Vec3)> = (0..n)
-            .into_par_iter()
-            .flat_map_iter(|i| {
-                let xi = p.pos.get(i);
-                let mut out = Vec::new();
-                grid.for_each_within(xi, r_max, |j, d2| {
-                    if j <= i {
-                        return;
-                    }
-                    let rbar = 0.5 * (p.spacing[i] + p.spacing[j]);
-                    if d2 >= rbar * rbar || self.rest_neighbours(i, j) {
-                        return;
-                    }
-                    let d = d2.sqrt();
-                    let dir = if d > 0.0 {
-                        (xi - p.pos.get(j)) / d
-                    } else {
-                        Vec3::Y
-                    };
-                    let m = 0.5 * (p.mass[i] + p.mass[j]);
-                    let k = (k_material * rbar).min(m * rate2);
-                    let c = 2.0 * zeta * (k * 0.5 * m).sqrt();
-                    let approach = (p.vel.get(i) - p.vel.get(j)).dot(dir);
-                    let f = (k * (rbar - d) - c * approach).max(0.0);
-                    out.push((i as u32, j as u32, dir * f));
-                });
-                out
+        let this = &*self;
+        let Phyxels {
+            pos,
+            vel,
+            mass,
+            spacing,
+            force,
+            ..
+        } = phyxels;
+        let (pos, vel) = (&*pos, &*vel);
+        let Vec3s { x, y, z, .. } = force;
+        x[..n]
+            .par_chunks_mut(SELF_CONTACT_CHUNK)
+            .zip(y[..n].par_chunks_mut(SELF_CONTACT_CHUNK))
+            .zip(z[..n].par_chunks_mut(SELF_CONTACT_CHUNK))
+            .enumerate()
+            .map(|(c, ((fx, fy), fz))| {
+                let mut pairs = 0;
+                for (k, ((fx, fy), fz)) in fx.iter_mut().zip(fy).zip(fz).enumerate() {
+                    let i = c * SELF_CONTACT_CHUNK + k;
+                    let (xi, vi) = (pos.get(i), vel.get(i));
+                    let mut f = Vec3::ZERO;
+                    this.grid.for_each_within(xi, r_max, |j, d2| {
+                        let rbar = 0.5 * (spacing[i] + spacing[j]);
+                        if j == i || d2 >= rbar * rbar || this.rest_neighbours(i, j) {
+                            return;
+                        }
+                        let d = d2.sqrt();
+                        let dir = if d > 0.0 {
+                            (xi - pos.get(j)) / d
+                        } else if i < j {
+                            Vec3::Y
+                        } else {
+                            -Vec3::Y
+                        };
+                        let m = 0.5 * (mass[i] + mass[j]);
+                        let k = (k_material * rbar).min(m * rate2);
+                        let c = 2.0 * zeta * (k * 0.5 * m).sqrt();
+                        let approach = (vi - vel.get(j)).dot(dir);
+                        let push = (k * (rbar - d) - c * approach).max(0.0);
+                        if push > 0.0 {
+                            f += dir * push;
+                            pairs += u64::from(i < j);
+                        }
+                    });
+                    (*fx, *fy, *fz) = (*fx + f.x, *fy + f.y, *fz + f.z);
+                }
+                pairs
             })
-            .collect();
-        for &(i, j, f) in &pushes {
-            phyxels.force.add(i as usize, f);
-            phyxels.force.add(j as usize, -f);
-        }
-        pushes.len() as u64
+            .sum()
     }
 }
+
+/// Phyxels per parallel task of [`SelfCollision::apply`].
+const SELF_CONTACT_CHUNK: usize = 64;
 
 /// True when `object` is checked for fracture after each step.
 pub fn may_fracture(object: &Object) -> bool {

@@ -599,7 +599,7 @@ impl World {
     fn topology(&mut self) -> (u64, usize) {
         let mut work = 0;
         for o in self.objects.iter_mut().filter(|o| !o.is_static()) {
-            if let Some(sc) = &o.self_collision {
+            if let Some(sc) = &mut o.self_collision {
                 work += o.phyxels.len() as u64;
                 sc.apply(&mut o.phyxels, &o.material, self.dt);
             }

@@ -56,8 +56,9 @@ fn allocations_over(world: &mut phyxel::World, n: usize) -> u64 {
 }
 
 /// One test (the counter is global, so nothing else may run in this binary):
-/// a falling body (dynamics, advection, broad phase) and a body resting on a plane
-/// (every contact phase, every step) allocate nothing after warm-up.
+/// a falling body (dynamics, advection, broad phase), a body resting on a plane
+/// (every contact phase, every step) and a ring folded onto itself (self-collision)
+/// allocate nothing after warm-up.
 #[test]
 fn steady_state_steps_do_not_allocate() {
     let mut falling = Scene::builtin("falling-sphere")
@@ -84,4 +85,19 @@ fn steady_state_steps_do_not_allocate() {
         allocs, 0,
         "sphere-on-plane at rest, {per_step} contact surfels/step"
     );
+
+    // The folded ring of `self-contact` (its arcs touch from about step 350 on):
+    // the self-collision force's grid and sums allocate nothing either.
+    let mut ring = Scene::builtin("self-contact")
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap();
+    allocations_over(&mut ring, 600);
+    let checked = ring.times.work(Phase::Topology);
+    let allocs = allocations_over(&mut ring, 100);
+    assert!(
+        ring.times.work(Phase::Topology) > checked,
+        "self-collision ran"
+    );
+    assert_eq!(allocs, 0, "self-contact, arcs in contact");
 }

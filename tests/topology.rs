@@ -298,6 +298,46 @@ fn self_collision_keeps_arcs_apart() {
     );
 }
 
+/// Self-collision between two 3×3×3 lattice blocks (spacing 1 cm) of one object, 1 m
+/// apart at rest. Reference: Newton's third law and the rest-neighbour rule.
+/// - Blocks apart: no force at all (exactly zero; a block's own phyxels are rest
+///   neighbours).
+/// - Block B moved onto A (overlap 0.4 spacing): the forces sum to zero within 1e-6 of
+///   their magnitudes (each pair is evaluated from both ends with opposite signs; only
+///   the per-phyxel sums round), and push B away from A.
+#[test]
+fn self_collision_is_equal_and_opposite() {
+    use phyxel::material::Material;
+    use phyxel::phyxels::Phyxels;
+    use phyxel::topology::SelfCollision;
+    let h = 0.01;
+    let block = |o: Vec3| {
+        (0..27).map(move |k| o + h * Vec3::new((k % 3) as f32, (k / 3 % 3) as f32, (k / 9) as f32))
+    };
+    let pts: Vec<Vec3> = block(Vec3::ZERO).chain(block(Vec3::X)).collect();
+    let mut p = Phyxels::at_rest(&pts, h * h * h, 1000.0);
+    let mut sc = SelfCollision::new(&p);
+    let material = Material::default();
+    sc.apply(&mut p, &material, 1e-4);
+    assert!((0..p.len()).all(|i| p.force.get(i) == Vec3::ZERO));
+    let shift = Vec3::new(-1.0 + 2.6 * h, 0.0, 0.0);
+    for i in 27..54 {
+        p.pos.set(i, p.pos.get(i) + shift);
+    }
+    let pairs = sc.apply(&mut p, &material, 1e-4);
+    let f: Vec<Vec3> = (0..p.len()).map(|i| p.force.get(i)).collect();
+    let net: Vec3 = f.iter().sum();
+    let size: f32 = f.iter().map(|v| v.length()).sum();
+    let on_b: Vec3 = f[27..].iter().sum();
+    eprintln!("{pairs} pairs; net {net:?} of {size}; on B {on_b:?}");
+    assert!(pairs > 0 && size > 0.0 && f.iter().all(|v| v.is_finite()));
+    assert!(net.length() <= 1e-6 * size, "net force {net:?}");
+    assert!(
+        on_b.x > 0.0 && on_b.x > 10.0 * Vec3::new(0.0, on_b.y, on_b.z).length(),
+        "B pushed along +x: {on_b:?}"
+    );
+}
+
 /// Largest change of a phyxel's distance from the centre of mass between `a` and `b`
 /// (m): a rigid motion changes nothing, a dent shows as its depth.
 fn shape_change(a: &[Vec3], b: &[Vec3]) -> f32 {
