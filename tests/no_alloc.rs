@@ -55,23 +55,25 @@ fn allocations_over(world: &mut phyxel::World, n: usize) -> u64 {
     })
 }
 
+/// The built-in scene `name`, with default options.
+fn built(name: &str) -> phyxel::World {
+    Scene::builtin(name)
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap()
+}
+
 /// One test (the counter is global, so nothing else may run in this binary):
 /// a falling body (dynamics, advection, broad phase), a body resting on a plane
 /// (every contact phase, every step) and a ring folded onto itself (self-collision)
 /// allocate nothing after warm-up.
 #[test]
 fn steady_state_steps_do_not_allocate() {
-    let mut falling = Scene::builtin("falling-sphere")
-        .unwrap()
-        .build(&BuildOptions::default())
-        .unwrap();
+    let mut falling = built("falling-sphere");
     allocations_over(&mut falling, 20);
     assert_eq!(allocations_over(&mut falling, 100), 0, "falling-sphere");
 
-    let mut resting = Scene::builtin("sphere-on-plane")
-        .unwrap()
-        .build(&BuildOptions::default())
-        .unwrap();
+    let mut resting = built("sphere-on-plane");
     allocations_over(&mut resting, 1500);
     let forced = resting.times.work(Phase::Forces);
     let n = 200;
@@ -88,10 +90,7 @@ fn steady_state_steps_do_not_allocate() {
 
     // The folded ring of `self-contact` (its arcs touch from about step 350 on):
     // the self-collision force's grid and sums allocate nothing either.
-    let mut ring = Scene::builtin("self-contact")
-        .unwrap()
-        .build(&BuildOptions::default())
-        .unwrap();
+    let mut ring = built("self-contact");
     allocations_over(&mut ring, 600);
     let checked = ring.times.work(Phase::Topology);
     let allocs = allocations_over(&mut ring, 100);
