@@ -275,7 +275,7 @@ fn self_contact_approach(self_collision: bool) -> ArcApproach {
 fn self_collision_keeps_arcs_apart() {
     let on = self_contact_approach(true);
     let off = self_contact_approach(false);
-    let spacing = 0.0125;
+    let spacing = Scene::builtin("self-contact").unwrap().objects[0].spacing;
     eprintln!(
         "closest approach / r̄: with {:.3}, without {:.3}; deepest upper-arc phyxel in the lower arc: with {:.4} m, without {:.4} m",
         on.closest, off.closest, on.deepest, off.deepest
