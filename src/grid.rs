@@ -71,6 +71,9 @@ pub struct Grid {
     row_sep: [[u32; SEP]; SEP],
     /// Build scratch: the bucket of every input point ([`SKIPPED`] for NaN points).
     bucket_of: Vec<u32>,
+    /// Build scratch of [`Grid::rebuild_columns`]: every point as a [`pack`]ed record,
+    /// in sorted order.
+    records: Vec<[u64; 2]>,
 }
 
 /// What a range query reads (see [`Grid::plan`]).
@@ -296,6 +299,20 @@ fn bucket(p: Vec3, inv_cell: f32, mask: usize) -> u32 {
     }
 }
 
+/// Point `i` at `(x, y, z)` as one 16-byte record: the index and the coordinates' bits.
+#[inline(always)]
+fn pack(i: usize, x: f32, y: f32, z: f32) -> [u64; 2] {
+    let word = |lo: u32, hi: f32| lo as u64 | (hi.to_bits() as u64) << 32;
+    [word(i as u32, x), word(y.to_bits(), z)]
+}
+
+/// The index and coordinates of a [`pack`]ed record, bit for bit.
+#[inline(always)]
+fn unpack([a, b]: [u64; 2]) -> (u32, f32, f32, f32) {
+    let hi = |w: u64| f32::from_bits((w >> 32) as u32);
+    (a as u32, hi(a), f32::from_bits(b as u32), hi(b))
+}
+
 /// Additive spatial hash: consecutive x cells map to consecutive buckets (mod table).
 /// It is linear modulo the table size, so whether two cells collide depends only on
 /// their offset (see [`row_separation`]).
@@ -388,8 +405,9 @@ impl Grid {
     }
 
     /// [`Grid::rebuild`] over SoA columns: the buckets eight points at a time, straight
-    /// from the columns, and the counting sort's prefix sum eight buckets at a time. The
-    /// grid is the same as [`Grid::rebuild`] of `pos.iter()`, bit for bit.
+    /// from the columns, the counting sort's prefix sum eight buckets at a time, and a
+    /// scatter of packed records (see `scatter_packed`). The grid is the same as
+    /// [`Grid::rebuild`] of `pos.iter()`, bit for bit.
     pub fn rebuild_columns(&mut self, pos: &Vec3s, cell: f32) {
         let n = pos.len();
         let table = self.begin(n, cell);
@@ -410,12 +428,50 @@ impl Grid {
         }
         count_buckets(start, tail);
         prefix_sum_lanes(&mut start[..table + 2]);
-        let points = x
-            .iter()
-            .zip(y)
-            .zip(z)
-            .map(|((&x, &y), &z)| Vec3::new(x, y, z));
-        self.scatter(points, table);
+        self.scatter_packed(pos, table);
+    }
+
+    /// [`Grid::scatter`] in two passes: each point goes to its slot as one [`pack`]ed
+    /// record (two stores instead of four scattered ones), then a sequential pass, which
+    /// the compiler vectorizes, unpacks the records into `sorted`, `px`, `py`, `pz`.
+    /// Once the buckets come in lanes the scattered stores are most of the build, and
+    /// halving them is what pays (the scalar build, bound by its bucket pass, gains
+    /// nothing from it: docs/PERFORMANCE.md).
+    fn scatter_packed(&mut self, pos: &Vec3s, table: usize) {
+        let n = pos.len();
+        let (x, y, z) = (&pos.x[..n], &pos.y[..n], &pos.z[..n]);
+        let m = self.start[table + 1] as usize;
+        self.resize_sorted(m);
+        self.records.resize(m, [0; 2]);
+        let (start, records) = (&mut self.start[..], &mut self.records[..m]);
+        for (i, &b) in self.bucket_of[..n].iter().enumerate() {
+            if b == SKIPPED {
+                continue;
+            }
+            let slot = &mut start[b as usize + 1];
+            let s = *slot as usize;
+            *slot += 1;
+            records[s] = pack(i, x[i], y[i], z[i]);
+        }
+        let (sorted, px, py, pz) = (
+            &mut self.sorted[..m],
+            &mut self.px[..m],
+            &mut self.py[..m],
+            &mut self.pz[..m],
+        );
+        for (k, &r) in records.iter().enumerate() {
+            (sorted[k], px[k], py[k], pz[k]) = unpack(r);
+        }
+        debug_assert_eq!(start[table], start[table + 1]);
+    }
+
+    /// Sizes the sorted arrays for `m` points, the coordinates padded so that SIMD
+    /// loads of a run's last lanes stay in bounds.
+    fn resize_sorted(&mut self, m: usize) {
+        self.sorted.resize(m, 0);
+        self.px.resize(m + LANES - 1, 0.0);
+        self.py.resize(m + LANES - 1, 0.0);
+        self.pz.resize(m + LANES - 1, 0.0);
     }
 
     /// Sets the cell size and the table for `n` points and clears the bucket counts;
@@ -444,11 +500,7 @@ impl Grid {
     /// again, in the order the buckets were computed.
     fn scatter(&mut self, points: impl Iterator<Item = Vec3>, table: usize) {
         let m = self.start[table + 1] as usize;
-        self.sorted.resize(m, 0);
-        // Padded so that SIMD loads of a run's last lanes stay in bounds.
-        self.px.resize(m + LANES - 1, 0.0);
-        self.py.resize(m + LANES - 1, 0.0);
-        self.pz.resize(m + LANES - 1, 0.0);
+        self.resize_sorted(m);
         // ... and after the scatter `start[b]` is where bucket `b` begins. (Local slices,
         // so that the four stores per point do not force reloads of `self`.)
         let (start, sorted) = (&mut self.start[..], &mut self.sorted[..m]);
