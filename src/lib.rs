@@ -26,6 +26,7 @@ pub mod advect;
 pub mod brent;
 pub mod broad_phase;
 pub mod columns;
+pub mod connectivity;
 pub mod contact;
 pub mod detect;
 pub mod dynamics;

@@ -1,6 +1,7 @@
 //! A point-based object `Γ = (S, P)`: surfels, phyxels, a material and a backend.
 
 use crate::advect::SurfelBinding;
+use crate::connectivity::Connectivity;
 use crate::dynamics::Dynamics;
 use crate::material::Material;
 use crate::mls::MlsStencil;
@@ -43,6 +44,9 @@ pub struct Object {
     /// Rest neighbours and penalty of the self-collision force (paper §8), for objects
     /// whose scene asks for it (`self_collision = true`); `None`: no self-collision work.
     pub self_collision: Option<SelfCollision>,
+    /// The fracture check's state (empty unless the object may break: see
+    /// [`crate::topology::may_fracture`]).
+    pub connectivity: Connectivity,
 }
 
 /// Spacing of the surfels that carry contact forces, in phyxel spacings. Contact
@@ -115,6 +119,7 @@ impl Object {
             load_ramp: 0.0,
             parent: None,
             self_collision: None,
+            connectivity: Connectivity::default(),
         }
     }
 

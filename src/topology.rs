@@ -3,7 +3,8 @@
 //!
 //! **Fracture.** The phyxels of an object that may break ([`crate::dynamics::Dynamics::can_fracture`]) form
 //! a graph whose edges join phyxels closer than the influence radius `h_i` of either end
-//! (a time-varying connectivity graph, Desbrun & Cani 1996). When the graph falls into
+//! (a time-varying connectivity graph, Desbrun & Cani 1996), counted each step by the
+//! object's [`crate::connectivity::Connectivity`]. When the graph falls into
 //! several connected components, each becomes its own [`Object`]: its phyxels (every
 //! column), the surfels nearest to them (each surfel to exactly one piece), the material,
 //! and a fresh backend of the same name. Pieces start stress-free in their current shape
@@ -18,6 +19,7 @@
 
 use crate::backends;
 use crate::columns::Vec3s;
+pub use crate::connectivity::{Components, components};
 use crate::grid::Grid;
 use crate::material::Material;
 use crate::object::Object;
@@ -25,76 +27,6 @@ use crate::phyxels::Phyxels;
 use crate::surfels::Surfels;
 use glam::Vec3;
 use rayon::prelude::*;
-
-/// Connected components of a phyxel set: `label[i]` in `0..count`, numbered in the order
-/// of their first phyxel (phyxel 0 is always in component 0).
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Components {
-    pub label: Vec<u32>,
-    pub count: usize,
-}
-
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let p = parent[parent[i as usize] as usize];
-        parent[i as usize] = p; // path halving
-        i = p;
-    }
-    i
-}
-
-/// Components of the graph joining points `i`, `j` with `|x_i − x_j| < max(h_i, h_j)`
-/// (`pos` and `radius` = `h`, as in [`Phyxels`]).
-pub fn components(pos: &Vec3s, radius: &[f32]) -> Components {
-    let n = pos.len();
-    if n == 0 {
-        return Components {
-            label: Vec::new(),
-            count: 0,
-        };
-    }
-    let h_max = radius[..n].iter().fold(0.0f32, |a, &b| a.max(b));
-    let grid = Grid::build(pos.iter(), if h_max > 0.0 { h_max } else { 1.0 });
-    // Edges found in parallel, joined serially (union-find).
-    let edges: Vec<Vec<u32>> = (0..n)
-        .into_par_iter()
-        .map(|i| {
-            let h2 = radius[i] * radius[i];
-            let mut e = Vec::new();
-            grid.for_each_within(pos.get(i), radius[i], |j, d2| {
-                // Both ends query with their own radius: the edge exists when either sees the other.
-                if j != i && d2 < h2 {
-                    e.push(j as u32);
-                }
-            });
-            e
-        })
-        .collect();
-    let mut parent: Vec<u32> = (0..n as u32).collect();
-    for (i, row) in edges.iter().enumerate() {
-        for &j in row {
-            let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j));
-            if a != b {
-                parent[a.max(b) as usize] = a.min(b);
-            }
-        }
-    }
-    let mut id = vec![u32::MAX; n];
-    let mut label = vec![0u32; n];
-    let mut count = 0;
-    for (i, l) in label.iter_mut().enumerate() {
-        let r = find(&mut parent, i as u32) as usize;
-        if id[r] == u32::MAX {
-            id[r] = count;
-            count += 1;
-        }
-        *l = id[r];
-    }
-    Components {
-        label,
-        count: count as usize,
-    }
-}
 
 /// What one split did (for the run summary, tests and reports).
 #[derive(Clone, Debug, PartialEq)]

@@ -604,27 +604,29 @@ impl World {
                 sc.apply(&mut o.phyxels, &o.material, self.dt);
             }
         }
-        let candidates: Vec<usize> = (0..self.objects.len())
-            .filter(|&k| topology::may_fracture(&self.objects[k]))
-            .collect();
-        if candidates.is_empty() {
-            return (work, 0);
-        }
-        work += candidates
-            .iter()
-            .map(|&k| self.objects[k].phyxels.len() as u64)
-            .sum::<u64>();
-        let broken: Vec<(usize, Components)> = candidates
-            .par_iter()
-            .map(|&k| {
-                let p = &self.objects[k].phyxels;
-                (k, topology::components(&p.pos, &p.radius))
+        // Each object that may break counts its components (a spanning-tree check
+        // unless the tree broke: crate::connectivity), in parallel over objects.
+        let (checked, breaking) = self
+            .objects
+            .par_iter_mut()
+            .filter(|o| topology::may_fracture(o))
+            .map(|o| {
+                let p = &o.phyxels;
+                let count = o.connectivity.update(&p.pos, &p.radius);
+                (p.len() as u64, usize::from(count > 1))
             })
-            .filter(|(_, c)| c.count > 1)
-            .collect();
-        if broken.is_empty() {
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        work += checked;
+        if breaking == 0 {
             return (work, 0);
         }
+        let broken: Vec<(usize, Components)> = (0..self.objects.len())
+            .filter(|&k| {
+                let o = &self.objects[k];
+                topology::may_fracture(o) && o.connectivity.count() > 1
+            })
+            .map(|k| (k, self.objects[k].connectivity.components()))
+            .collect();
         // Pieces: the first takes the broken object's place (other objects keep their
         // indices, so static objects keep their grids), the others are appended.
         let mut objects: Vec<Option<Object>> = std::mem::take(&mut self.objects)

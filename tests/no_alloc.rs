@@ -65,8 +65,8 @@ fn built(name: &str) -> phyxel::World {
 
 /// One test (the counter is global, so nothing else may run in this binary):
 /// a falling body (dynamics, advection, broad phase), a body resting on a plane
-/// (every contact phase, every step) and a ring folded onto itself (self-collision)
-/// allocate nothing after warm-up.
+/// (every contact phase, every step), a ring folded onto itself (self-collision) and a
+/// hanging bar that may break (the fracture check) allocate nothing after warm-up.
 #[test]
 fn steady_state_steps_do_not_allocate() {
     let mut falling = built("falling-sphere");
@@ -99,4 +99,19 @@ fn steady_state_steps_do_not_allocate() {
         "self-collision ran"
     );
     assert_eq!(allocs, 0, "self-contact, arcs in contact");
+
+    // The bar of `plastic-fracture`, made elastic so that it hangs without tearing:
+    // the fracture check runs every step and finds one piece, allocating nothing.
+    let mut scene = Scene::builtin("plastic-fracture").unwrap();
+    scene.objects[1].material.plastic_yield = f32::INFINITY;
+    let mut bar = scene.build(&BuildOptions::default()).unwrap();
+    allocations_over(&mut bar, 300);
+    let checked = bar.times.work(Phase::Topology);
+    let allocs = allocations_over(&mut bar, 100);
+    assert!(
+        bar.times.work(Phase::Topology) > checked,
+        "the fracture check ran"
+    );
+    assert_eq!(bar.objects.len(), 2, "the elastic bar stays whole");
+    assert_eq!(allocs, 0, "plastic-fracture bar, elastic, hanging");
 }

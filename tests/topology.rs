@@ -71,6 +71,75 @@ fn components_match_brute_force() {
     );
 }
 
+/// `Connectivity::update`, which skips the neighbour search while the last spanning tree
+/// still holds, answers what a full count from scratch answers, step after step: a
+/// 6 × 6 × 6 lattice (spacing 1 cm, h = 1.5 cm) is jittered afresh each step (±1.5 mm
+/// per coordinate around rest), and every 25 steps its top layer is lifted 1 cm away for
+/// two steps (breaking the graph) and then put back. Reference: `components` (grid + union-find) and the O(n²) brute force; exact
+/// (the same graph). At most a quarter of the updates may search (measured: 32 of 200,
+/// the steps that break or rejoin), and both answers (one
+/// piece, two pieces) must occur.
+#[test]
+fn connectivity_tree_check_matches_full_counts() {
+    use phyxel::connectivity::Connectivity;
+    let mut seed = 777u32;
+    let mut rnd = || {
+        seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (seed >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+    };
+    let mut pts = Vec::new();
+    for i in 0..6 {
+        for j in 0..6 {
+            for k in 0..6 {
+                pts.push(Vec3::new(i as f32, j as f32, k as f32) * 0.01);
+            }
+        }
+    }
+    let rest = pts.clone();
+    let h = vec![0.015f32; pts.len()];
+    let mut conn = Connectivity::default();
+    let (mut whole, mut broken) = (0, 0);
+    let steps = 200;
+    for step in 0..steps {
+        let lift = if step % 25 == 10 || step % 25 == 11 {
+            0.01
+        } else {
+            0.0
+        };
+        for (p, r) in pts.iter_mut().zip(&rest) {
+            *p = *r + Vec3::new(rnd(), rnd(), rnd()) * 0.003;
+            if r.y > 0.045 {
+                p.y += lift;
+            }
+        }
+        let cols = Vec3s::from_points(&pts);
+        let got = conn.update(&cols, &h);
+        let full = components(&cols, &h);
+        assert_eq!(got, full.count, "step {step}");
+        assert_eq!(conn.count(), full.count, "step {step}");
+        if got > 1 {
+            assert_eq!(conn.components(), full, "step {step}");
+            broken += 1;
+        } else {
+            whole += 1;
+        }
+        let want = brute_components(&pts, &h);
+        assert_eq!(
+            full.label, want,
+            "step {step}: grid count against brute force"
+        );
+    }
+    assert!(
+        whole > 0 && broken > 0,
+        "{whole} whole, {broken} broken steps"
+    );
+    assert!(
+        conn.searches() < steps / 4,
+        "{} of {steps} updates searched",
+        conn.searches()
+    );
+}
+
 fn plastic_fracture(elastic: bool) -> Scene {
     let mut scene = Scene::builtin("plastic-fracture").unwrap();
     if elastic {
