@@ -143,6 +143,22 @@ impl Vec3s {
         }
         c
     }
+
+    /// Makes these columns `src`'s points `idx`, in that order (padded with zeros),
+    /// reusing the buffers: no allocation unless they grow.
+    pub fn gather_from(&mut self, src: &Vec3s, idx: &[u32]) {
+        let padded = padded_len(idx.len());
+        for (column, from) in [
+            (&mut self.x, &src.x),
+            (&mut self.y, &src.y),
+            (&mut self.z, &src.z),
+        ] {
+            column.clear();
+            column.extend(idx.iter().map(|&i| from[i as usize]));
+            column.resize(padded, 0.0);
+        }
+        self.len = idx.len();
+    }
 }
 
 /// A padded scalar column of `len` values.

@@ -74,6 +74,8 @@ pub struct Grid {
     /// Build scratch of [`Grid::rebuild_columns`]: every point as a [`pack`]ed record,
     /// in sorted order.
     records: Vec<[u64; 2]>,
+    /// Build scratch of [`Grid::rebuild_subset`]: the subset's coordinates as columns.
+    subset_pos: Vec3s,
 }
 
 /// What a range query reads (see [`Grid::plan`]).
@@ -521,8 +523,14 @@ impl Grid {
     /// index in `pos`: a grid of the part of an object that queries can reach (e.g. near
     /// a contact) costs that part's size, not the object's. Does not allocate when
     /// `subset` does not grow.
+    ///
+    /// The subset's coordinates are first copied into columns the grid keeps, so that
+    /// the build runs in lanes ([`Grid::rebuild_columns`]).
     pub fn rebuild_subset(&mut self, pos: &Vec3s, subset: &[u32], cell: f32) {
-        self.rebuild(subset.iter().map(|&i| pos.get(i as usize)), cell);
+        let mut columns = std::mem::take(&mut self.subset_pos);
+        columns.gather_from(pos, subset);
+        self.rebuild_columns(&columns, cell);
+        self.subset_pos = columns;
         for s in &mut self.sorted {
             *s = subset[*s as usize];
         }
