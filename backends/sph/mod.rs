@@ -320,7 +320,7 @@ impl SphDynamics {
         let n = phyxels.len();
         let kernel = self.kernel;
         let support = kernel.support();
-        self.grid.rebuild(phyxels.pos.iter(), support);
+        self.grid.rebuild_columns(&phyxels.pos, support);
         let b_tait = Self::tait_b(material);
         let k_bulk = bulk_modulus(material) as f64;
         let (_, mu) = material.lame();
