@@ -63,6 +63,19 @@ fn built(name: &str) -> phyxel::World {
         .unwrap()
 }
 
+/// The allocations over `n` steps of `world` after `warm_up` steps, checking that the
+/// topology phase (self-collision or the fracture check) did work meanwhile.
+fn topology_allocations(world: &mut phyxel::World, warm_up: usize, n: usize) -> u64 {
+    allocations_over(world, warm_up);
+    let checked = world.times.work(Phase::Topology);
+    let allocs = allocations_over(world, n);
+    assert!(
+        world.times.work(Phase::Topology) > checked,
+        "the topology phase ran"
+    );
+    allocs
+}
+
 /// One test (the counter is global, so nothing else may run in this binary):
 /// a falling body (dynamics, advection, broad phase), a body resting on a plane
 /// (every contact phase, every step), a ring folded onto itself (self-collision) and a
@@ -91,13 +104,7 @@ fn steady_state_steps_do_not_allocate() {
     // The folded ring of `self-contact` (its arcs touch from about step 350 on):
     // the self-collision force's grid and sums allocate nothing either.
     let mut ring = built("self-contact");
-    allocations_over(&mut ring, 600);
-    let checked = ring.times.work(Phase::Topology);
-    let allocs = allocations_over(&mut ring, 100);
-    assert!(
-        ring.times.work(Phase::Topology) > checked,
-        "self-collision ran"
-    );
+    let allocs = topology_allocations(&mut ring, 600, 100);
     assert_eq!(allocs, 0, "self-contact, arcs in contact");
 
     // The bar of `plastic-fracture`, made elastic so that it hangs without tearing:
@@ -105,13 +112,7 @@ fn steady_state_steps_do_not_allocate() {
     let mut scene = Scene::builtin("plastic-fracture").unwrap();
     scene.objects[1].material.plastic_yield = f32::INFINITY;
     let mut bar = scene.build(&BuildOptions::default()).unwrap();
-    allocations_over(&mut bar, 300);
-    let checked = bar.times.work(Phase::Topology);
-    let allocs = allocations_over(&mut bar, 100);
-    assert!(
-        bar.times.work(Phase::Topology) > checked,
-        "the fracture check ran"
-    );
+    let allocs = topology_allocations(&mut bar, 300, 100);
     assert_eq!(bar.objects.len(), 2, "the elastic bar stays whole");
     assert_eq!(allocs, 0, "plastic-fracture bar, elastic, hanging");
 }
