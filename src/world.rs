@@ -604,6 +604,9 @@ impl World {
                 sc.apply(&mut o.phyxels, &o.material, self.dt);
             }
         }
+        if !self.objects.iter().any(topology::may_fracture) {
+            return (work, 0);
+        }
         // Each object that may break counts its components (a spanning-tree check
         // unless the tree broke: crate::connectivity), in parallel over objects.
         let (checked, breaking) = self
