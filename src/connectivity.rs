@@ -36,9 +36,8 @@ pub fn components(pos: &Vec3s, radius: &[f32]) -> Components {
 pub struct Connectivity {
     /// Edges `(i, j)` of a spanning forest of the last full count (`n − count` edges).
     tree: Vec<[u32; 2]>,
-    /// Points in the last full count (the tree is valid only for this many).
-    counted: usize,
-    /// Components found by the last full count, and each phyxel's label.
+    /// Components found by the last full count, and each phyxel's label (one per point
+    /// counted: the tree is valid only for this many points).
     count: usize,
     label: Vec<u32>,
     /// Scratch: union-find parents and the label of each root.
@@ -64,7 +63,7 @@ impl Connectivity {
     /// and every edge of its tree is still an edge.
     fn tree_holds(&self, pos: &Vec3s, radius: &[f32]) -> bool {
         let n = pos.len();
-        if self.count != 1 || self.counted != n || self.tree.len() + 1 != n {
+        if self.count != 1 || self.label.len() != n || self.tree.len() + 1 != n {
             return false;
         }
         let (x, y, z) = (&pos.x[..n], &pos.y[..n], &pos.z[..n]);
@@ -81,7 +80,6 @@ impl Connectivity {
     fn count_components(&mut self, pos: &Vec3s, radius: &[f32]) -> usize {
         let n = pos.len();
         self.searches += 1;
-        self.counted = n;
         self.tree.clear();
         self.parent.clear();
         self.parent.extend(0..n as u32);
