@@ -3,7 +3,7 @@
 
 use crate::broad_phase::{Pair, points_in_box};
 use crate::grid::Grid;
-use crate::implicit::{ImplicitSurface, SurfaceSample};
+use crate::implicit::{FarHint, ImplicitSurface, SurfaceSample};
 use crate::surfels::Surfels;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -79,6 +79,13 @@ impl Volume<'_> {
 pub struct DetectScratch {
     candidates: Vec<u32>,
     found: Vec<Option<Colliding>>,
+    /// Per surfel, the far-field search radius of its last deep projection: a deep
+    /// surfel is about as deep one step later, so its next search starts there.
+    far_hints: Vec<FarHint>,
+    /// `far_hints` of this step's candidates, in candidate order.
+    hints: Vec<FarHint>,
+    /// The pair and surfel count `far_hints` belong to.
+    owner: (usize, usize, usize),
 }
 
 /// The surfels of `surfels` in `pair.bounds` that are inside `other`, in surfel order,
@@ -94,24 +101,40 @@ pub fn colliding_surfels(
     scratch: &mut DetectScratch,
     out: &mut Vec<Colliding>,
 ) -> usize {
-    let DetectScratch { candidates, found } = scratch;
+    let DetectScratch {
+        candidates,
+        found,
+        far_hints,
+        hints,
+        owner,
+    } = scratch;
     let outside = OUTSIDE_FRACTION * other.reach();
     candidates.clear();
     points_in_box(&surfels.pos, &pair.bounds, candidates);
+    // Hints of another pair or object would still give exact results, only slower.
+    let this = (pair.a, pair.b, surfels.len());
+    if *owner != this {
+        *owner = this;
+        far_hints.clear();
+        far_hints.resize(surfels.len(), FarHint::default());
+    }
+    hints.clear();
+    hints.extend(candidates.iter().map(|&s| far_hints[s as usize]));
     found.clear();
     found.resize(candidates.len(), None);
     found
         .par_chunks_mut(CHUNK)
+        .zip(hints.par_chunks_mut(CHUNK))
         .zip(candidates.par_chunks(CHUNK))
-        .for_each(|(slots, chunk)| {
-            for (slot, &s) in slots.iter_mut().zip(chunk) {
+        .for_each(|((slots, hints), chunk)| {
+            for ((slot, hint), &s) in slots.iter_mut().zip(hints).zip(chunk) {
                 let x = surfels.pos.get(s as usize);
                 let near = other.sample_near(x);
                 let clearly_outside = near.is_some_and(|s| s.f > outside);
                 *slot = if clearly_outside || (near.is_none() && !volume.contains(x)) {
                     None
                 } else {
-                    other.inside_given(x, near).and_then(|(inside, p)| {
+                    other.inside_hinted(x, near, hint).and_then(|(inside, p)| {
                         inside.then_some(Colliding {
                             surfel: s,
                             projection: p.point,
@@ -124,6 +147,9 @@ pub fn colliding_surfels(
                 };
             }
         });
+    for (&s, &h) in candidates.iter().zip(hints.iter()) {
+        far_hints[s as usize] = h;
+    }
     out.clear();
     out.extend(found.iter().flatten());
     candidates.len()

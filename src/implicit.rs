@@ -31,6 +31,16 @@ thread_local! {
 /// The far-field k-nearest search starts this much beyond the last query's k-th
 /// distance, so that a neighbour at about the same depth needs no second pass.
 const FAR_RADIUS_SLACK: f32 = 1.2;
+/// The search from a [`FarHint`] starts this much beyond the hinted radius: a surfel's
+/// depth changes by a small fraction of itself per step.
+const FAR_HINT_SLACK: f32 = 1.05;
+
+/// Where a point's far-field nearest-surfel search should start: the distance of the
+/// [`FAR_NEIGHBOURS`]-th nearest surfel found for (about) the same point before, e.g. the
+/// same colliding surfel one step earlier; 0 when unknown. Only the work depends on it,
+/// not the result ([`Grid::k_nearest_from`] is exact from any start).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FarHint(pub f32);
 /// `exp(−q)` lane-wise for `q ≥ 0` (lanes beyond ~87 give 0 or garbage that the caller
 /// masks): `n = round(−q log₂e)`, `r = −q − n ln2` with ln2 split in two (Cody–Waite, so
 /// r carries no rounding of the product), `e^r` by a degree-6 Taylor polynomial
@@ -322,12 +332,18 @@ impl<'a> ImplicitSurface<'a> {
 
     /// The [`FAR_NEIGHBOURS`] surfels nearest to `x`, into `near`: from the region's
     /// far grid when no surfel outside the region can be among them, else from the far
-    /// grid of all surfels.
-    fn far_neighbours(&self, x: Vec3, near: &mut Vec<(usize, f32)>) {
-        let r0 = FAR_RADIUS.get() * FAR_RADIUS_SLACK;
+    /// grid of all surfels. The search starts from `hint` (see [`FarHint`]) when it has
+    /// one, else from this thread's last far search; both learn this search's radius.
+    fn far_neighbours(&self, x: Vec3, near: &mut Vec<(usize, f32)>, hint: &mut FarHint) {
+        let r0 = if hint.0 > 0.0 {
+            hint.0 * FAR_HINT_SLACK
+        } else {
+            FAR_RADIUS.get() * FAR_RADIUS_SLACK
+        };
         self.far_neighbours_from(x, r0, near);
         if let Some(&(_, d2)) = near.last() {
             FAR_RADIUS.set(d2.sqrt());
+            hint.0 = d2.sqrt();
         }
     }
 
@@ -502,10 +518,16 @@ impl<'a> ImplicitSurface<'a> {
 
     /// Far from every kernel: weight the nearest surfels on their own scale.
     fn sample_far(&self, x: Vec3) -> Option<SurfaceSample> {
+        self.sample_far_hinted(x, &mut FarHint::default())
+    }
+
+    /// [`ImplicitSurface::sample_far`] whose nearest-surfel search starts from `hint`,
+    /// which learns the radius found.
+    fn sample_far_hinted(&self, x: Vec3, hint: &mut FarHint) -> Option<SurfaceSample> {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
         // One scratch list per thread: the step stays free of heap allocation.
         KNN_SCRATCH.with_borrow_mut(|near| {
-            self.far_neighbours(x, near);
+            self.far_neighbours(x, near, hint);
             let (_, d2_far) = *near.last()?;
             let (_, d2_near) = near[0];
             let s2 = d2_far.max(1e-30);
@@ -528,9 +550,24 @@ impl<'a> ImplicitSurface<'a> {
     /// [`ImplicitSurface::project`] where [`ImplicitSurface::sample_near`] at `x` gave
     /// `near`: the same result without sampling `x` again.
     pub fn project_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<Projection> {
+        self.project_hinted(x, near, &mut FarHint::default())
+    }
+
+    /// [`ImplicitSurface::project_given`] whose far-field sample at `x` (if `x` is far
+    /// from every kernel) starts its search from `hint` and leaves its radius there: the
+    /// same result with less work when the hint is close.
+    pub fn project_hinted(
+        &self,
+        x: Vec3,
+        near: Option<SurfaceSample>,
+        hint: &mut FarHint,
+    ) -> Option<Projection> {
         let mut p = x;
         let mut near = near;
-        let mut s = self.sample_given(x, near)?;
+        let mut s = match near {
+            Some(s) => s,
+            None => self.sample_far_hinted(x, hint)?,
+        };
         let mut iterations = 0;
         let mut converged = s.f.abs() < self.tolerance;
         // The last steps are short: their samples read the previous query's hits.
@@ -559,7 +596,18 @@ impl<'a> ImplicitSurface<'a> {
 
     /// [`ImplicitSurface::inside`] given [`ImplicitSurface::sample_near`] at `x`.
     pub fn inside_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<(bool, Projection)> {
-        let p = self.project_given(x, near)?;
+        self.inside_hinted(x, near, &mut FarHint::default())
+    }
+
+    /// [`ImplicitSurface::inside_given`] with the far-field search of
+    /// [`ImplicitSurface::project_hinted`].
+    pub fn inside_hinted(
+        &self,
+        x: Vec3,
+        near: Option<SurfaceSample>,
+        hint: &mut FarHint,
+    ) -> Option<(bool, Projection)> {
+        let p = self.project_hinted(x, near, hint)?;
         Some((p.signed_distance < 0.0, p))
     }
 }

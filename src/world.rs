@@ -110,12 +110,19 @@ impl SurfaceView<'_> {
 /// kernel reaches: detection, projections and root searches stay within a penetration
 /// depth of the box, and queries that leave the region go to a grid of all surfels.
 pub const GRID_REGION_MARGIN: f32 = 3.0;
+/// The region's margin grows by this multiple of the object's deepest penetration of
+/// the last step: a deep surfel's nearest surfels of the other object lie about its
+/// depth away, and depths grow by a small fraction per step. Only speed depends on
+/// it: queries that leave the region get the same answer from the grids of all surfels.
+pub const GRID_REGION_DEPTH_FACTOR: f32 = 1.25;
 
 /// The grids of one object's surfels besides the kernel grid, and what that grid covers.
 #[derive(Debug, Default)]
 struct SurfaceGrids {
     /// Coarse grid for far-field samples, built on first use in a step.
     far: LazyGrid,
+    /// Deepest penetration of the last step's pairs of this object, either way (m).
+    depth: f32,
     /// Grid of every surfel, built on first use, when the kernel grid covers a region.
     all: LazyGrid,
     /// The box whose surfels the kernel grid indexes (`None`: every surfel).
@@ -390,7 +397,7 @@ impl World {
                 sg.far_region.reset();
                 // A moving object's kernel grid covers the surfels near its contacts
                 // only, unless that is most of them (static objects: built once, whole).
-                let margin = GRID_REGION_MARGIN * cell;
+                let margin = GRID_REGION_MARGIN * cell + GRID_REGION_DEPTH_FACTOR * sg.depth;
                 let region = Aabb {
                     min: near[k].min - margin,
                     max: near[k].max + margin,
@@ -480,8 +487,16 @@ impl World {
                 );
                 d.candidates = na + nb;
             });
+        for sg in &mut self.surface_grids {
+            sg.depth = 0.0;
+        }
         for d in &self.detections {
-            self.max_penetration = self.max_penetration.max(d.max_depth());
+            let depth = d.max_depth();
+            self.max_penetration = self.max_penetration.max(depth);
+            for k in [d.a, d.b] {
+                let sg = &mut self.surface_grids[k];
+                sg.depth = sg.depth.max(depth);
+            }
         }
         self.detections.iter().map(|d| d.candidates as u64).sum()
     }

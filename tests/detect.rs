@@ -5,7 +5,7 @@
 use glam::Vec3;
 use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
-use phyxel::implicit::{ImplicitSurface, SurfelRows, exp_neg, grid_cell};
+use phyxel::implicit::{FarHint, ImplicitSurface, SurfelRows, exp_neg, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::shape::Shape;
 use phyxel::timing::Phase;
@@ -168,6 +168,43 @@ fn inside_test_matches_analytic_shapes() {
             inside_n > 300 && outside_n > 300,
             "both sides sampled: {inside_n} / {outside_n}"
         );
+    }
+}
+
+/// A far-field hint ([`FarHint`]: where a deep point's nearest-surfel search starts)
+/// changes only the work: from points 2 to 14 surfel spacings inside a sphere (beyond
+/// every kernel), projections with no hint, a hint 100× too small, 10× too large and
+/// the radius learned by the previous call are bitwise equal (reference: the unhinted
+/// projection; tolerance: none). The learned radius is the 8th-nearest surfel's
+/// distance: at least the depth, within 3 spacings of it (Fibonacci sampling, `R` =
+/// 0.1 m, spacing 5 mm).
+#[test]
+fn far_hints_change_only_the_work() {
+    let spacing = 0.005;
+    let sphere = Sampled::new(&Shape::Sphere { radius: R }, spacing);
+    let surf = sphere.surface();
+    let mut rng = Rng(13);
+    let mut learned = FarHint::default();
+    for _ in 0..500 {
+        let depth = spacing * (2.0 + 12.0 * rng.next().abs());
+        let x = rng.dir() * (R - depth);
+        assert!(surf.sample_near(x).is_none(), "{x} is beyond every kernel");
+        let reference = surf.project(x).unwrap();
+        let mut fresh = FarHint::default();
+        assert_eq!(surf.project_hinted(x, None, &mut fresh), Some(reference));
+        let r8 = fresh.0;
+        assert!(
+            r8 >= depth * 0.999 && r8 <= depth + 3.0 * spacing,
+            "learned radius {r8} at depth {depth}"
+        );
+        for mut hint in [FarHint(r8 * 0.01), FarHint(r8 * 10.0), learned] {
+            assert_eq!(
+                surf.project_hinted(x, None, &mut hint),
+                Some(reference),
+                "hint {hint:?} at {x}"
+            );
+        }
+        learned = fresh;
     }
 }
 
