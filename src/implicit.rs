@@ -173,6 +173,13 @@ impl Default for NearHits {
 
 /// Iteration limit of the orthogonal projection.
 pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
+/// The projection's step is `f/g`, with `g = ∂f/∂t` the slope of `f` along the normal
+/// measured over the last step, when `g` lies in this range (`g` is 1 for a flat
+/// surface of equal kernels); outside it, and on the first step, the plain step `f`.
+pub const PROJECTION_SLOPE_RANGE: (f32, f32) = (0.2, 2.0);
+/// The measured slope is used only when the normal turned by less than this cosine
+/// over the last step (both steps then run along about the same line).
+pub const PROJECTION_SLOPE_COS: f32 = 0.999;
 /// Convergence tolerance of the projection, in units of the smallest σ.
 pub const PROJECTION_TOLERANCE: f32 = 1.0e-4;
 
@@ -237,6 +244,26 @@ pub struct Projection {
     /// [`ImplicitSurface::sample_near`] at `point` (the projection's last sample; `None`
     /// when no kernel reaches `point`): callers that sample there again reuse it.
     pub near: Option<SurfaceSample>,
+}
+
+/// Length of the projection's next step along `−s.normal` from the sample `s`, given
+/// the last step `(t, s0)`: the secant (Newton) step `f/g` with the slope
+/// `g = (f0 − f)/t` when the normal held still and `g` is plausible, else `f`. Where
+/// the kernels make `f` change slower than the distance along the normal (curved or
+/// unevenly sampled surfaces, `g` about 0.5), plain steps shrink the residual only by
+/// `1 − g` each; the secant step removes that linear part.
+#[inline]
+fn projection_step(s: &SurfaceSample, last: Option<(f32, SurfaceSample)>) -> f32 {
+    let Some((t, s0)) = last else {
+        return s.f;
+    };
+    let g = (s0.f - s.f) / t;
+    let (lo, hi) = PROJECTION_SLOPE_RANGE;
+    if t != 0.0 && s0.normal.dot(s.normal) > PROJECTION_SLOPE_COS && (lo..=hi).contains(&g) {
+        s.f / g
+    } else {
+        s.f
+    }
 }
 
 /// `a = Σw s / Σw`, `n = normalize(Σw n)`, `f = n·(x − a)` from the weighted sums.
@@ -541,8 +568,9 @@ impl<'a> ImplicitSurface<'a> {
         })
     }
 
-    /// Orthogonal projection onto the surface: `x ← x − f(x) n(x)` until
-    /// `|f| < tolerance` or [`MAX_PROJECTION_ITERATIONS`].
+    /// Orthogonal projection onto the surface: `x ← x − t n(x)` until `|f| < tolerance`
+    /// or [`MAX_PROJECTION_ITERATIONS`], with `t = f(x)` on the first step and the
+    /// secant step of [`PROJECTION_SLOPE_RANGE`] after it.
     pub fn project(&self, x: Vec3) -> Option<Projection> {
         self.project_given(x, self.sample_near(x))
     }
@@ -572,8 +600,12 @@ impl<'a> ImplicitSurface<'a> {
         let mut converged = s.f.abs() < self.tolerance;
         // The last steps are short: their samples read the previous query's hits.
         let mut kept = NearHits::default();
+        // The last step's length and the sample it started from.
+        let mut last: Option<(f32, SurfaceSample)> = None;
         while !converged && iterations < MAX_PROJECTION_ITERATIONS {
-            p -= s.f * s.normal;
+            let t = projection_step(&s, last);
+            last = Some((t, s));
+            p -= t * s.normal;
             near = self.sample_near_kept(p, &mut kept);
             s = self.sample_given(p, near)?;
             iterations += 1;
