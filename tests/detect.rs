@@ -173,17 +173,18 @@ fn inside_test_matches_analytic_shapes() {
 
 /// The plain fixed-point projection `x ← x − f(x) n(x)` (the paper's; the reference for
 /// the secant steps of [`ImplicitSurface::project`]): the point, whether `|f|` fell
-/// below `tol` within 20 steps, and the steps taken.
+/// below `tol` within the projection's step limit, and the steps taken.
 fn plain_projection(surf: &ImplicitSurface<'_>, x: Vec3, tol: f32) -> (Vec3, bool, u32) {
+    let limit = phyxel::implicit::MAX_PROJECTION_ITERATIONS;
     let mut p = x;
-    for k in 0..20 {
+    for k in 0..limit {
         let s = surf.sample(p).unwrap();
         if s.f.abs() < tol {
             return (p, true, k);
         }
         p -= s.f * s.normal;
     }
-    (p, surf.sample(p).unwrap().f.abs() < tol, 20)
+    (p, surf.sample(p).unwrap().f.abs() < tol, limit)
 }
 
 /// The secant-step projection against the plain fixed point, from points within three
