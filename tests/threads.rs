@@ -10,15 +10,16 @@ use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};
 
 fn run_on(threads: usize, scene: &str, steps: usize) -> World {
+    run_with(threads, scene, &BuildOptions::default(), steps)
+}
+
+fn run_with(threads: usize, scene: &str, options: &BuildOptions, steps: usize) -> World {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     pool.install(|| {
-        let mut w = Scene::builtin(scene)
-            .unwrap()
-            .build(&BuildOptions::default())
-            .unwrap();
+        let mut w = Scene::builtin(scene).unwrap().build(options).unwrap();
         for _ in 0..steps {
             w.step();
         }
@@ -54,6 +55,36 @@ fn one_and_two_threads_agree_bitwise() {
     assert_eq!(one.max_penetration.to_bits(), two.max_penetration.to_bits());
     let (a, b) = (bits(&one), bits(&two));
     assert_eq!(a.len(), b.len());
+    let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    assert_eq!(differing, 0, "{differing} of {} values differ", a.len());
+}
+
+/// `scale` at 100k surfels per sphere through 150 steps: the contact gets deeper than
+/// two kernel reaches, so detection runs its far-field path (per-surfel start radii kept
+/// from step to step, the grid region widened by the depth, coarse far grids) on both
+/// thread counts; the states stay bitwise identical.
+#[test]
+fn deep_contact_agrees_bitwise_on_one_and_two_threads() {
+    let options = BuildOptions {
+        surfels: Some(100_000),
+        ..Default::default()
+    };
+    let steps = 150;
+    let one = run_with(1, "scale", &options, steps);
+    let two = run_with(2, "scale", &options, steps);
+    let r_max = one.objects[0]
+        .surfels
+        .radius
+        .iter()
+        .fold(0.0f32, |a, &b| a.max(b));
+    let reach = phyxel::implicit::grid_cell(r_max);
+    assert!(
+        one.max_penetration > 2.0 * reach,
+        "penetration {} m must exceed two kernel reaches ({reach} m)",
+        one.max_penetration
+    );
+    assert_eq!(one.max_penetration.to_bits(), two.max_penetration.to_bits());
+    let (a, b) = (bits(&one), bits(&two));
     let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
     assert_eq!(differing, 0, "{differing} of {} values differ", a.len());
 }
