@@ -369,8 +369,9 @@ impl<'a> ImplicitSurface<'a> {
         };
         self.far_neighbours_from(x, r0, near);
         if let Some(&(_, d2)) = near.last() {
-            FAR_RADIUS.set(d2.sqrt());
-            hint.0 = d2.sqrt();
+            let r = d2.sqrt();
+            FAR_RADIUS.set(r);
+            hint.0 = r;
         }
     }
 

@@ -207,7 +207,7 @@ fn secant_projection_beats_the_plain_fixed_point() {
     for (shape, spacing) in shapes {
         let sampled = Sampled::new(&shape, spacing);
         let surf = sampled.surface();
-        let r_min = sampled.radius.iter().fold(f32::INFINITY, |a, &b| a.min(b));
+        let (r_min, _) = phyxel::implicit::radius_range(&sampled.radius);
         let tol = phyxel::implicit::PROJECTION_TOLERANCE * r_min;
         let mut rng = Rng(17);
         let half = shape.half_extents();

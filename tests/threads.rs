@@ -44,6 +44,16 @@ fn bits(w: &World) -> Vec<u32> {
     out
 }
 
+/// Both runs end in the same bits: the largest penetration and every phyxel and surfel
+/// position and velocity.
+fn assert_same_state(one: &World, two: &World) {
+    assert_eq!(one.max_penetration.to_bits(), two.max_penetration.to_bits());
+    let (a, b) = (bits(one), bits(two));
+    assert_eq!(a.len(), b.len());
+    let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+    assert_eq!(differing, 0, "{differing} of {} values differ", a.len());
+}
+
 /// `two-spheres` through its collision (contact in steps ~75–200): 1 and 2 threads give
 /// bitwise identical states, and the run did handle contact.
 #[test]
@@ -52,11 +62,7 @@ fn one_and_two_threads_agree_bitwise() {
     let one = run_on(1, "two-spheres", steps);
     let two = run_on(2, "two-spheres", steps);
     assert!(one.max_penetration > 0.0, "the spheres must collide");
-    assert_eq!(one.max_penetration.to_bits(), two.max_penetration.to_bits());
-    let (a, b) = (bits(&one), bits(&two));
-    assert_eq!(a.len(), b.len());
-    let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-    assert_eq!(differing, 0, "{differing} of {} values differ", a.len());
+    assert_same_state(&one, &two);
 }
 
 /// `scale` at 100k surfels per sphere through 150 steps: the contact gets deeper than
@@ -72,19 +78,12 @@ fn deep_contact_agrees_bitwise_on_one_and_two_threads() {
     let steps = 150;
     let one = run_with(1, "scale", &options, steps);
     let two = run_with(2, "scale", &options, steps);
-    let r_max = one.objects[0]
-        .surfels
-        .radius
-        .iter()
-        .fold(0.0f32, |a, &b| a.max(b));
+    let (_, r_max) = phyxel::implicit::radius_range(&one.objects[0].surfels.radius);
     let reach = phyxel::implicit::grid_cell(r_max);
     assert!(
         one.max_penetration > 2.0 * reach,
         "penetration {} m must exceed two kernel reaches ({reach} m)",
         one.max_penetration
     );
-    assert_eq!(one.max_penetration.to_bits(), two.max_penetration.to_bits());
-    let (a, b) = (bits(&one), bits(&two));
-    let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
-    assert_eq!(differing, 0, "{differing} of {} values differ", a.len());
+    assert_same_state(&one, &two);
 }
