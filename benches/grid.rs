@@ -8,7 +8,9 @@
 //! - `knn16`: build + the 16 nearest points of every point;
 //! - `sphere_1m/rebuild`: rebuild over the 1M surfels of a scale-scene sphere (radius
 //!   0.1, spiral order, cell of the fine surfel grid ≈ 2.5 spacings): the per-step
-//!   `surfel_grid` case at the 1M scale, also against the scalar reference.
+//!   `surfel_grid` case at the 1M scale, also against the scalar reference;
+//! - `sphere_1m_morton/rebuild`: the same points in the engine's surfel storage order
+//!   (Morton order, `phyxel::morton`).
 //!
 //! Run: `cargo bench --bench grid -- --warm-up-time 1 --measurement-time 3`.
 //! Throughput is in points, so µs per point = 1 / (Melem/s); numbers go to
@@ -19,6 +21,8 @@ use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
+use phyxel::morton;
+use phyxel::scene::SURFEL_ORDER_CELL;
 use std::hint::black_box;
 use std::num::NonZeroUsize;
 
@@ -197,6 +201,16 @@ fn sphere_rebuild(c: &mut Criterion) {
     });
     g.bench_function("sphere_1m/rebuild_scalar", |b| {
         b.iter(|| grid.rebuild(black_box(&cols).iter(), cell))
+    });
+    // The same points in the engine's storage order (Morton order of cells of 4 surfel
+    // spacings, `scene::SURFEL_ORDER_CELL`).
+    let order = morton::order(&pts, SURFEL_ORDER_CELL * spacing);
+    let morton_cols = Vec3s::from_points(&order.iter().map(|&i| pts[i]).collect::<Vec<_>>());
+    g.bench_function("sphere_1m_morton/rebuild", |b| {
+        b.iter(|| grid.rebuild_columns(black_box(&morton_cols), cell))
+    });
+    g.bench_function("sphere_1m_morton/rebuild_scalar", |b| {
+        b.iter(|| grid.rebuild(black_box(&morton_cols).iter(), cell))
     });
     g.finish();
 }

@@ -38,6 +38,7 @@ pub mod kernel;
 pub mod material;
 pub mod mesh;
 pub mod mls;
+pub mod morton;
 pub mod object;
 pub mod output;
 pub mod phyxels;

@@ -2,6 +2,7 @@
 
 use crate::backends;
 use crate::material::Material;
+use crate::morton;
 use crate::object::Object;
 use crate::phyxels::Phyxels;
 use crate::render::Camera;
@@ -38,6 +39,12 @@ pub const BUILTIN: &[(&str, &str)] = &[
 
 /// The scene `phyxel run` uses without an argument.
 pub const DEFAULT_SCENE: &str = "two-spheres";
+
+/// Edge of the cells, in surfel spacings, whose Morton order a sampled object's surfels
+/// are stored in ([`morton::order`]). Cells of 1, 4 and 16 spacings ran the 1M `scale`
+/// scene equally fast (docs/PERFORMANCE.md); 4 keeps a cell's patch of about 16 surfels
+/// together.
+pub const SURFEL_ORDER_CELL: f32 = 4.0;
 
 /// A whole scene file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -501,7 +508,10 @@ impl ObjectSpec {
         }
         let s_pos: Vec<Vec3> = surf.positions.iter().map(|&p| rot * p + pos).collect();
         let s_nrm: Vec<Vec3> = surf.normals.iter().map(|&n| rot * n).collect();
-        let mut surfels = Surfels::at_rest(&s_pos, &s_nrm, &surf.radii);
+        // Stored in Morton order of cells a few surfels wide: neighbours sit together in
+        // memory, whatever order the sampler emitted them in.
+        let order = morton::order(&s_pos, SURFEL_ORDER_CELL * surfel_spacing);
+        let mut surfels = Surfels::at_rest(&s_pos, &s_nrm, &surf.radii).gather(&order);
         if !self.is_static {
             for s in 0..surfels.len() {
                 surfels.vel.set(s, v);
@@ -520,5 +530,50 @@ impl ObjectSpec {
             object.self_collision = Some(SelfCollision::new(&object.phyxels));
         }
         Ok(object)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Mean distance between consecutively stored points (m).
+    fn mean_gap(p: &[Vec3]) -> f32 {
+        p.windows(2).map(|w| w[0].distance(w[1])).sum::<f32>() / (p.len() - 1) as f32
+    }
+
+    /// A built object's surfels are its shape's sample, bit for bit, stored in Morton
+    /// order: consecutive surfels lie on average within 3 surfel spacings of each other,
+    /// where the sphere sampler's spiral order puts them tens of spacings apart.
+    #[test]
+    fn surfels_are_the_sample_in_spatial_order() {
+        let scene = Scene::builtin("two-spheres").expect("builtin");
+        let spec = &scene.objects[0];
+        let (rot, pos) = spec.placement();
+        let (_, spacing) = spec.spacings(&spec.shape).expect("spacings");
+        let sample: Vec<Vec3> = spec
+            .shape
+            .sample_surface(spacing)
+            .positions
+            .iter()
+            .map(|&p| rot * p + pos)
+            .collect();
+        let object = spec.build(0, "mls").expect("builds");
+        let stored = object.surfels.rest.to_vec();
+        let bits = |v: &[Vec3]| {
+            let mut b: Vec<[u32; 3]> = v.iter().map(|p| p.to_array().map(f32::to_bits)).collect();
+            b.sort_unstable();
+            b
+        };
+        assert_eq!(
+            bits(&stored),
+            bits(&sample),
+            "not a permutation of the sample"
+        );
+        let (gap, spiral_gap) = (mean_gap(&stored), mean_gap(&sample));
+        assert!(
+            gap < 3.0 * spacing && spiral_gap > 10.0 * spacing,
+            "mean gap {gap:.3e} m stored, {spiral_gap:.3e} m sampled, spacing {spacing:.3e} m"
+        );
     }
 }
