@@ -3,6 +3,9 @@
 //! Points are binned into cubic cells of edge `cell`; cells are hashed into a table of
 //! at least twice the point count, and a counting sort makes each bucket's points
 //! contiguous, so building is linear and a range query touches only a few short runs.
+//! When the points' bounding box holds no more cells than that table, the table is
+//! *dense* instead: one bucket per cell of the box, in row-major order (see `Layout`),
+//! so no cells collide and cells near in space are near in memory.
 //!
 //! Differences from the paper, for speed:
 //! - the hash is *additive* in the cell's x index, `h(x, y, z) = x + p₂·y + p₃·z mod T`,
@@ -12,6 +15,7 @@
 //! - the sorted coordinates are stored as separate `x`, `y`, `z` arrays and tested
 //!   8 at a time (`wide::f32x8`); the hits go through a small on-stack buffer without
 //!   data-dependent branches before being reported;
+//! - queries are clipped to the cells of the points' bounding box;
 //! - distinct cells that share a bucket: since the hash is linear, whether two rows of a
 //!   query box share buckets depends only on the box's shape, which is checked against a
 //!   small table made at build time. When they may, a point is reported only from the
@@ -52,8 +56,11 @@ fn load8(s: &[f32], at: usize) -> f32x8 {
 pub struct Grid {
     cell: f32,
     inv_cell: f32,
-    /// Table size minus one (the table size is a power of two).
-    mask: usize,
+    /// How cells map to buckets (table size, multipliers).
+    layout: Layout,
+    /// The cells of the indexed points' bounding box, corners included: queries are
+    /// clipped to it (no point lies outside).
+    bounds: [[i32; 3]; 2],
     /// Number of points given to the last build (indices are below this).
     n_input: usize,
     /// `start[b]..start[b + 1]` indexes the sorted arrays for bucket `b`
@@ -159,9 +166,53 @@ impl Hits {
 /// Largest query box, in rows per axis, covered by [`Grid::row_sep`].
 const SEP: usize = 8;
 
-/// Hash multipliers of the y and z cell indices (Teschner et al.'s primes).
+/// Hash multipliers of the y and z cell indices (Teschner et al.'s primes), for point
+/// sets whose bounding box holds more cells than the table has buckets.
 const P2: u32 = 19_349_663;
 const P3: u32 = 83_492_791;
+
+/// How cells map to buckets: `h(x, y, z) = x + p2·y + p3·z mod (mask + 1)`.
+///
+/// When the points' bounding box holds no more cells than a table of about twice the
+/// point count, the grid is *dense*: `p2`, `p3` are the box's row and layer lengths in
+/// cells, so every cell of the box has its own bucket, in row-major order (no two cells
+/// collide, and cells near in y and z are near in the table and in the sorted arrays,
+/// which the build's counts and scatter and every query's reads find in cache).
+/// Otherwise the multipliers are [`P2`], [`P3`] in a table of at least twice the point
+/// count. Either way the hash is additive in x and linear, which the queries rely on.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Layout {
+    /// Table size minus one (the table size is a power of two).
+    mask: usize,
+    p2: u32,
+    p3: u32,
+}
+
+impl Layout {
+    /// The layout for `n` points whose cells span `lo..=hi` (`None`: no indexable point).
+    fn new(n: usize, bounds: Option<[[i32; 3]; 2]>) -> Self {
+        let hashed = (2 * n).next_power_of_two().max(16);
+        let prime = Self {
+            mask: hashed - 1,
+            p2: P2,
+            p3: P3,
+        };
+        let Some([lo, hi]) = bounds else {
+            return prime;
+        };
+        let e: [u64; 3] = std::array::from_fn(|a| (hi[a] as i64 - lo[a] as i64 + 1) as u64);
+        let cells = e[0].saturating_mul(e[1]).saturating_mul(e[2]);
+        if cells > hashed as u64 {
+            return prime;
+        }
+        let table = (cells as usize).next_power_of_two().max(16);
+        Self {
+            mask: table - 1,
+            p2: e[0] as u32,
+            p3: (e[0] * e[1]) as u32,
+        }
+    }
+}
 
 /// Bucket marker of a point left out of the grid (a NaN coordinate).
 const SKIPPED: u32 = u32::MAX;
@@ -212,15 +263,15 @@ fn box_cells(lo: Vec3, hi: Vec3, inv_cell: f32) -> ([i32; 3], [i32; 3]) {
 /// [`bucket`] of eight points given as x, y, z lanes (the same buckets,
 /// [`SKIPPED`] for a point with a NaN coordinate).
 #[inline(always)]
-fn lane_buckets([x, y, z]: [f32x8; 3], inv_cell: f32, mask: usize) -> [u32; LANES] {
+fn lane_buckets([x, y, z]: [f32x8; 3], inv_cell: f32, layout: Layout) -> [u32; LANES] {
     let inv = f32x8::splat(inv_cell);
     let c = [
         floor_lanes(x * inv),
         floor_lanes(y * inv),
         floor_lanes(z * inv),
     ];
-    let h = c[0] + c[1] * i32x8::splat(P2 as i32) + c[2] * i32x8::splat(P3 as i32);
-    let h = h & i32x8::splat(mask as i32);
+    let h = c[0] + c[1] * i32x8::splat(layout.p2 as i32) + c[2] * i32x8::splat(layout.p3 as i32);
+    let h = h & i32x8::splat(layout.mask as i32);
     let nan: i32x8 = wide::bytemuck::cast(x.is_nan() | y.is_nan() | z.is_nan());
     nan.select(i32x8::splat(SKIPPED as i32), h)
         .to_array()
@@ -293,12 +344,42 @@ const SCAN_STREAMS: usize = 4;
 
 /// The bucket of point `p` ([`hash`] of [`cell_of`]), [`SKIPPED`] for a NaN coordinate.
 #[inline(always)]
-fn bucket(p: Vec3, inv_cell: f32, mask: usize) -> u32 {
+fn bucket(p: Vec3, inv_cell: f32, layout: Layout) -> u32 {
     if p.is_nan() {
         SKIPPED
     } else {
-        hash(cell_of(p, inv_cell), mask) as u32
+        hash(cell_of(p, inv_cell), layout) as u32
     }
+}
+
+/// The bounding box of the points of the columns `x`, `y`, `z` that have no NaN
+/// coordinate (`None` if there is none), eight points at a time: the same box as a fold
+/// of `Vec3::min` and `Vec3::max` over those points (minima and maxima do not round).
+fn lane_bounds(x: &[f32], y: &[f32], z: &[f32]) -> Option<(Vec3, Vec3)> {
+    let n = x.len();
+    let whole = n / LANES * LANES;
+    let (inf, ninf) = (f32x8::splat(f32::INFINITY), f32x8::splat(f32::NEG_INFINITY));
+    let mut lo = [inf; 3];
+    let mut hi = [ninf; 3];
+    for at in (0..whole).step_by(LANES) {
+        let c = [load8(x, at), load8(y, at), load8(z, at)];
+        let nan = c[0].is_nan() | c[1].is_nan() | c[2].is_nan();
+        for a in 0..3 {
+            lo[a] = lo[a].min(nan.select(inf, c[a]));
+            hi[a] = hi[a].max(nan.select(ninf, c[a]));
+        }
+    }
+    let fold = |v: [f32x8; 3], f: fn(f32, f32) -> f32| {
+        Vec3::from_array(v.map(|l| l.to_array().into_iter().reduce(f).expect("lanes")))
+    };
+    let mut b = (fold(lo, f32::min), fold(hi, f32::max));
+    for i in whole..n {
+        let p = Vec3::new(x[i], y[i], z[i]);
+        if !p.is_nan() {
+            b = (b.0.min(p), b.1.max(p));
+        }
+    }
+    (b.0.x <= b.1.x).then_some(b)
 }
 
 /// Point `i` at `(x, y, z)` as one 16-byte record: the index and the coordinates' bits.
@@ -319,24 +400,25 @@ fn unpack([a, b]: [u64; 2]) -> (u32, f32, f32, f32) {
 /// It is linear modulo the table size, so whether two cells collide depends only on
 /// their offset (see [`row_separation`]).
 #[inline(always)]
-fn hash(c: [i32; 3], mask: usize) -> usize {
+fn hash(c: [i32; 3], layout: Layout) -> usize {
     let h = (c[0] as u32)
-        .wrapping_add((c[1] as u32).wrapping_mul(P2))
-        .wrapping_add((c[2] as u32).wrapping_mul(P3));
-    h as usize & mask
+        .wrapping_add((c[1] as u32).wrapping_mul(layout.p2))
+        .wrapping_add((c[2] as u32).wrapping_mul(layout.p3));
+    h as usize & layout.mask
 }
 
 /// `sep[a][b]`: the smallest circular distance, modulo the table size `mask + 1`,
 /// between the first buckets of two distinct rows of an `(a + 1) × (b + 1)`-row query
 /// box. Rows of `nx` cells occupy the buckets `b₀..b₀ + nx`, so no two rows of such a box
 /// share a bucket iff `nx ≤ sep[a][b]`. Since the hash is linear, the distance for the
-/// row offset `(dy, dz)` is that of `P2·dy + P3·dz`, whatever the box's position.
-fn row_separation(mask: usize) -> [[u32; SEP]; SEP] {
+/// row offset `(dy, dz)` is that of `p2·dy + p3·dz`, whatever the box's position.
+fn row_separation(layout: Layout) -> [[u32; SEP]; SEP] {
+    let Layout { mask, p2, p3 } = layout;
     let table = mask as u64 + 1;
     let dist = |dy: i32, dz: i32| -> u32 {
         let v = (dy as u32)
-            .wrapping_mul(P2)
-            .wrapping_add((dz as u32).wrapping_mul(P3)) as usize
+            .wrapping_mul(p2)
+            .wrapping_add((dz as u32).wrapping_mul(p3)) as usize
             & mask;
         (v as u64).min(table - v as u64).min(u32::MAX as u64) as u32
     };
@@ -379,7 +461,7 @@ impl Grid {
     /// in linear time, reusing the existing buffers: no heap allocation unless the
     /// point count exceeds every earlier build's.
     ///
-    /// `points` is iterated twice. Points with a NaN coordinate are skipped (never
+    /// `points` is iterated three times. Points with a NaN coordinate are skipped (never
     /// reported); indices reported by queries are positions in `points`.
     ///
     /// For fixed-radius queries of radius `r`, `cell = r` is a good choice (a query
@@ -389,14 +471,20 @@ impl Grid {
     /// [`Grid::rebuild_columns`], which builds the same grid bit for bit.
     pub fn rebuild(&mut self, points: impl ExactSizeIterator<Item = Vec3> + Clone, cell: f32) {
         let n = points.len();
-        let table = self.begin(n, cell);
-        let (inv_cell, mask) = (self.inv_cell, self.mask);
+        let bounds = points
+            .clone()
+            .filter(|p| !p.is_nan())
+            .fold(None, |b: Option<(Vec3, Vec3)>, p| {
+                Some(b.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))))
+            });
+        let table = self.begin(n, cell, bounds);
+        let (inv_cell, layout) = (self.inv_cell, self.layout);
         // The counts go through a local slice, not `self`: stores through `self`'s vectors
         // would make the compiler reload every vector's pointer and length per point.
         let start = &mut self.start[..];
         self.bucket_of.clear();
         self.bucket_of.extend(points.clone().map(|p| {
-            let b = bucket(p, inv_cell, mask);
+            let b = bucket(p, inv_cell, layout);
             if b != SKIPPED {
                 start[b as usize + 2] += 1;
             }
@@ -412,21 +500,21 @@ impl Grid {
     /// [`Grid::rebuild`] of `pos.iter()`, bit for bit.
     pub fn rebuild_columns(&mut self, pos: &Vec3s, cell: f32) {
         let n = pos.len();
-        let table = self.begin(n, cell);
-        let (inv_cell, mask) = (self.inv_cell, self.mask);
         let (x, y, z) = (&pos.x[..n], &pos.y[..n], &pos.z[..n]);
+        let table = self.begin(n, cell, lane_bounds(x, y, z));
+        let (inv_cell, layout) = (self.inv_cell, self.layout);
         self.bucket_of.resize(n, 0);
         let whole = n / LANES * LANES;
         let start = &mut self.start[..];
         let (lanes, tail) = self.bucket_of.split_at_mut(whole);
         for (k, out) in lanes.chunks_exact_mut(LANES).enumerate() {
             let at = k * LANES;
-            let b = lane_buckets([load8(x, at), load8(y, at), load8(z, at)], inv_cell, mask);
+            let b = lane_buckets([load8(x, at), load8(y, at), load8(z, at)], inv_cell, layout);
             out.copy_from_slice(&b);
             count_buckets(start, &b);
         }
         for (i, out) in (whole..n).zip(&mut *tail) {
-            *out = bucket(Vec3::new(x[i], y[i], z[i]), inv_cell, mask);
+            *out = bucket(Vec3::new(x[i], y[i], z[i]), inv_cell, layout);
         }
         count_buckets(start, tail);
         prefix_sum_lanes(&mut start[..table + 2]);
@@ -478,22 +566,29 @@ impl Grid {
 
     /// Sets the cell size and the table for `n` points and clears the bucket counts;
     /// returns the table size.
-    fn begin(&mut self, n: usize, cell: f32) -> usize {
+    fn begin(&mut self, n: usize, cell: f32, bounds: Option<(Vec3, Vec3)>) -> usize {
         assert!(cell.is_finite() && cell > 0.0, "grid cell size must be > 0");
         assert!(n < u32::MAX as usize, "too many points for a grid");
-        let table = (2 * n).next_power_of_two().max(16);
-        let mask = table - 1;
         self.cell = cell;
         self.inv_cell = 1.0 / cell;
-        if self.mask != mask || self.start.is_empty() {
-            self.row_sep = row_separation(mask);
+        // `floor` is monotone, so the corners' cells bound every point's cell.
+        let cells = bounds.map(|(lo, hi)| [cell_of(lo, self.inv_cell), cell_of(hi, self.inv_cell)]);
+        let layout = Layout::new(n, cells);
+        let table = layout.mask + 1;
+        if self.layout != layout || self.start.is_empty() {
+            self.row_sep = row_separation(layout);
         }
-        self.mask = mask;
+        self.layout = layout;
+        // No point: an empty box that clips every query.
+        self.bounds = cells.unwrap_or([[0; 3], [-1; 3]]);
         self.n_input = n;
         // Counting sort by bucket: `start[b + 2]` counts bucket `b` (filled by the
         // caller), so that after the prefix sum `start[b + 1]` is where bucket `b`
         // begins ...
         self.start.clear();
+        // Room for the largest table `n` points can take, so that a later build of as
+        // many points with a wider box does not allocate.
+        self.start.reserve(Layout::new(n, None).mask + 3);
         self.start.resize(table + 2, 0);
         table
     }
@@ -698,13 +793,23 @@ impl Grid {
                 cell_of(x + Vec3::splat(reach), self.inv_cell),
             )
         };
+        if r2 == f32::INFINITY {
+            // An infinite `r²` accepts points at any distance, so the box is no bound.
+            return Query::Scan { r2 };
+        }
+        // No point lies outside the bounding box's cells: the box is clipped to them.
+        let [blo, bhi] = self.bounds;
+        let lo: [i32; 3] = std::array::from_fn(|a| lo[a].max(blo[a]));
+        let hi: [i32; 3] = std::array::from_fn(|a| hi[a].min(bhi[a]));
+        if (0..3).any(|a| lo[a] > hi[a]) {
+            return Query::Nothing;
+        }
         let nx = hi[0] as i64 - lo[0] as i64 + 1;
         let ny = hi[1] as i64 - lo[1] as i64 + 1;
         let nz = hi[2] as i64 - lo[2] as i64 + 1;
         let cells = nx.saturating_mul(ny).saturating_mul(nz);
-        if r2 == f32::INFINITY || cells > m as i64 {
+        if cells > m as i64 {
             // The query box covers more cells than there are points: a scan is cheaper.
-            // (An infinite `r²` accepts points at any distance, so the box is no bound.)
             return Query::Scan { r2 };
         }
         // Here nx ≤ cells ≤ m < table size, so one row never reaches a bucket twice.
@@ -725,11 +830,11 @@ impl Grid {
     /// (the second empty when the row does not wrap).
     #[inline(always)]
     fn row_runs(&self, x0: i32, nx: usize, cy: i32, cz: i32) -> [(u32, u32); 2] {
-        let table = self.mask + 1;
+        let table = self.layout.mask + 1;
         // One bounds check here instead of one per lookup: `b0 ≤ mask` and, in the first
         // arm, `b1 ≤ table`.
         let start = &self.start[..=table];
-        let b0 = hash([x0, cy, cz], self.mask);
+        let b0 = hash([x0, cy, cz], self.layout);
         let b1 = b0 + nx;
         if b1 <= table {
             [(start[b0], start[b1]), (0, 0)]
@@ -1024,5 +1129,95 @@ impl LazyGrid {
             rebuild(&mut g);
             g
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cells of a box `lo..=hi`.
+    fn cells(lo: [i32; 3], hi: [i32; 3]) -> impl Iterator<Item = [i32; 3]> {
+        (lo[2]..=hi[2]).flat_map(move |z| {
+            (lo[1]..=hi[1]).flat_map(move |y| (lo[0]..=hi[0]).map(move |x| [x, y, z]))
+        })
+    }
+
+    /// A dense layout gives every cell of the points' box its own bucket (checked over
+    /// every cell of boxes of 1 to 1000 cells, at negative and positive positions), and
+    /// is chosen exactly when its table is no larger than the hashed one.
+    #[test]
+    fn dense_layout_has_no_collisions_in_the_box() {
+        for (n, lo, hi) in [
+            (1, [0, 0, 0], [0, 0, 0]),
+            (100, [-3, 5, -7], [2, 9, -2]),
+            (500, [-1000, 40, 7], [-991, 49, 16]),
+            (64, [i32::MAX - 3, 0, i32::MIN], [i32::MAX, 3, i32::MIN + 3]),
+        ] {
+            let layout = Layout::new(n, Some([lo, hi]));
+            assert!(layout.p2 != P2, "{lo:?}..{hi:?} not dense");
+            let mut seen = vec![false; layout.mask + 1];
+            for c in cells(lo, hi) {
+                let b = hash(c, layout);
+                assert!(!seen[b], "cell {c:?} shares bucket {b}");
+                seen[b] = true;
+            }
+        }
+        // 11 × 11 × 11 = 1331 cells: dense with 2048 buckets while the hashed table of
+        // n points (2n rounded up to a power of two) has at least 1331 buckets.
+        let box_ = Some([[0; 3], [10; 3]]);
+        assert_eq!(
+            Layout::new(666, box_),
+            Layout {
+                mask: 2047,
+                p2: 11,
+                p3: 121
+            }
+        );
+        assert_eq!(
+            Layout::new(513, box_),
+            Layout {
+                mask: 2047,
+                p2: 11,
+                p3: 121
+            }
+        );
+        assert_eq!(
+            Layout::new(512, box_),
+            Layout {
+                mask: 1023,
+                p2: P2,
+                p3: P3
+            }
+        );
+        assert_eq!(Layout::new(500, None).p2, P2);
+    }
+
+    /// The lane bounds leave out every point with a NaN coordinate, whatever its other
+    /// coordinates and its lane, and agree with the scalar fold (NaN points placed far
+    /// outside the others' box, infinite coordinates kept).
+    #[test]
+    fn lane_bounds_skip_nan_points() {
+        let mut pts: Vec<Vec3> = (0..37)
+            .map(|i| Vec3::new(i as f32 * 0.1, (i % 5) as f32, -(i as f32)))
+            .collect();
+        pts[3] = Vec3::new(-1e9, f32::NAN, 1e9);
+        pts[12] = Vec3::new(1e9, -1e9, f32::NAN);
+        pts[20] = Vec3::new(f32::NAN, 1e9, -1e9);
+        pts[36] = Vec3::new(f32::NAN, -1e9, 1e9);
+        pts[7].x = f32::INFINITY;
+        let cols = Vec3s::from_points(&pts);
+        let (x, y, z) = (&cols.x[..37], &cols.y[..37], &cols.z[..37]);
+        let scalar = pts
+            .iter()
+            .filter(|p| !p.is_nan())
+            .fold(None, |b: Option<(Vec3, Vec3)>, &p| {
+                Some(b.map_or((p, p), |(lo, hi)| (lo.min(p), hi.max(p))))
+            });
+        assert_eq!(lane_bounds(x, y, z), scalar);
+        let (lo, hi) = scalar.expect("points");
+        assert_eq!((lo, hi.x), (Vec3::new(0.0, 0.0, -35.0), f32::INFINITY));
+        let nan = vec![f32::NAN; 9];
+        assert_eq!(lane_bounds(&nan, &nan, &nan), None);
     }
 }
