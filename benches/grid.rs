@@ -7,10 +7,14 @@
 //! - `range`: build + a fixed-radius query (~30 neighbours) at every point;
 //! - `knn16`: build + the 16 nearest points of every point;
 //! - `sphere_1m/rebuild`: rebuild over the 1M surfels of a scale-scene sphere (radius
-//!   0.1, spiral order, cell of the fine surfel grid ≈ 2.5 spacings): the per-step
-//!   `surfel_grid` case at the 1M scale, also against the scalar reference;
+//!   0.1, spiral order, cell of the fine surfel grid ≈ 2.5 spacings; its box holds 11.4M
+//!   cells, so the layout is hashed), also against the scalar reference;
 //! - `sphere_1m_morton/rebuild`: the same points in the engine's surfel storage order
-//!   (Morton order, `phyxel::morton`).
+//!   (Morton order, `phyxel::morton`);
+//! - `sphere_1m_far/rebuild`: the same, with the far-field grid's cells
+//!   (`implicit::FAR_GRID_FACTOR` times larger; dense layout), which a step of the 1M
+//!   `scale` scene builds over a whole sphere when a far-field search may leave the
+//!   contact region. (The step's kernel-size surfel grid covers only that region.)
 //!
 //! Run: `cargo bench --bench grid -- --warm-up-time 1 --measurement-time 3`.
 //! Throughput is in points, so µs per point = 1 / (Melem/s); numbers go to
@@ -21,6 +25,7 @@ use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use phyxel::columns::Vec3s;
 use phyxel::grid::Grid;
+use phyxel::implicit::FAR_GRID_FACTOR;
 use phyxel::morton;
 use phyxel::scene::SURFEL_ORDER_CELL;
 use std::hint::black_box;
@@ -211,6 +216,15 @@ fn sphere_rebuild(c: &mut Criterion) {
     });
     g.bench_function("sphere_1m_morton/rebuild_scalar", |b| {
         b.iter(|| grid.rebuild(black_box(&morton_cols).iter(), cell))
+    });
+    // The coarse far-field grid of the same points (cells of `FAR_GRID_FACTOR` kernel
+    // cells): its box holds fewer cells than points, so its layout is dense.
+    let far_cell = FAR_GRID_FACTOR * cell;
+    g.bench_function("sphere_1m_far/rebuild", |b| {
+        b.iter(|| grid.rebuild_columns(black_box(&morton_cols), far_cell))
+    });
+    g.bench_function("sphere_1m_far/rebuild_scalar", |b| {
+        b.iter(|| grid.rebuild(black_box(&morton_cols).iter(), far_cell))
     });
     g.finish();
 }
