@@ -171,15 +171,21 @@ const SEP: usize = 8;
 const P2: u32 = 19_349_663;
 const P3: u32 = 83_492_791;
 
+/// A dense table may have up to this many times the buckets of the hashed one (which
+/// has at least twice the point count): the 1M `scale` scene's contact-region grid (83k
+/// surfels, 350k cells in its box) ran 1–13% faster dense than hashed, and a factor of 4
+/// gained nothing more (docs/PERFORMANCE.md, tenth round).
+const DENSE_TABLE_FACTOR: u64 = 2;
+
 /// How cells map to buckets: `h(x, y, z) = x + p2·y + p3·z mod (mask + 1)`.
 ///
-/// When the points' bounding box holds no more cells than a table of about twice the
-/// point count, the grid is *dense*: `p2`, `p3` are the box's row and layer lengths in
+/// When the points' bounding box holds no more cells than [`DENSE_TABLE_FACTOR`] times
+/// a table of about twice the point count, the grid is *dense*: `p2`, `p3` are the box's row and layer lengths in
 /// cells, so every cell of the box has its own bucket, in row-major order (no two cells
 /// collide, and cells near in y and z are near in the table and in the sorted arrays,
 /// which the build's counts and scatter and every query's reads find in cache).
-/// Otherwise the multipliers are [`P2`], [`P3`] in a table of at least twice the point
-/// count. Either way the hash is additive in x and linear, which the queries rely on.
+/// Otherwise (a large thin shell, say) the multipliers are [`P2`], [`P3`] in a table of
+/// at least twice the point count. Either way the hash is additive in x and linear, which the queries rely on.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Layout {
     /// Table size minus one (the table size is a power of two).
@@ -202,7 +208,7 @@ impl Layout {
         };
         let e: [u64; 3] = std::array::from_fn(|a| (hi[a] as i64 - lo[a] as i64 + 1) as u64);
         let cells = e[0].saturating_mul(e[1]).saturating_mul(e[2]);
-        if cells > hashed as u64 {
+        if cells > DENSE_TABLE_FACTOR * hashed as u64 {
             return prime;
         }
         let table = (cells as usize).next_power_of_two().max(16);
@@ -587,8 +593,9 @@ impl Grid {
         // begins ...
         self.start.clear();
         // Room for the largest table `n` points can take, so that a later build of as
-        // many points with a wider box does not allocate.
-        self.start.reserve(Layout::new(n, None).mask + 3);
+        // many points with another box does not allocate.
+        self.start
+            .reserve(DENSE_TABLE_FACTOR as usize * (Layout::new(n, None).mask + 1) + 2);
         self.start.resize(table + 2, 0);
         table
     }
@@ -1163,8 +1170,9 @@ mod tests {
                 seen[b] = true;
             }
         }
-        // 11 × 11 × 11 = 1331 cells: dense with 2048 buckets while the hashed table of
-        // n points (2n rounded up to a power of two) has at least 1331 buckets.
+        // 11 × 11 × 11 = 1331 cells: dense with 2048 buckets while DENSE_TABLE_FACTOR
+        // (2) times the hashed table of n points (2n rounded up to a power of two) has
+        // at least 1331 buckets, i.e. from n = 257 on.
         let box_ = Some([[0; 3], [10; 3]]);
         assert_eq!(
             Layout::new(666, box_),
@@ -1175,7 +1183,7 @@ mod tests {
             }
         );
         assert_eq!(
-            Layout::new(513, box_),
+            Layout::new(257, box_),
             Layout {
                 mask: 2047,
                 p2: 11,
@@ -1183,9 +1191,9 @@ mod tests {
             }
         );
         assert_eq!(
-            Layout::new(512, box_),
+            Layout::new(256, box_),
             Layout {
-                mask: 1023,
+                mask: 511,
                 p2: P2,
                 p3: P3
             }
