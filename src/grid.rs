@@ -3,8 +3,8 @@
 //! Points are binned into cubic cells of edge `cell`; cells are hashed into a table of
 //! at least twice the point count, and a counting sort makes each bucket's points
 //! contiguous, so building is linear and a range query touches only a few short runs.
-//! When the points' bounding box holds no more cells than that table, the table is
-//! *dense* instead: one bucket per cell of the box, in row-major order (see `Layout`),
+//! When the points' bounding box holds no more cells than twice that table, the table
+//! is *dense* instead: one bucket per cell of the box, in row-major order (see `Layout`),
 //! so no cells collide and cells near in space are near in memory.
 //!
 //! Differences from the paper, for speed:
