@@ -167,7 +167,7 @@ impl Hits {
 const SEP: usize = 8;
 
 /// Hash multipliers of the y and z cell indices (Teschner et al.'s primes), for point
-/// sets whose bounding box holds more cells than the table has buckets.
+/// sets whose bounding box holds too many cells for a dense table (see [`Layout`]).
 const P2: u32 = 19_349_663;
 const P3: u32 = 83_492_791;
 
@@ -180,12 +180,13 @@ const DENSE_TABLE_FACTOR: u64 = 2;
 /// How cells map to buckets: `h(x, y, z) = x + p2·y + p3·z mod (mask + 1)`.
 ///
 /// When the points' bounding box holds no more cells than [`DENSE_TABLE_FACTOR`] times
-/// a table of about twice the point count, the grid is *dense*: `p2`, `p3` are the box's row and layer lengths in
-/// cells, so every cell of the box has its own bucket, in row-major order (no two cells
-/// collide, and cells near in y and z are near in the table and in the sorted arrays,
-/// which the build's counts and scatter and every query's reads find in cache).
-/// Otherwise (a large thin shell, say) the multipliers are [`P2`], [`P3`] in a table of
-/// at least twice the point count. Either way the hash is additive in x and linear, which the queries rely on.
+/// a table of about twice the point count, the grid is *dense*: `p2`, `p3` are the
+/// box's row and layer lengths in cells, so every cell of the box has its own bucket,
+/// in row-major order (no two cells collide, and cells near in y and z are near in the
+/// table and in the sorted arrays, which the build's counts and scatter and every
+/// query's reads find in cache). Otherwise (a large thin shell, say) the multipliers
+/// are [`P2`], [`P3`] in a table of at least twice the point count. Either way the hash
+/// is additive in x and linear, which the queries rely on.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Layout {
     /// Table size minus one (the table size is a power of two).
@@ -1152,7 +1153,8 @@ mod tests {
 
     /// A dense layout gives every cell of the points' box its own bucket (checked over
     /// every cell of boxes of 1 to 1000 cells, at negative and positive positions), and
-    /// is chosen exactly when its table is no larger than the hashed one.
+    /// is chosen exactly when the box holds no more cells than `DENSE_TABLE_FACTOR`
+    /// times the hashed table's buckets.
     #[test]
     fn dense_layout_has_no_collisions_in_the_box() {
         for (n, lo, hi) in [
