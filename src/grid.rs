@@ -196,9 +196,14 @@ struct Layout {
 }
 
 impl Layout {
+    /// Buckets of the hashed table for `n` points: at least twice the point count.
+    fn hashed_table(n: usize) -> usize {
+        (2 * n).next_power_of_two().max(16)
+    }
+
     /// The layout for `n` points whose cells span `lo..=hi` (`None`: no indexable point).
     fn new(n: usize, bounds: Option<[[i32; 3]; 2]>) -> Self {
-        let hashed = (2 * n).next_power_of_two().max(16);
+        let hashed = Self::hashed_table(n);
         let prime = Self {
             mask: hashed - 1,
             p2: P2,
@@ -596,7 +601,7 @@ impl Grid {
         // Room for the largest table `n` points can take, so that a later build of as
         // many points with another box does not allocate.
         self.start
-            .reserve(DENSE_TABLE_FACTOR as usize * (Layout::new(n, None).mask + 1) + 2);
+            .reserve(DENSE_TABLE_FACTOR as usize * Layout::hashed_table(n) + 2);
         self.start.resize(table + 2, 0);
         table
     }
