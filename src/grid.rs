@@ -163,7 +163,7 @@ impl Hits {
     }
 }
 
-/// Largest query box, in rows per axis, covered by [`Grid::row_sep`].
+/// Largest query box, in rows per axis, covered by [`row_separation`].
 const SEP: usize = 8;
 
 /// Hash multipliers of the y and z cell indices (Teschner et al.'s primes), for point
