@@ -35,7 +35,7 @@ enum Command {
         #[arg(long)]
         steps: Option<u64>,
         /// Time step in seconds (default: the scene's, else 90% of the stable bound).
-        #[arg(long)]
+        #[arg(long, allow_hyphen_values = true)]
         dt: Option<f32>,
         /// Backend for every deformable object (overrides the scene).
         #[arg(long)]
@@ -52,9 +52,9 @@ enum Command {
         /// Also render every frame to surfels_NNNNN.png in --out.
         #[arg(long, requires = "out")]
         png: bool,
-        /// Image size for --png, WIDTHxHEIGHT.
-        #[arg(long, default_value = "800x600")]
-        size: String,
+        /// Image size for --png, WIDTHxHEIGHT [default: 800x600].
+        #[arg(long)]
+        size: Option<String>,
         /// Print the run summary as one JSON object on stdout.
         #[arg(long)]
         json: bool,
@@ -180,6 +180,16 @@ fn main() -> ExitCode {
             phyxel_count,
             flamegraph,
         } => {
+            // Options that only shape output which is not being written: say so.
+            let idle = [
+                (phyxels && out.is_none(), "--phyxels", "--out"),
+                (format != "ply" && out.is_none(), "--format", "--out"),
+                (size.is_some() && !png, "--size", "--png"),
+            ];
+            for (_, flag, needs) in idle.iter().filter(|i| i.0) {
+                eprintln!("warning: {flag} has no effect without {needs}");
+            }
+            let size = size.unwrap_or_else(|| DEFAULT_SIZE.to_string());
             let (width, height) = match parse_size(&size) {
                 Ok(s) => s,
                 Err(e) => {
@@ -209,6 +219,9 @@ fn main() -> ExitCode {
         }
     }
 }
+
+/// Image size of `run --png` when `--size` is not given.
+const DEFAULT_SIZE: &str = "800x600";
 
 /// Parses `WIDTHxHEIGHT`.
 fn parse_size(s: &str) -> Result<(u32, u32), String> {
@@ -309,17 +322,21 @@ fn scenes(show: Option<String>) -> ExitCode {
     }
 }
 
-/// A sampling profiler (timer signal, so no perf permissions are needed).
-fn start_profiler(_: &Path) -> Result<pprof::ProfilerGuard<'static>, pprof::Error> {
-    pprof::ProfilerGuardBuilder::default()
+/// A sampling profiler (timer signal, so no perf permissions are needed) and the file
+/// its flamegraph goes to, created before the run so that a bad path fails at once,
+/// not after the whole run.
+fn start_profiler(path: &Path) -> Result<(pprof::ProfilerGuard<'static>, std::fs::File), String> {
+    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+    let guard = pprof::ProfilerGuardBuilder::default()
         .frequency(997)
         .blocklist(&["libc", "libgcc", "pthread", "vdso"])
         .build()
+        .map_err(|e| format!("cannot start the profiler: {e}"))?;
+    Ok((guard, file))
 }
 
-fn write_flamegraph(guard: &pprof::ProfilerGuard<'_>, path: &Path) -> Result<(), String> {
+fn write_flamegraph(guard: &pprof::ProfilerGuard<'_>, file: std::fs::File) -> Result<(), String> {
     let report = guard.report().build().map_err(|e| e.to_string())?;
-    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
     report.flamegraph(file).map_err(|e| e.to_string())
 }
 
@@ -348,7 +365,8 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
     let profiler = match flamegraph.map(start_profiler).transpose() {
         Ok(p) => p,
         Err(e) => {
-            eprintln!("error: --flamegraph: cannot start the profiler: {e}");
+            let path = flamegraph.expect("a profiler only for --flamegraph");
+            eprintln!("error: --flamegraph {}: {e}", path.display());
             return ExitCode::FAILURE;
         }
     };
@@ -358,8 +376,8 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         }
     });
     bar.finish_and_clear();
-    if let (Some(guard), Some(path)) = (profiler, flamegraph)
-        && let Err(e) = write_flamegraph(&guard, path)
+    if let (Some((guard, file)), Some(path)) = (profiler, flamegraph)
+        && let Err(e) = write_flamegraph(&guard, file)
     {
         eprintln!("error: --flamegraph {}: {e}", path.display());
         return ExitCode::FAILURE;
@@ -392,9 +410,14 @@ fn print_table(s: &RunSummary) {
         "scene {}  backend {}  objects {}  phyxels {}  surfels {}",
         s.scene, s.backend, s.objects, s.phyxels, s.surfels
     );
+    let bound = if s.stable_dt.is_finite() {
+        format!("stable bound {:.3e} s", s.stable_dt)
+    } else {
+        "no stable bound: no object has elastic forces".to_string()
+    };
     println!(
-        "{} steps of dt {:.3e} s (stable bound {:.3e} s) in {:.3} s: {:.1} steps/s",
-        s.steps, s.dt, s.stable_dt, s.wall_seconds, s.steps_per_second
+        "{} steps of dt {:.3e} s ({bound}) in {:.3} s: {:.1} steps/s",
+        s.steps, s.dt, s.wall_seconds, s.steps_per_second
     );
     let total: f64 = s.phase_seconds.values().sum();
     println!(

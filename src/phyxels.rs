@@ -121,10 +121,11 @@ impl Phyxels {
         c
     }
 
-    /// Kinetic energy ½ Σ m |v|² (J).
+    /// Kinetic energy ½ Σ m |v|² (J), in f64 (|v|² of a finite f32 velocity can
+    /// overflow f32).
     pub fn kinetic_energy(&self) -> f64 {
         (0..self.len())
-            .map(|i| 0.5 * self.mass[i] as f64 * self.vel.get(i).length_squared() as f64)
+            .map(|i| 0.5 * self.mass[i] as f64 * self.vel.get(i).as_dvec3().length_squared())
             .sum()
     }
 

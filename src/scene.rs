@@ -288,6 +288,31 @@ impl Scene {
                     ));
                 }
             }
+            // Two ways to set one sampling: taking one silently would hide a mistake.
+            let both = [
+                (
+                    o.phyxels.is_some() && o.spacing != 0.0,
+                    "phyxels",
+                    "spacing",
+                ),
+                (
+                    o.surfels.is_some() && o.surfel_spacing.is_some(),
+                    "surfels",
+                    "surfel_spacing",
+                ),
+            ];
+            if let Some((_, count, spacing)) = both.iter().find(|b| b.0) {
+                return Err(err(
+                    &format!("{at}.{count}"),
+                    format!("both {count} and {spacing} are given: give one of them"),
+                ));
+            }
+            for (name, n) in [("phyxels", o.phyxels), ("surfels", o.surfels)] {
+                sample_count(name, n).map_err(|m| err(&format!("{at}.{name}"), m))?;
+            }
+            if o.is_static {
+                static_keys(o).map_err(|(key, m)| err(&format!("{at}.{key}"), m))?;
+            }
             if o.phyxels.is_some() && o.spacing == 0.0 {
                 // The spacing follows from the count once the shape is sampled.
             } else if !(o.spacing.is_finite() && o.spacing > 0.0) {
@@ -341,9 +366,16 @@ impl Scene {
                 ));
             }
             for (r, reg) in o.fixed.iter().enumerate() {
-                if (0..3)
-                    .any(|c| reg.min[c].is_nan() || reg.max[c].is_nan() || reg.min[c] > reg.max[c])
-                {
+                if reg.min.iter().chain(&reg.max).any(|c| c.is_nan()) {
+                    return Err(err(
+                        &format!("{at}.fixed[{r}]"),
+                        format!(
+                            "min = {:?}, max = {:?}: must be numbers (not NaN)",
+                            reg.min, reg.max
+                        ),
+                    ));
+                }
+                if (0..3).any(|c| reg.min[c] > reg.max[c]) {
                     return Err(err(
                         &format!("{at}.fixed[{r}]"),
                         format!(
@@ -378,6 +410,12 @@ impl Scene {
                     "{origin}: {flag} 0: an object needs at least one sample"
                 )));
             }
+            let name = if flag == "--surfels" {
+                "surfels"
+            } else {
+                "phyxels"
+            };
+            sample_count(name, n).map_err(|m| SceneError(format!("{origin}: {flag}: {m}")))?;
         }
         let mut objects = Vec::with_capacity(self.objects.len());
         for (k, spec) in self.objects.iter().enumerate() {
@@ -400,6 +438,12 @@ impl Scene {
         let mut world = World::new(objects, gravity, 0.0);
         let (stable, limiter) = world.stable_dt();
         let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
+        if stable.is_nan() || stable <= 0.0 {
+            return Err(SceneError(format!(
+                "{origin}: object '{limiter}' has no stable time step (bound {stable} s): \
+                 check its material (stiffness, damping) and spacing"
+            )));
+        }
         let dt = match opts.dt.or(self.dt) {
             Some(dt) => {
                 if !(dt.is_finite() && dt > 0.0) {
@@ -425,6 +469,53 @@ impl Scene {
         world.dt = dt;
         Ok(world)
     }
+}
+
+/// Most phyxels one object may have: each costs about a kilobyte (neighbour lists, MLS
+/// matrices, grids), so this is some 5 GB, and a spacing typed a few orders of magnitude
+/// too small is refused before it exhausts memory.
+pub const MAX_PHYXELS: usize = 5_000_000;
+/// Most surfels one object may have (about 200 bytes each with binding and grids: some
+/// 4 GB; the `scale` scene runs 1M per object).
+pub const MAX_SURFELS: usize = 20_000_000;
+
+/// Refuses a target count of `name` (`"phyxels"` or `"surfels"`) above its limit.
+fn sample_count(name: &str, n: Option<u32>) -> Result<(), String> {
+    let limit = if name == "phyxels" {
+        MAX_PHYXELS
+    } else {
+        MAX_SURFELS
+    };
+    match n {
+        Some(n) if n as usize > limit => Err(format!(
+            "{name} = {n}: more than the limit of {limit} per object"
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// A static object never moves: the keys that only act on moving objects are refused,
+/// `Err((key, message))`, rather than ignored.
+fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
+    let idle = "has no effect on a static object";
+    if o.backend != default_backend() {
+        return Err(("backend", format!("backend = \"{}\": {idle}", o.backend)));
+    }
+    for (key, v) in [("velocity", o.velocity), ("load", o.load)] {
+        if v != [0.0; 3] {
+            return Err((key, format!("{key} = {v:?}: {idle}")));
+        }
+    }
+    if o.load_ramp != 0.0 {
+        return Err(("load_ramp", format!("load_ramp = {}: {idle}", o.load_ramp)));
+    }
+    if o.self_collision {
+        return Err(("self_collision", format!("self_collision = true: {idle}")));
+    }
+    if !o.fixed.is_empty() {
+        return Err(("fixed", format!("{} fixed box(es): {idle}", o.fixed.len())));
+    }
+    Ok(())
 }
 
 /// The lattice spacing whose phyxel count is closest to `target`: starts from
@@ -479,6 +570,41 @@ impl ObjectSpec {
                  the shape has no volume or area to divide",
                 self.phyxels, self.surfels
             ));
+        }
+        // Counts a given spacing leads to (the lattice's boundary layer included), so that
+        // a spacing orders of magnitude too small is refused before sampling exhausts
+        // memory. (Target counts are checked against the limits as they are.)
+        let (volume, area) = (shape.volume() as f64, shape.area() as f64);
+        let (s, t) = (spacing as f64, surfel as f64);
+        let estimates = [
+            (
+                self.phyxels.is_none(),
+                "spacing",
+                spacing,
+                volume / s.powi(3) + area / s.powi(2),
+                MAX_PHYXELS,
+                "phyxels",
+            ),
+            (
+                self.surfels.is_none(),
+                "surfel_spacing",
+                surfel,
+                area / t.powi(2),
+                MAX_SURFELS,
+                "surfels",
+            ),
+        ];
+        for (given, key, value, n, limit, what) in estimates {
+            if given && n > limit as f64 {
+                let key = match key {
+                    "surfel_spacing" if self.surfel_spacing.is_none() => "spacing / 2",
+                    k => k,
+                };
+                return Err(format!(
+                    "{key} = {value}: gives about {n:.2e} {what}, more than the limit of \
+                     {limit} per object (a coarser spacing, or a count: `{what} = N`)"
+                ));
+            }
         }
         Ok((spacing, surfel))
     }

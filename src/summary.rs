@@ -69,7 +69,7 @@ pub struct RunSummary {
     /// Phase name → work items summed over the run (phyxels stepped, pairs found,
     /// surfels gridded, candidates tested, contact surfels placed and forced).
     pub phase_work: BTreeMap<String, u64>,
-    /// All state finite at the end.
+    /// All state finite at the end, and the sums below (momentum, energies, strains).
     pub finite: bool,
     /// kg·m/s
     pub momentum_initial: [f64; 3],
@@ -163,7 +163,7 @@ pub fn summarize(
         [one] => one.to_string(),
         _ => "mixed".to_string(),
     };
-    let bodies = world
+    let bodies: Vec<BodySummary> = world
         .objects
         .iter()
         .map(|o| {
@@ -184,6 +184,19 @@ pub fn summarize(
             }
         })
         .collect();
+    let momentum_final = world.momentum();
+    let kinetic_energy: f64 = world
+        .objects
+        .iter()
+        .map(|o| o.phyxels.kinetic_energy())
+        .sum();
+    // Finite state whose sums overflow is no result either.
+    let finite = world.all_finite()
+        && kinetic_energy.is_finite()
+        && momentum_final.iter().all(|p| p.is_finite())
+        && bodies.iter().all(|b| {
+            b.elastic_energy.is_none_or(f64::is_finite) && b.max_strain.is_none_or(f32::is_finite)
+        });
     RunSummary {
         scene: scene.name.clone(),
         backend,
@@ -203,14 +216,10 @@ pub fn summarize(
             .iter()
             .map(|&p| (p.name().to_string(), world.times.work(p)))
             .collect(),
-        finite: world.all_finite(),
+        finite,
         momentum_initial,
-        momentum_final: world.momentum(),
-        kinetic_energy: world
-            .objects
-            .iter()
-            .map(|o| o.phyxels.kinetic_energy())
-            .sum(),
+        momentum_final,
+        kinetic_energy,
         max_penetration: world.max_penetration,
         frames_written: frames,
         fractures: world.splits.len(),

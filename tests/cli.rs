@@ -515,6 +515,161 @@ fn error_non_positive_dt_option() {
     );
 }
 
+/// `--dt -1` (space-separated, so it looks like a flag) reaches phyxel's own check
+/// instead of clap's "unexpected argument".
+#[test]
+fn error_negative_dt_option_spaced() {
+    expect_error(
+        &["run", "falling-sphere", "--steps", "5", "--dt", "-1"],
+        &["--dt -1", "must be a finite number > 0"],
+    );
+}
+
+/// Setting one sampling two ways is an error naming both keys, not a silent choice.
+#[test]
+fn error_spacing_given_twice() {
+    let sphere = "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\n";
+    expect_scene_error(
+        "both-spacings",
+        &format!("{sphere}spacing = 0.025\nphyxels = 300\n"),
+        &["objects[0].phyxels", "spacing", "give one of them"],
+    );
+    expect_scene_error(
+        "both-surfel-spacings",
+        &format!("{SPHERE}surfel_spacing = 0.01\nsurfels = 3000\n"),
+        &["objects[0].surfels", "surfel_spacing", "give one of them"],
+    );
+}
+
+/// Keys that only act on moving objects are refused on a static one (naming the key)
+/// rather than ignored.
+#[test]
+fn error_moving_keys_on_static_object() {
+    let plane = "[[objects]]\nshape = { type = \"plane\", size = [1.0, 1.0] }\n\
+                 spacing = 0.05\nstatic = true\n";
+    for (key, line) in [
+        ("velocity", "velocity = [1.0, 0.0, 0.0]"),
+        ("backend", "backend = \"sph\""),
+        ("load", "load = [0.0, -1.0, 0.0]"),
+        ("self_collision", "self_collision = true"),
+    ] {
+        expect_scene_error(
+            &format!("static-{key}"),
+            &format!("{SPHERE}{plane}{line}\n"),
+            &[&format!("objects[1].{key}"), "no effect on a static object"],
+        );
+    }
+}
+
+/// A spacing orders of magnitude too fine is refused before sampling (which would take
+/// gigabytes) with the estimated count; so are target counts above the limits, from
+/// the file or the command line.
+#[test]
+fn error_sample_counts_beyond_the_limits() {
+    expect_scene_error(
+        "fine-surfels",
+        &format!("{SPHERE}surfel_spacing = 1e-5\n"),
+        &["surfel_spacing = 0.00001", "surfels", "limit"],
+    );
+    expect_scene_error(
+        "fine-phyxels",
+        "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 1e-4\n",
+        &["spacing = 0.0001", "phyxels", "limit"],
+    );
+    expect_scene_error(
+        "many-phyxels",
+        "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nphyxels = 100000000\n",
+        &["objects[0].phyxels", "100000000", "limit"],
+    );
+    expect_error(
+        &["run", "scale", "--steps", "1", "--surfels", "4000000000"],
+        &["--surfels", "4000000000", "limit"],
+    );
+}
+
+/// A bad --flamegraph path fails before the run, not after it: with a run of 10¹²
+/// steps the error can only come first. (Waited for with a deadline, so a regression
+/// fails the test instead of hanging it.)
+#[test]
+fn error_flamegraph_path_before_the_run() {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args([
+            "run",
+            "falling-sphere",
+            "--steps",
+            "1000000000000",
+            "--flamegraph",
+            "/nonexistent-dir/x.svg",
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("start phyxel");
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait for phyxel") {
+            break s;
+        }
+        if std::time::Instant::now() > deadline {
+            child.kill().ok();
+            panic!("--flamegraph with a bad path did not fail before the run");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert_eq!(status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("--flamegraph /nonexistent-dir/x.svg"),
+        "{stderr}"
+    );
+}
+
+/// Output options without the output they shape are reported on stderr (the run still
+/// succeeds: they are harmless).
+#[test]
+fn idle_output_options_warn() {
+    let out = phyxel(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "2",
+        "--phyxels",
+        "--size",
+        "320x200",
+        "--format",
+        "vtk",
+    ]);
+    let stderr = text(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    for flag in ["--phyxels", "--size", "--format"] {
+        assert!(
+            stderr.contains(&format!("warning: {flag} has no effect without")),
+            "no warning for {flag}:\n{stderr}"
+        );
+    }
+}
+
+/// A heavily damped object gets a small positive stable dt, not 0: the bound
+/// `2/ω (√(1+ζ²) − ζ)` is evaluated without cancellation (it used to be 0 in f32 for
+/// ζ above about 4000, and the run then "stepped" with dt = 0).
+#[test]
+fn heavy_damping_has_a_positive_stable_dt() {
+    let file = TempPath::scene(
+        "damped",
+        &format!("{SPHERE}material = {{ damping = 1000.0 }}\n"),
+    );
+    let v = run_json(&["run", file.arg(), "--steps", "2", "--json"]);
+    let (dt, bound) = (
+        field(&v, "dt").as_f64().unwrap(),
+        field(&v, "stable_dt").as_f64().unwrap(),
+    );
+    assert!(
+        bound > 0.0 && dt > 0.0 && dt <= bound,
+        "dt {dt}, bound {bound}"
+    );
+}
+
 /// `--dt` above the stable bound is refused, for every built-in, with a message that
 /// mentions the stable bound and suggests a dt; running with the suggested dt (as printed,
 /// i.e. rounded) then succeeds.
