@@ -5,7 +5,7 @@ use crate::contact::{
     self, ContactParams, ContactPatch, DistributeScratch, PairSurfaces, PatchScratch,
 };
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
-use crate::dynamics::StepContext;
+use crate::dynamics::{StepContext, damped_euler_limit};
 use crate::grid::{Grid, LazyGrid};
 use crate::implicit::{ImplicitSurface, SurfelRows, grid_cell, radius_range};
 use crate::object::Object;
@@ -179,6 +179,25 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
     }
 }
 
+/// Thickness of the layer, in phyxel spacings, whose mass the contact spring moves: the
+/// force spreads over the phyxels within twice the influence radius. Calibrated on the
+/// stiffest backend for contact (`lj`, `two-spheres`, dt 0.8 ms): stable at
+/// `contact_stiffness` 128, unstable at 256, which this layer puts at the bound.
+pub const CONTACT_LAYER_SPACINGS: f32 = 2.5;
+/// Margin of the contact bound below the explicit limit (as the backends' own).
+const CONTACT_STABILITY_MARGIN: f32 = 0.8;
+
+/// Largest stable step (s) of the penalty spring `k = contact_stiffness · E*/h` per
+/// contact area acting on a layer of [`CONTACT_LAYER_SPACINGS`] spacings of mass
+/// (`ρ · 2.5 h` per area): `0.8 · 2/ω` with `ω² = k / (2.5 ρ h)`. With the default
+/// stiffness it is several times the elastic bound; it binds when `contact_stiffness`
+/// is raised by orders of magnitude (docs/SCENES.md, "Time step").
+pub fn contact_stable_dt(contact_stiffness: f32, e_star: f32, density: f32, spacing: f32) -> f32 {
+    let k = contact_stiffness * e_star / spacing;
+    let omega = (k / (CONTACT_LAYER_SPACINGS * density * spacing)).sqrt();
+    CONTACT_STABILITY_MARGIN * damped_euler_limit(omega, 0.0)
+}
+
 impl World {
     pub fn new(objects: Vec<Object>, gravity: Vec3, dt: f32) -> Self {
         let objects_next_id = objects.iter().map(|o| o.id + 1).max().unwrap_or(0);
@@ -208,11 +227,37 @@ impl World {
         }
     }
 
-    /// Largest stable time step over all objects (s) and the object that limits it.
+    /// Largest stable time step over all objects (s) and the object that limits it:
+    /// each object's own dynamics, and, where two objects may touch, its contact spring
+    /// ([`contact_stable_dt`]).
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
+        // The stiffest partner any object could meet: the pair's E* and mean
+        // `contact_stiffness` are largest against it.
+        let compliance = |m: &crate::material::Material| (1.0 - m.poisson * m.poisson) / m.young;
+        let partner = (self.objects.len() >= 2).then(|| {
+            self.objects
+                .iter()
+                .fold((f32::INFINITY, 0.0f32), |(c, k), o| {
+                    (
+                        c.min(compliance(&o.material)),
+                        k.max(o.material.contact_stiffness),
+                    )
+                })
+        });
         self.objects
             .iter()
-            .map(|o| (o.dynamics.stable_dt(&o.phyxels, &o.material), o))
+            .map(|o| {
+                let own = o.dynamics.stable_dt(&o.phyxels, &o.material);
+                let contact = match partner {
+                    Some((c, k)) if !o.is_static() => {
+                        let e_star = 1.0 / (compliance(&o.material) + c);
+                        let k = 0.5 * (o.material.contact_stiffness + k);
+                        contact_stable_dt(k, e_star, o.material.density, o.phyxel_spacing)
+                    }
+                    _ => f32::INFINITY,
+                };
+                (own.min(contact), o)
+            })
             .fold((f32::INFINITY, None), |acc, (dt, o)| {
                 if dt < acc.0 { (dt, Some(o)) } else { acc }
             })

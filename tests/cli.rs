@@ -541,6 +541,20 @@ fn error_spacing_given_twice() {
     );
 }
 
+/// A friction coefficient above `material::MAX_FRICTION` is refused with the limit.
+#[test]
+fn error_friction_above_the_limit() {
+    expect_scene_error(
+        "friction",
+        &format!("{SPHERE}material = {{ friction = 1e30 }}\n"),
+        &[
+            "objects[0].material",
+            "friction = 1000000000000000000000000000000",
+            "at most 10",
+        ],
+    );
+}
+
 /// Keys that only act on moving objects are refused on a static one (naming the key)
 /// rather than ignored.
 #[test]

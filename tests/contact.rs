@@ -55,6 +55,43 @@ fn collision_conserves_momentum() {
     );
 }
 
+/// A contact spring 128 times the default (`contact_stiffness = 512`) in `two-spheres`
+/// (no gravity, no loads) at the default dt: the kinetic energy never rises above its
+/// initial value (conservation: elastic energy ≥ 0 and damping only dissipates), for
+/// every backend, and the spheres do meet. Before the contact spring entered the stable
+/// bound (`world::contact_stable_dt`), `lj` reached 3·10¹⁶ J here without a NaN.
+#[test]
+fn stiff_contact_stays_stable_at_the_default_dt() {
+    let mut scene = Scene::builtin("two-spheres").unwrap();
+    for o in &mut scene.objects {
+        o.material.contact_stiffness = 512.0;
+    }
+    for backend in phyxel::backends::NAMES {
+        let opts = BuildOptions {
+            backend: Some(backend.to_string()),
+            ..Default::default()
+        };
+        let mut w = scene.build(&opts).unwrap();
+        let e0 = kinetic(&w);
+        let mut touched = false;
+        for step in 0..scene.steps {
+            w.step();
+            touched |= !w.patches.is_empty();
+            let e = kinetic(&w);
+            assert!(
+                e <= e0 * 1.001,
+                "{backend}: kinetic energy {e} J above the initial {e0} J at step {step}"
+            );
+        }
+        assert!(touched, "{backend}: the spheres never touched");
+        println!(
+            "{backend}: dt {:.3e} s, final kinetic energy {:.3} of {e0:.3} J",
+            w.dt,
+            kinetic(&w)
+        );
+    }
+}
+
 /// Runs `sphere-on-plane` to 1.5 s, then 0.5 s more; returns the peak kinetic energy
 /// of each 0.1 s window of the second part, the deepest penetration of an original surfel
 /// and the mean vertical speed of the centre of mass over it.
