@@ -107,9 +107,9 @@ enum Command {
         /// Point the camera looks at, X,Y,Z (default: the frame's centre).
         #[arg(long, value_delimiter = ',', num_args = 1, allow_hyphen_values = true)]
         target: Option<Vec<f32>>,
-        /// Vertical field of view in degrees.
-        #[arg(long, default_value_t = 35.0)]
-        fov: f32,
+        /// Vertical field of view in degrees [default: the scene camera's, else 35].
+        #[arg(long)]
+        fov: Option<f32>,
     },
     /// Run the validation suite: every case against its reference at several resolutions,
     /// with seconds per step against relative error, then the hard (stability) cases.
@@ -250,11 +250,20 @@ fn render_frame(
     scene: Option<&str>,
     eye: Option<Vec<f32>>,
     target: Option<Vec<f32>>,
-    fov: f32,
+    fov: Option<f32>,
 ) -> ExitCode {
     let result = (|| -> Result<String, String> {
         let (width, height) = parse_size(size).map_err(|e| format!("--size {size}: {e}"))?;
         let surface = read_frame(frame)?;
+        if surface.is_empty() {
+            return Err(format!("{}: the frame has no points", frame.display()));
+        }
+        if out
+            .extension()
+            .is_none_or(|e| !e.eq_ignore_ascii_case("png"))
+        {
+            eprintln!("warning: -o {}: the image is written as PNG", out.display());
+        }
         let mut opts = RenderOptions {
             width,
             height,
@@ -262,20 +271,23 @@ fn render_frame(
         };
         if let Some(s) = scene {
             let scene = Scene::resolve(s).map_err(|e| e.to_string())?;
+            if scene.camera.is_none() {
+                eprintln!("warning: --scene {s}: the scene has no [camera]; fitting one");
+            }
             opts.camera = scene.camera;
         }
+        // The scene's camera (or one fitted to the frame), with any of its position,
+        // target and field of view replaced by the options given.
         let (eye, target) = (point("eye", eye)?, point("target", target)?);
-        if eye.is_some() || target.is_some() || opts.camera.is_none() {
-            let fitted = camera_for(&surface, &opts);
-            let cam = Camera {
-                position: eye.unwrap_or(fitted.position),
-                target: target.unwrap_or(fitted.target),
-                fov,
-                ..fitted
-            };
-            cam.validate().map_err(|e| format!("camera: {e}"))?;
-            opts.camera = Some(cam);
-        }
+        let base = camera_for(&surface, &opts);
+        let cam = Camera {
+            position: eye.unwrap_or(base.position),
+            target: target.unwrap_or(base.target),
+            fov: fov.unwrap_or(base.fov),
+            ..base
+        };
+        cam.validate().map_err(|e| format!("camera: {e}"))?;
+        opts.camera = Some(cam);
         render(&surface, &opts).write_png(out)?;
         Ok(format!(
             "{}: {} surfels -> {} ({width}x{height})",

@@ -98,18 +98,23 @@ impl Camera {
             Vec3::from(self.target),
             Vec3::from(self.up),
         );
+        let (p, t, u) = (self.position, self.target, self.up);
         if !(eye.is_finite() && target.is_finite() && up.is_finite()) {
-            return Err("position, target and up must be finite".into());
+            return Err(format!(
+                "position = {p:?}, target = {t:?}, up = {u:?}: must be finite"
+            ));
         }
         if !(self.fov > 1.0 && self.fov < 170.0) {
             return Err(format!("fov = {}: must be in (1, 170) degrees", self.fov));
         }
         let fwd = target - eye;
         if fwd.length() < 1e-9 {
-            return Err("position and target coincide".into());
+            return Err(format!("position = {p:?}, target = {t:?}: they coincide"));
         }
         if fwd.normalize().cross(up).length() < 1e-4 {
-            return Err("up is parallel to the view direction".into());
+            return Err(format!(
+                "up = {u:?}: parallel to the view direction from {p:?} to {t:?} (or zero)"
+            ));
         }
         Ok(())
     }

@@ -103,6 +103,28 @@ fn render_command_errors_name_the_file() {
     assert!(!o.status.success(), "--png without --out is refused");
 }
 
+/// A frame without points is an error naming the file, not a blank image.
+#[test]
+fn render_refuses_an_empty_frame() {
+    let dir = TempDir::new("render", "empty");
+    let ply = dir.0.join("empty.ply");
+    std::fs::write(
+        &ply,
+        "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n\
+         property float z\nend_header\n",
+    )
+    .unwrap();
+    let png = dir.0.join("empty.png");
+    let o = phyxel(&["render", ply.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("empty.ply") && err.contains("no points"),
+        "{err}"
+    );
+    assert!(!png.exists(), "no image is written");
+}
+
 /// A flat square patch of surfels facing +z at `z`, object `id`, contact flag `c`.
 fn patch(frame: &mut Frame, x0: f32, z: f32, id: i32, c: u8) {
     for i in 0..20 {
@@ -252,6 +274,33 @@ fn scene_camera_is_used_and_checked() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert_eq!(Image::read_png(&png).unwrap(), img);
+    // `--fov` replaces the scene camera's field of view and keeps the rest of it.
+    let narrow = dir.0.join("narrow.png");
+    let o = phyxel(&[
+        "render",
+        out.join("surfels_00000.ply").to_str().unwrap(),
+        "-o",
+        narrow.to_str().unwrap(),
+        "--size",
+        "200x100",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--fov",
+        "20",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let frame = read_frame(&out.join("surfels_00000.ply")).unwrap();
+    let expected = render(
+        &frame,
+        &RenderOptions {
+            width: 200,
+            height: 100,
+            camera: Some(Camera { fov: 20.0, ..cam }),
+            ..Default::default()
+        },
+    );
+    assert_eq!(Image::read_png(&narrow).unwrap(), expected);
+    assert_ne!(expected, img, "a narrower view changes the image");
     // A bad camera is refused with the field named.
     std::fs::write(
         &scene,
