@@ -698,8 +698,15 @@ fn validate(
             .map(|c| c.0)
             .chain(validate::STABILITY_CASES.iter().copied())
             .collect();
+        // A case that exists but not for the chosen backend: say so.
+        let for_backend = match (only, &backends[..]) {
+            (Some(c), [b]) if names.iter().any(|n| n.starts_with(c)) => {
+                format!(" that applies to backend {b} (see docs/ACCURACY.md, \"Per backend\")")
+            }
+            _ => String::new(),
+        };
         eprintln!(
-            "error: --case {}: no case matches (cases: {}, or `stability`)",
+            "error: --case {}: no case matches{for_backend} (cases: {}, or `stability`)",
             only.unwrap_or(""),
             names.join(", ")
         );

@@ -99,6 +99,11 @@ pub struct PointCloud {
     pub areas: Vec<f32>,
 }
 
+/// Largest net normal `|Σ aᵢ nᵢ|` of an oriented point cloud, as a share of its area,
+/// taken as closed: area estimates of an uneven sampling leave a few percent; a flat
+/// cloud gives 100%, a hemisphere 50%.
+const OPEN_CLOUD_NET_NORMAL: f32 = 0.2;
+
 impl PointCloud {
     /// Checks (finite, non-zero normals, at least 4 points) and estimates point areas.
     pub fn new(points: Vec<Vec3>, normals: Vec<Vec3>) -> Result<Self, String> {
@@ -128,7 +133,41 @@ impl PointCloud {
             areas: Vec::new(),
         };
         c.estimate_areas();
+        c.check_closed()?;
         Ok(c)
+    }
+
+    /// An oriented cloud must sample a closed surface with outward normals: then
+    /// `Σ aᵢ nᵢ` vanishes (a closed surface has no net normal) and the enclosed volume
+    /// `⅓ Σ aᵢ xᵢ·nᵢ` is positive. A flat or open cloud, or one with inward normals,
+    /// would otherwise become a body of one phyxel or none.
+    fn check_closed(&self) -> Result<(), String> {
+        let area: f32 = self.areas.iter().sum();
+        let net = (0..self.points.len())
+            .map(|i| self.areas[i] * self.normals[i])
+            .sum::<Vec3>()
+            .length();
+        if net > OPEN_CLOUD_NET_NORMAL * area {
+            return Err(format!(
+                "the points do not sample a closed surface: their area-weighted normals sum \
+                 to {:.0}% of the area (a closed surface gives about 0)",
+                100.0 * net / area
+            ));
+        }
+        // About the centre of the bounds, so round-off does not depend on the placement.
+        let (lo, hi) = bounds(&self.points);
+        let centre = 0.5 * (lo + hi);
+        let volume = (0..self.points.len())
+            .map(|i| self.areas[i] * (self.points[i] - centre).dot(self.normals[i]))
+            .sum::<f32>()
+            / 3.0;
+        if volume <= 0.0 {
+            return Err(format!(
+                "the normals point inward: the enclosed volume comes out {volume:e} \
+                 (outward normals give a positive volume)"
+            ));
+        }
+        Ok(())
     }
 
     fn scaled_centred(mut self, scale: f32) -> Self {
@@ -303,6 +342,9 @@ impl TriMesh {
         let name = path.display();
         if !path.exists() {
             return Err(format!("{name}: no such mesh file"));
+        }
+        if path.is_dir() {
+            return Err(format!("{name}: a directory, not a mesh file"));
         }
         let ext = path
             .extension()
@@ -634,8 +676,42 @@ fn closest_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec3 {
 
 type Raw = (Vec<Vec3>, Vec<[u32; 3]>);
 
-/// The first OBJ line (1-based) whose vertex or face data does not parse, for error
-/// messages (the OBJ parser does not report lines).
+/// OBJ statements that carry no geometry the loader uses (names, groups, smoothing,
+/// materials, free-form surfaces); they are skipped. Any other keyword is an error, so a
+/// damaged file does not load as a silently smaller mesh.
+const OBJ_SKIPPED: [&str; 28] = [
+    "vp",
+    "l",
+    "p",
+    "o",
+    "g",
+    "s",
+    "mg",
+    "usemtl",
+    "mtllib",
+    "usemap",
+    "maplib",
+    "lod",
+    "shadow_obj",
+    "trace_obj",
+    "ctech",
+    "stech",
+    "cstype",
+    "deg",
+    "bmat",
+    "step",
+    "curv",
+    "curv2",
+    "surf",
+    "parm",
+    "trim",
+    "hole",
+    "scrv",
+    "end",
+];
+
+/// The first OBJ line (1-based) whose vertex or face data does not parse, or whose
+/// keyword is not OBJ's, for error messages (the OBJ parser does not report lines).
 fn obj_bad_line(path: &Path) -> Option<(usize, String)> {
     let text = std::fs::read_to_string(path).ok()?;
     let mut vertices = 0i64;
@@ -656,7 +732,8 @@ fn obj_bad_line(path: &Path) -> Option<(usize, String)> {
                         i.is_some_and(|i| i != 0 && i.abs() <= vertices)
                     })
             }
-            _ => true,
+            Some(word) => word.starts_with('#') || OBJ_SKIPPED.contains(&word),
+            None => true,
         };
         if !ok {
             return Some((k + 1, line.trim().to_string()));
@@ -677,6 +754,12 @@ fn load_obj(path: &Path) -> Result<Raw, String> {
         Some((line, text)) => format!("{name}: line {line}: cannot read OBJ ({e}): '{text}'"),
         None => format!("{name}: cannot read OBJ: {e}"),
     })?;
+    // The parser skips what it does not know; a line that is not OBJ is refused here.
+    if let Some((line, text)) = obj_bad_line(path) {
+        return Err(format!(
+            "{name}: line {line}: not an OBJ statement: '{text}'"
+        ));
+    }
     let mut vertices = Vec::new();
     let mut triangles = Vec::new();
     for m in &models {

@@ -564,11 +564,20 @@ impl ObjectSpec {
             (None, Some(s)) => s,
             (None, None) => 0.5 * spacing,
         };
-        if !(spacing.is_finite() && spacing > 0.0 && surfel.is_finite() && surfel > 0.0) {
+        if let Some(n) = self
+            .phyxels
+            .filter(|_| !(spacing.is_finite() && spacing > 0.0))
+        {
             return Err(format!(
-                "spacing {spacing} / surfel spacing {surfel} from phyxels = {:?}, surfels = {:?}: \
-                 the shape has no volume or area to divide",
-                self.phyxels, self.surfels
+                "phyxels = {n}: the shape has no volume to divide (give `spacing` instead)"
+            ));
+        }
+        if let Some(n) = self
+            .surfels
+            .filter(|_| !(surfel.is_finite() && surfel > 0.0))
+        {
+            return Err(format!(
+                "surfels = {n}: the shape has no area to divide (give `surfel_spacing` instead)"
             ));
         }
         // Counts a given spacing leads to (the lattice's boundary layer included), so that

@@ -345,6 +345,23 @@ fn bad_meshes_give_clear_errors() {
         "{e}"
     );
 
+    // A line that is no OBJ statement (the parser alone would skip it), in a file
+    // that is otherwise a valid closed mesh; names, groups and comments are fine.
+    let mut text = String::from("# a tetrahedron\no tet\ng body\ns off\n");
+    text += "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nhello world\n";
+    text += "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n";
+    std::fs::write(d.join("junk.obj"), &text).unwrap();
+    let e = scene_error(d, "junk.obj");
+    assert!(
+        e.contains("junk.obj") && e.contains("line 9") && e.contains("hello world"),
+        "{e}"
+    );
+    std::fs::write(d.join("tet.obj"), text.replace("hello world\n", "")).unwrap();
+    let scene = Scene::load(&scene_with(d, "tet.obj", 0.1, 0.05)).unwrap();
+    scene
+        .build(&BuildOptions::default())
+        .expect("a clean OBJ with names, groups and comments loads");
+
     std::fs::write(d.join("mesh.stl"), "solid\n").unwrap();
     let e = scene_error(d, "mesh.stl");
     assert!(
@@ -398,6 +415,19 @@ fn write_cloud(path: &Path, r: f32, n: usize, binary: bool) {
     std::fs::write(path, b).unwrap();
 }
 
+/// An ASCII PLY point cloud of `(position, normal)` pairs.
+fn write_ascii_cloud(path: &Path, points: &[(Vec3, Vec3)]) {
+    let mut b = format!(
+        "ply\nformat ascii 1.0\nelement vertex {}\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\nend_header\n",
+        points.len()
+    );
+    for (p, n) in points {
+        b += &format!("{} {} {} {} {} {}\n", p.x, p.y, p.z, n.x, n.y, n.z);
+    }
+    std::fs::write(path, b).unwrap();
+}
+
 #[test]
 fn oriented_point_cloud_samples_a_sphere() {
     let dir = TempDir::new("mesh", "cloud");
@@ -434,6 +464,28 @@ fn oriented_point_cloud_samples_a_sphere() {
                 "{file}: normal {i}"
             );
         }
+    }
+    // The same sphere with inward normals, and its upper half alone (an open surface),
+    // are refused: they would become a body of a phyxel or none.
+    let sphere: Vec<(Vec3, Vec3)> = (0..2000)
+        .map(|i| {
+            let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+            let y = 1.0 - 2.0 * (i as f32 + 0.5) / 2000.0;
+            let rho = (1.0 - y * y).sqrt();
+            let a = golden * i as f32;
+            let d = Vec3::new(rho * a.cos(), y, rho * a.sin());
+            (d * r, d)
+        })
+        .collect();
+    let inward: Vec<_> = sphere.iter().map(|&(p, n)| (p, -n)).collect();
+    let upper: Vec<_> = sphere.iter().copied().filter(|(p, _)| p.y > 0.0).collect();
+    for (file, points, needle) in [
+        ("inward.ply", inward, "normals point inward"),
+        ("open.ply", upper, "closed surface"),
+    ] {
+        write_ascii_cloud(&dir.0.join(file), &points);
+        let e = scene_error(&dir.0, file);
+        assert!(e.contains(file) && e.contains(needle), "{e}");
     }
     // A zero normal is refused, naming the vertex.
     std::fs::write(
