@@ -178,6 +178,19 @@ impl Material {
         }
         non_negative("plastic_creep", self.plastic_creep)?;
         non_negative("plastic_max", self.plastic_max)?;
+        if self.plastic_yield.is_infinite() {
+            for (name, v) in [
+                ("plastic_creep", self.plastic_creep),
+                ("plastic_max", self.plastic_max),
+            ] {
+                if v != 0.0 {
+                    return Err(format!(
+                        "{name} = {v}: has no effect without a finite plastic_yield \
+                         (the material is elastic)"
+                    ));
+                }
+            }
+        }
         if self.fracture && self.is_plastic() && self.plastic_max <= 0.0 {
             return Err(format!(
                 "fracture = true with plastic flow needs plastic_max > 0 (the plastic strain \

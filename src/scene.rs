@@ -190,6 +190,11 @@ impl std::error::Error for SceneError {}
 impl Scene {
     /// Parses scene TOML; `origin` names the file in errors.
     pub fn parse(text: &str, origin: &str) -> Result<Self, SceneError> {
+        // Numbers are read as f32: one outside its range would otherwise turn into
+        // infinity or 0 and be reported as such, not as written.
+        if let Ok(value) = toml::from_str::<toml::Value>(text) {
+            f32_range("", &value).map_err(|m| SceneError(format!("{origin}: {m}")))?;
+        }
         let scene: Scene =
             toml::from_str(text).map_err(|e| SceneError(format!("{origin}: {e}")))?;
         scene.validate(origin)?;
@@ -479,6 +484,41 @@ pub const MAX_PHYXELS: usize = 5_000_000;
 /// 4 GB; the `scale` scene runs 1M per object).
 pub const MAX_SURFELS: usize = 20_000_000;
 
+/// Every float in `value` (at `path`) within the range of normal f32 numbers (or 0,
+/// or not finite, which the field checks report); `Err` names the key and the value.
+fn f32_range(path: &str, value: &toml::Value) -> Result<(), String> {
+    match value {
+        toml::Value::Float(x) => {
+            let m = x.abs();
+            if m.is_finite()
+                && m != 0.0
+                && !(f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&m)
+            {
+                return Err(format!(
+                    "{path}: {x:e}: outside the range of the f32 numbers the engine computes \
+                     with (magnitudes from {:e} to {:e}, or 0)",
+                    f32::MIN_POSITIVE,
+                    f32::MAX
+                ));
+            }
+            Ok(())
+        }
+        toml::Value::Table(t) => t.iter().try_for_each(|(k, v)| {
+            let at = if path.is_empty() {
+                k.clone()
+            } else {
+                format!("{path}.{k}")
+            };
+            f32_range(&at, v)
+        }),
+        toml::Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .try_for_each(|(i, v)| f32_range(&format!("{path}[{i}]"), v)),
+        _ => Ok(()),
+    }
+}
+
 /// Refuses a target count of `name` (`"phyxels"` or `"surfels"`) above its limit.
 fn sample_count(name: &str, n: Option<u32>) -> Result<(), String> {
     let limit = if name == "phyxels" {
@@ -630,16 +670,26 @@ impl ObjectSpec {
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
         let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
         let v = Vec3::from(self.velocity);
+        let mut anchored = vec![0usize; self.fixed.len()];
         for (i, local) in vol.positions.iter().enumerate() {
-            let fixed = self
-                .fixed
-                .iter()
-                .any(|r| (0..3).all(|c| local[c] >= r.min[c] && local[c] <= r.max[c]));
-            if fixed {
+            let inside = |r: &Region| (0..3).all(|c| local[c] >= r.min[c] && local[c] <= r.max[c]);
+            for (count, r) in anchored.iter_mut().zip(&self.fixed) {
+                *count += inside(r) as usize;
+            }
+            if self.fixed.iter().any(inside) {
                 phyxels.fixed[i] = 1;
             } else if !self.is_static {
                 phyxels.vel.set(i, v);
             }
+        }
+        // A box that anchors nothing leaves the body free: a mistake, not a setting.
+        if let Some(r) = anchored.iter().position(|&n| n == 0) {
+            let b = &self.fixed[r];
+            return Err(format!(
+                "fixed[{r}]: the box min = {:?}, max = {:?} holds no phyxel at spacing {spacing} \
+                 (object-local coordinates, before rotation): widen it or refine the spacing",
+                b.min, b.max
+            ));
         }
         let s_pos: Vec<Vec3> = surf.positions.iter().map(|&p| rot * p + pos).collect();
         let s_nrm: Vec<Vec3> = surf.normals.iter().map(|&n| rot * n).collect();

@@ -541,6 +541,38 @@ fn error_spacing_given_twice() {
     );
 }
 
+/// Numbers beyond the f32 range are refused as written, naming the key, instead of
+/// turning into infinity or 0 first (`density = 1e300` used to say `density = inf`).
+#[test]
+fn error_numbers_beyond_f32() {
+    expect_scene_error(
+        "huge-density",
+        &format!("{SPHERE}material = {{ density = 1e300 }}\n"),
+        &["objects[0].material.density", "1e300", "range"],
+    );
+    expect_scene_error(
+        "tiny-dt",
+        &format!("dt = 1e-300\n{SPHERE}"),
+        &["dt", "1e-300", "range"],
+    );
+}
+
+/// Settings that would silently do nothing are errors: a fixed box that holds no phyxel
+/// (the body would be free), plastic flow parameters without a yield stress.
+#[test]
+fn error_settings_without_effect() {
+    expect_scene_error(
+        "empty-fixed",
+        &format!("{SPHERE}fixed = [{{ min = [5.0, 5.0, 5.0], max = [6.0, 6.0, 6.0] }}]\n"),
+        &["objects[0]", "fixed[0]", "holds no phyxel"],
+    );
+    expect_scene_error(
+        "creep-no-yield",
+        &format!("{SPHERE}material = {{ plastic_creep = 5.0 }}\n"),
+        &["objects[0].material", "plastic_creep = 5", "plastic_yield"],
+    );
+}
+
 /// A friction coefficient above `material::MAX_FRICTION` is refused with the limit.
 #[test]
 fn error_friction_above_the_limit() {
