@@ -36,7 +36,7 @@ enum Command {
         steps: Option<u64>,
         /// Time step in seconds (default: the scene's, else 90% of the stable bound).
         #[arg(long, allow_hyphen_values = true)]
-        dt: Option<f32>,
+        dt: Option<f64>,
         /// Backend for every deformable object (overrides the scene).
         #[arg(long)]
         backend: Option<String>,
@@ -189,6 +189,14 @@ fn main() -> ExitCode {
             for (_, flag, needs) in idle.iter().filter(|i| i.0) {
                 eprintln!("warning: {flag} has no effect without {needs}");
             }
+            // Read as f64 so that a value f32 cannot hold is reported as given.
+            let dt = match dt.map(dt_option).transpose() {
+                Ok(dt) => dt,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
             let size = size.unwrap_or_else(|| DEFAULT_SIZE.to_string());
             let (width, height) = match parse_size(&size) {
                 Ok(s) => s,
@@ -218,6 +226,21 @@ fn main() -> ExitCode {
             run_scene(&scene, &opts, json, flamegraph.as_deref())
         }
     }
+}
+
+/// `--dt` as the engine's f32: finite, > 0 and within f32's normal range.
+fn dt_option(dt: f64) -> Result<f32, String> {
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(format!("--dt {dt}: must be a finite number > 0"));
+    }
+    if !(f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&dt) {
+        return Err(format!(
+            "--dt {dt:e}: outside the range of f32 numbers ({:e} to {:e})",
+            f32::MIN_POSITIVE,
+            f32::MAX
+        ));
+    }
+    Ok(dt as f32)
 }
 
 /// Image size of `run --png` when `--size` is not given.
@@ -354,12 +377,6 @@ fn write_flamegraph(guard: &pprof::ProfilerGuard<'_>, file: std::fs::File) -> Re
 
 fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>) -> ExitCode {
     // Command-line overrides are checked here so the error names the option, not the scene.
-    if let Some(dt) = opts.build.dt
-        && !(dt.is_finite() && dt > 0.0)
-    {
-        eprintln!("error: --dt {dt}: must be a finite number > 0");
-        return ExitCode::FAILURE;
-    }
     if let Some(b) = &opts.build.backend
         && !backends::NAMES.contains(&b.as_str())
     {

@@ -513,6 +513,11 @@ fn error_non_positive_dt_option() {
         &["run", "falling-sphere", "--steps", "5", "--dt", "0"],
         &["--dt", "0"],
     );
+    // Too small for f32: reported as given, not as 0.
+    expect_error(
+        &["run", "falling-sphere", "--steps", "5", "--dt", "1e-50"],
+        &["--dt 1e-50", "range"],
+    );
 }
 
 /// `--dt -1` (space-separated, so it looks like a flag) reaches phyxel's own check
