@@ -423,8 +423,14 @@ impl Scene {
             sample_count(name, n).map_err(|m| SceneError(format!("{origin}: {flag}: {m}")))?;
         }
         let mut objects = Vec::with_capacity(self.objects.len());
+        let mut placed = Vec::with_capacity(self.objects.len());
         for (k, spec) in self.objects.iter().enumerate() {
             let mut spec = spec.clone();
+            // Loaded here once (a no-op if `Scene::load` did), for the overlap check too.
+            spec.shape
+                .load_mesh(Path::new(""))
+                .map_err(|m| SceneError(format!("{origin}: objects[{k}].shape: {m}")))?;
+            placed.push((spec.shape.clone(), spec.placement()));
             if !spec.is_static {
                 spec.surfels = opts.surfels.or(spec.surfels);
                 spec.phyxels = opts.phyxels.or(spec.phyxels);
@@ -439,6 +445,7 @@ impl Scene {
                 .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
             objects.push(obj);
         }
+        start_overlap(&objects, &placed).map_err(|m| SceneError(format!("{origin}: {m}")))?;
         let gravity = Vec3::from(self.gravity);
         let mut world = World::new(objects, gravity, 0.0);
         let (stable, limiter) = world.stable_dt();
@@ -517,6 +524,49 @@ fn f32_range(path: &str, value: &toml::Value) -> Result<(), String> {
             .try_for_each(|(i, v)| f32_range(&format!("{path}[{i}]"), v)),
         _ => Ok(()),
     }
+}
+
+/// Refuses objects that start inside one another: a phyxel of one more than a phyxel
+/// spacing (the coarser of the two objects') inside another's shape (`placed`: each
+/// object's shape and placement). Contact handling pushes apart surfaces that overlap by
+/// about a spacing (the built-in `pile` starts with 2 mm); interpenetrating bodies it
+/// cannot untangle (deep surfels project onto the wrong side: pairs stay stuck or pass
+/// through).
+fn start_overlap(objects: &[Object], placed: &[(Shape, (Quat, Vec3))]) -> Result<(), String> {
+    for (i, a) in objects.iter().enumerate() {
+        for (j, (shape, (rot, centre))) in placed.iter().enumerate() {
+            if i == j {
+                continue;
+            }
+            let (inv, reach) = (rot.inverse(), shape.half_extents().length());
+            let plane = matches!(shape, Shape::Plane { .. });
+            let slack = a.phyxel_spacing.max(objects[j].phyxel_spacing);
+            let (mut inside, mut deepest) = (0usize, 0.0f32);
+            for p in a.phyxels.pos.iter() {
+                let local = inv * (p - *centre);
+                // Beyond the bounding sphere nothing is inside (but a plane is infinite).
+                if !plane && local.length() > reach {
+                    continue;
+                }
+                let d = shape.sdf(local);
+                if d < -slack {
+                    inside += 1;
+                    deepest = deepest.max(-d);
+                }
+            }
+            if inside > 0 {
+                let b = &objects[j];
+                return Err(format!(
+                    "objects[{i}] ('{}') starts inside objects[{j}] ('{}'): {inside} of its \
+                     phyxels lie more than a spacing ({slack} m) within it, up to {deepest:.3e} m \
+                     deep; place them apart (contact resolves touching surfaces, not bodies \
+                     inside one another)",
+                    a.name, b.name
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Refuses a target count of `name` (`"phyxels"` or `"surfels"`) above its limit.

@@ -578,6 +578,31 @@ fn error_settings_without_effect() {
     );
 }
 
+/// Bodies that start inside one another (phyxels more than a spacing deep) are refused,
+/// naming both; touching or barely overlapping ones run.
+#[test]
+fn error_objects_starting_inside_each_other() {
+    let pair = |gap: f32| {
+        format!(
+            "gravity = [0.0, 0.0, 0.0]\n[[objects]]\nname = \"a\"\n\
+             shape = {{ type = \"sphere\", radius = 0.1 }}\nspacing = 0.025\n\
+             [[objects]]\nname = \"b\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\n\
+             spacing = 0.025\nposition = [{}, 0.0, 0.0]\n",
+            0.2 + gap
+        )
+    };
+    expect_scene_error(
+        "deep-overlap",
+        &pair(-0.1),
+        &[
+            "objects[0] ('a') starts inside objects[1] ('b')",
+            "place them apart",
+        ],
+    );
+    let touching = TempPath::scene("touching", &pair(-0.002));
+    stdout_of(&["run", touching.arg(), "--steps", "2"]);
+}
+
 /// A friction coefficient above `material::MAX_FRICTION` is refused with the limit.
 #[test]
 fn error_friction_above_the_limit() {
