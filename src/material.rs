@@ -202,7 +202,7 @@ impl Material {
         if self.friction > MAX_FRICTION {
             return Err(format!(
                 "friction = {}: must be at most {MAX_FRICTION} (the explicit, regularised \
-                 friction force gains energy above about 20)",
+                 friction force gained energy at 30 in an oblique impact)",
                 self.friction
             ));
         }

@@ -312,8 +312,11 @@ impl Scene {
                     format!("both {count} and {spacing} are given: give one of them"),
                 ));
             }
-            for (name, n) in [("phyxels", o.phyxels), ("surfels", o.surfels)] {
-                sample_count(name, n).map_err(|m| err(&format!("{at}.{name}"), m))?;
+            for (name, n, limit) in [
+                ("phyxels", o.phyxels, MAX_PHYXELS),
+                ("surfels", o.surfels, MAX_SURFELS),
+            ] {
+                sample_count(name, n, limit).map_err(|m| err(&format!("{at}.{name}"), m))?;
             }
             if o.is_static {
                 static_keys(o).map_err(|(key, m)| err(&format!("{at}.{key}"), m))?;
@@ -406,21 +409,17 @@ impl Scene {
         } else {
             &self.name
         };
-        for (flag, n) in [
-            ("--surfels", opts.surfels),
-            ("--phyxel-count", opts.phyxels),
+        for (flag, name, n, limit) in [
+            ("--surfels", "surfels", opts.surfels, MAX_SURFELS),
+            ("--phyxel-count", "phyxels", opts.phyxels, MAX_PHYXELS),
         ] {
             if n == Some(0) {
                 return Err(SceneError(format!(
                     "{origin}: {flag} 0: an object needs at least one sample"
                 )));
             }
-            let name = if flag == "--surfels" {
-                "surfels"
-            } else {
-                "phyxels"
-            };
-            sample_count(name, n).map_err(|m| SceneError(format!("{origin}: {flag}: {m}")))?;
+            sample_count(name, n, limit)
+                .map_err(|m| SceneError(format!("{origin}: {flag}: {m}")))?;
         }
         let mut objects = Vec::with_capacity(self.objects.len());
         let mut placed = Vec::with_capacity(self.objects.len());
@@ -569,13 +568,8 @@ fn start_overlap(objects: &[Object], placed: &[(Shape, (Quat, Vec3))]) -> Result
     Ok(())
 }
 
-/// Refuses a target count of `name` (`"phyxels"` or `"surfels"`) above its limit.
-fn sample_count(name: &str, n: Option<u32>) -> Result<(), String> {
-    let limit = if name == "phyxels" {
-        MAX_PHYXELS
-    } else {
-        MAX_SURFELS
-    };
+/// Refuses a target count `name = n` above `limit`.
+fn sample_count(name: &str, n: Option<u32>, limit: usize) -> Result<(), String> {
     match n {
         Some(n) if n as usize > limit => Err(format!(
             "{name} = {n}: more than the limit of {limit} per object"
