@@ -97,6 +97,9 @@ pub mod backends {
     }
 }
 
+/// The vector types of the API (`Vec3`, `Mat3`, `Quat`), at the version phyxel uses.
+pub use glam;
+
 pub use dynamics::{Dynamics, StepContext};
 pub use material::Material;
 pub use object::Object;

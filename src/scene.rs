@@ -421,6 +421,14 @@ impl Scene {
             sample_count(name, n, limit)
                 .map_err(|m| SceneError(format!("{origin}: {flag}: {m}")))?;
         }
+        if let Some(b) = opts.backend.as_deref()
+            && !backends::NAMES.contains(&b)
+        {
+            return Err(SceneError(format!(
+                "{origin}: backend override \"{b}\": unknown (available: {})",
+                backends::NAMES.join(", ")
+            )));
+        }
         let mut objects = Vec::with_capacity(self.objects.len());
         let mut placed = Vec::with_capacity(self.objects.len());
         for (k, spec) in self.objects.iter().enumerate() {

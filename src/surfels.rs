@@ -17,9 +17,21 @@ pub struct Surfels {
 
 impl Surfels {
     /// Surfels at rest.
+    ///
+    /// # Panics
+    ///
+    /// If `points`, `normals` and `radii` differ in length.
     pub fn at_rest(points: &[Vec3], normals: &[Vec3], radii: &[f32]) -> Self {
-        assert_eq!(points.len(), normals.len());
-        assert_eq!(points.len(), radii.len());
+        assert_eq!(
+            points.len(),
+            normals.len(),
+            "Surfels::at_rest: as many normals as points"
+        );
+        assert_eq!(
+            points.len(),
+            radii.len(),
+            "Surfels::at_rest: as many radii as points"
+        );
         let rest = Vec3s::from_points(points);
         let rest_normal = Vec3s::from_points(normals);
         Self {

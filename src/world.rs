@@ -35,6 +35,10 @@ pub struct World {
     pub pairs: Vec<Pair>,
     /// Surfel grid per object; rebuilt only for moving objects that are in a pair.
     grids: Vec<Option<Grid>>,
+    /// Per index, the id of the object whose box and grids are cached there: static
+    /// objects' are kept from step to step, so an object list that changed under them
+    /// (reordered, replaced) must not inherit them.
+    cache_owner: Vec<u32>,
     /// Colliding surfels of every overlapping pair of this step.
     pub detections: Vec<PairDetection>,
     /// Contact surfaces and forces of this step.
@@ -215,6 +219,7 @@ impl World {
             patches: Vec::new(),
             phyxel_grids: Vec::new(),
             surface_grids: Vec::new(),
+            cache_owner: Vec::new(),
             render_contacts: false,
             friction_work: 0,
             arena: Bump::new(),
@@ -256,15 +261,33 @@ impl World {
                     }
                     _ => f32::INFINITY,
                 };
-                (own.min(contact), o)
+                // A NaN bound (a broken backend) must win, not vanish in `min`.
+                (if own.is_nan() { own } else { own.min(contact) }, o)
             })
             .fold((f32::INFINITY, None), |acc, (dt, o)| {
-                if dt < acc.0 { (dt, Some(o)) } else { acc }
+                // NaN (a broken backend) wins and stays, so callers see it.
+                if acc.0.is_nan() {
+                    acc
+                } else if dt.is_nan() || dt < acc.0 {
+                    (dt, Some(o))
+                } else {
+                    acc
+                }
             })
     }
 
     /// One time step: dynamics, surfel advection, contact handling, then topology.
+    ///
+    /// # Panics
+    ///
+    /// If `dt` is not a finite number > 0 (`World::new` takes it as given; `Scene::build`
+    /// also checks it against [`World::stable_dt`]).
     pub fn step(&mut self) {
+        assert!(
+            self.dt.is_finite() && self.dt > 0.0,
+            "World::dt = {}: must be a finite number > 0",
+            self.dt
+        );
         self.step_until_topology();
         self.step_topology();
     }
@@ -386,11 +409,18 @@ impl World {
     #[inline(never)] // a named frame in flamegraphs
     fn broad_phase(&mut self) {
         let n = self.objects.len();
-        let first = self.boxes.len() != n;
         self.boxes.resize(n, Aabb::EMPTY);
-        for (o, b) in self.objects.iter().zip(&mut self.boxes) {
-            if first || !o.is_static() {
-                *b = Aabb::of(&o.surfels.pos);
+        self.grids.resize_with(n, || None);
+        self.cache_owner.resize(n, u32::MAX);
+        for (k, o) in self.objects.iter().enumerate() {
+            // A static object's box and grids are computed once, for the object at k.
+            let fresh = self.cache_owner[k] != o.id;
+            if fresh {
+                self.cache_owner[k] = o.id;
+                self.grids[k] = None;
+            }
+            if fresh || !o.is_static() {
+                self.boxes[k] = Aabb::of(&o.surfels.pos);
             }
         }
         let is_static =

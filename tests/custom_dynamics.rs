@@ -162,3 +162,68 @@ fn user_backend_runs_the_two_spheres_scene() {
     );
     assert!(world.objects.iter().all(|o| o.dynamics.name() == "springs"));
 }
+
+/// A backend that reports no usable bound.
+struct NoBound;
+
+impl Dynamics for NoBound {
+    fn name(&self) -> &str {
+        "no-bound"
+    }
+
+    fn step(&mut self, p: &mut Phyxels, ctx: &StepContext<'_>) {
+        let zero = Vec3s::zeros(p.len());
+        integrate_symplectic(p, &zero, ctx);
+    }
+
+    fn stable_dt(&self, _p: &Phyxels, _m: &Material) -> f32 {
+        f32::NAN
+    }
+}
+
+/// A NaN stable bound from a user backend is reported by `World::stable_dt`, not
+/// skipped (`f32::min` drops NaN: the world then reported the other object's bound).
+#[test]
+fn a_nan_bound_is_reported() {
+    let mut broken = spring_ball(1, Vec3::new(0.3, 0.0, 0.0), Vec3::ZERO);
+    broken.dynamics = Box::new(NoBound);
+    let world = World::new(
+        vec![
+            spring_ball(0, Vec3::new(-0.3, 0.0, 0.0), Vec3::ZERO),
+            broken,
+        ],
+        Vec3::ZERO,
+        1e-4,
+    );
+    let (dt, limiter) = world.stable_dt();
+    assert!(dt.is_nan(), "bound {dt}");
+    assert_eq!(limiter.map(|o| o.id), Some(1));
+}
+
+/// `World::step` refuses a time step that is not a finite number > 0 (`World::new`
+/// takes it as given) instead of running backwards, freezing or turning NaN.
+#[test]
+#[should_panic(expected = "World::dt = 0: must be a finite number > 0")]
+fn stepping_with_a_zero_dt_panics() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        0.0,
+    );
+    world.step();
+}
+
+/// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` froze
+/// every object without a word).
+#[test]
+fn unknown_backend_override_is_an_error() {
+    let scene = phyxel::scene::Scene::builtin("two-spheres").unwrap();
+    for name in ["static", "nope"] {
+        let opts = phyxel::scene::BuildOptions {
+            backend: Some(name.to_string()),
+            ..Default::default()
+        };
+        let e = scene.build(&opts).err().expect("refused").to_string();
+        assert!(e.contains(&format!("backend override \"{name}\"")), "{e}");
+    }
+}
