@@ -134,6 +134,26 @@ impl Material {
         self.plastic_yield.is_finite() && self.plastic_creep > 0.0
     }
 
+    /// For scene files: plastic parameters given to an elastic material (infinite
+    /// `plastic_yield`) do nothing, which in a file is a mistake. (Code that turns a
+    /// plastic material elastic by raising the yield stress may leave them.)
+    pub fn plastic_keys_used(&self) -> Result<(), String> {
+        if self.plastic_yield.is_finite() {
+            return Ok(());
+        }
+        let given = [
+            ("plastic_creep", self.plastic_creep),
+            ("plastic_max", self.plastic_max),
+        ];
+        match given.iter().find(|(_, v)| *v != 0.0) {
+            Some((name, v)) => Err(format!(
+                "{name} = {v}: has no effect without a finite plastic_yield \
+                 (the material is elastic)"
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// Checks every field; the error names the field and the value.
     pub fn validate(&self) -> Result<(), String> {
         let positive = |name: &str, v: f32| {
@@ -178,19 +198,6 @@ impl Material {
         }
         non_negative("plastic_creep", self.plastic_creep)?;
         non_negative("plastic_max", self.plastic_max)?;
-        if self.plastic_yield.is_infinite() {
-            for (name, v) in [
-                ("plastic_creep", self.plastic_creep),
-                ("plastic_max", self.plastic_max),
-            ] {
-                if v != 0.0 {
-                    return Err(format!(
-                        "{name} = {v}: has no effect without a finite plastic_yield \
-                         (the material is elastic)"
-                    ));
-                }
-            }
-        }
         if self.fracture && self.is_plastic() && self.plastic_max <= 0.0 {
             return Err(format!(
                 "fracture = true with plastic flow needs plastic_max > 0 (the plastic strain \

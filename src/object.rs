@@ -79,6 +79,12 @@ fn force_carriers(surfels: &Surfels, surfel_spacing: f32, carrier_spacing: f32) 
 
 impl Object {
     /// Assembles an object and binds its surfels to its phyxels.
+    ///
+    /// # Panics
+    ///
+    /// Without phyxels (surfels follow phyxels, and contact forces act on them), with a
+    /// material that [`Material::validate`] refuses, or with a non-finite phyxel or surfel
+    /// position: each would turn the world NaN a few steps later, far from the cause.
     pub fn new(
         id: u32,
         name: impl Into<String>,
@@ -87,6 +93,15 @@ impl Object {
         material: Material,
         dynamics: Box<dyn Dynamics>,
     ) -> Self {
+        let name = name.into();
+        assert!(!phyxels.is_empty(), "Object::new '{name}': no phyxels");
+        if let Err(e) = material.validate() {
+            panic!("Object::new '{name}': invalid material: {e}");
+        }
+        assert!(
+            phyxels.pos.all_finite() && surfels.pos.all_finite(),
+            "Object::new '{name}': a phyxel or surfel position is not finite"
+        );
         let binding = SurfelBinding::build(&surfels, &phyxels);
         let mean = |v: &[f32]| {
             if v.is_empty() {
@@ -103,7 +118,7 @@ impl Object {
         let force_carrier = force_carriers(&surfels, surfel_spacing, carrier_spacing);
         Self {
             id,
-            name: name.into(),
+            name,
             surfels,
             phyxels,
             material,

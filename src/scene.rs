@@ -283,6 +283,7 @@ impl Scene {
                 .map_err(|m| err(&format!("{at}.shape"), m))?;
             o.material
                 .validate()
+                .and_then(|()| o.material.plastic_keys_used())
                 .map_err(|m| err(&format!("{at}.material"), m))?;
             let size = o.shape.half_extents().max_element() * 2.0;
             for (name, n) in [("phyxels", o.phyxels), ("surfels", o.surfels)] {

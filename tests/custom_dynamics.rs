@@ -227,3 +227,23 @@ fn unknown_backend_override_is_an_error() {
         assert!(e.contains(&format!("backend override \"{name}\"")), "{e}");
     }
 }
+
+/// `Object::new` refuses a material `Material::validate` refuses (here Young's modulus
+/// 0), naming the object, instead of a body that turns NaN a few steps later.
+#[test]
+#[should_panic(expected = "Object::new 'soft': invalid material: young = 0")]
+fn object_with_an_invalid_material_panics() {
+    let ball = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    let material = Material {
+        young: 0.0,
+        ..Material::default()
+    };
+    Object::new(
+        1,
+        "soft",
+        ball.surfels,
+        ball.phyxels,
+        material,
+        Box::new(NoBound),
+    );
+}
