@@ -15,6 +15,11 @@ pub const SUPPORT_FACTOR: f32 = 2.0;
 ///
 /// `force` holds external forces (contact, user loads) for the next step; the backend
 /// consumes and clears it. `fixed` phyxels are anchored: no backend moves them.
+///
+/// The columns are padded for the SIMD loops: `mass` and `fixed` (like the `Vec3s`
+/// columns) hold `columns::padded_len(n)` entries, the padding with zero mass. Build
+/// phyxels with [`Phyxels::at_rest`] (or `gather`) rather than by hand; an object's
+/// phyxel set is fixed once it is bound to surfels (`Object::new`).
 #[derive(Clone, Debug, Default)]
 pub struct Phyxels {
     pub pos: Vec3s,
