@@ -154,13 +154,7 @@ impl PointCloud {
                 100.0 * net / area
             ));
         }
-        // About the centre of the bounds, so round-off does not depend on the placement.
-        let (lo, hi) = bounds(&self.points);
-        let centre = 0.5 * (lo + hi);
-        let volume = (0..self.points.len())
-            .map(|i| self.areas[i] * (self.points[i] - centre).dot(self.normals[i]))
-            .sum::<f32>()
-            / 3.0;
+        let volume = self.volume();
         if volume <= 0.0 {
             return Err(format!(
                 "the normals point inward: the enclosed volume comes out {volume:e} \
@@ -244,10 +238,15 @@ impl PointCloud {
         0.5 * (hi - lo)
     }
 
-    /// Enclosed volume by the divergence theorem, ⅓ Σ aᵢ xᵢ·nᵢ.
+    /// Enclosed volume by the divergence theorem, ⅓ Σ aᵢ (xᵢ − c)·nᵢ, about the centre
+    /// `c` of the bounds: the same for a closed surface (Σ aᵢ nᵢ = 0), and neither the
+    /// round-off nor a sampling's small net normal then scales with the distance from
+    /// the origin.
     pub fn volume(&self) -> f32 {
+        let (lo, hi) = bounds(&self.points);
+        let centre = 0.5 * (lo + hi);
         (0..self.points.len())
-            .map(|i| self.areas[i] * self.points[i].dot(self.normals[i]))
+            .map(|i| self.areas[i] * (self.points[i] - centre).dot(self.normals[i]))
             .sum::<f32>()
             / 3.0
     }
