@@ -149,11 +149,15 @@ struct SurfaceGrids {
 /// response should start, and still reaches about 30 phyxels (docs/ARCHITECTURE.md).
 pub const DISTRIBUTION_SUPPORT: f32 = 1.0;
 
+/// Hertz compliance `(1 − ν²)/E` of a material: a pair's `E* = 1/(c_a + c_b)`.
+fn compliance(m: &crate::material::Material) -> f32 {
+    (1.0 - m.poisson * m.poisson) / m.young
+}
+
 /// Contact constants of a pair from the two materials (docs/ARCHITECTURE.md).
 pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
     let (ma, mb) = (&a.material, &b.material);
-    let e_star = 1.0
-        / ((1.0 - ma.poisson * ma.poisson) / ma.young + (1.0 - mb.poisson * mb.poisson) / mb.young);
+    let e_star = 1.0 / (compliance(ma) + compliance(mb));
     // The moving objects set the scale (both when neither moves).
     let any_moving = !a.is_static() || !b.is_static();
     let pick = [a, b]
@@ -238,7 +242,6 @@ impl World {
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
         // The stiffest partner any object could meet: the pair's E* and mean
         // `contact_stiffness` are largest against it.
-        let compliance = |m: &crate::material::Material| (1.0 - m.poisson * m.poisson) / m.young;
         let partner = (self.objects.len() >= 2).then(|| {
             self.objects
                 .iter()
