@@ -233,7 +233,7 @@ fn dt_option(dt: f64) -> Result<f32, String> {
     if !(dt.is_finite() && dt > 0.0) {
         return Err(format!("--dt {dt}: must be a finite number > 0"));
     }
-    if !(f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&dt) {
+    if !phyxel::scene::fits_f32(dt) {
         return Err(format!(
             "--dt {dt:e}: outside the range of f32 numbers ({:e} to {:e})",
             f32::MIN_POSITIVE,

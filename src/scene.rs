@@ -499,16 +499,18 @@ pub const MAX_PHYXELS: usize = 5_000_000;
 /// 4 GB; the `scale` scene runs 1M per object).
 pub const MAX_SURFELS: usize = 20_000_000;
 
+/// Whether a finite, non-zero `x` keeps its magnitude as an f32: within the normal f32
+/// range, not rounded to infinity, to 0 or to a subnormal.
+pub fn fits_f32(x: f64) -> bool {
+    (f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&x.abs())
+}
+
 /// Every float in `value` (at `path`) within the range of normal f32 numbers (or 0,
 /// or not finite, which the field checks report); `Err` names the key and the value.
 fn f32_range(path: &str, value: &toml::Value) -> Result<(), String> {
     match value {
         toml::Value::Float(x) => {
-            let m = x.abs();
-            if m.is_finite()
-                && m != 0.0
-                && !(f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&m)
-            {
+            if x.is_finite() && *x != 0.0 && !fits_f32(*x) {
                 return Err(format!(
                     "{path}: {x:e}: outside the range of the f32 numbers the engine computes \
                      with (magnitudes from {:e} to {:e}, or 0)",
