@@ -6,9 +6,20 @@
 use crate::frame::Frame;
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
+#[cfg(feature = "png")]
 use std::fs::File;
+#[cfg(feature = "png")]
 use std::io::BufWriter;
 use std::path::Path;
+
+/// The error of the PNG functions in a build without the `png` feature.
+#[cfg(not(feature = "png"))]
+fn no_png(path: &Path) -> String {
+    format!(
+        "{}: phyxel was built without the `png` feature (enable it in Cargo.toml)",
+        path.display()
+    )
+}
 
 /// Background colour (RGB) of every rendered image.
 pub const BACKGROUND: [u8; 3] = [236, 239, 243];
@@ -190,7 +201,21 @@ impl Image {
         [self.rgb[i], self.rgb[i + 1], self.rgb[i + 2]]
     }
 
+    /// Writes the image as an 8-bit RGB PNG (an error when built without the `png`
+    /// feature).
+    #[cfg(not(feature = "png"))]
+    pub fn write_png(&self, path: &Path) -> Result<(), String> {
+        Err(no_png(path))
+    }
+
+    /// Reads an 8-bit RGB or RGBA PNG (an error when built without the `png` feature).
+    #[cfg(not(feature = "png"))]
+    pub fn read_png(path: &Path) -> Result<Self, String> {
+        Err(no_png(path))
+    }
+
     /// Writes the image as an 8-bit RGB PNG.
+    #[cfg(feature = "png")]
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
         let name = path.display();
         let file = File::create(path).map_err(|e| format!("{name}: cannot create: {e}"))?;
@@ -207,6 +232,7 @@ impl Image {
     }
 
     /// Reads an 8-bit RGB or RGBA PNG (for tests and tools).
+    #[cfg(feature = "png")]
     pub fn read_png(path: &Path) -> Result<Self, String> {
         let name = path.display();
         let file = File::open(path).map_err(|e| format!("{name}: cannot open: {e}"))?;

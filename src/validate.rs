@@ -1385,6 +1385,7 @@ pub fn run_stability(
 
 /// Registers a system sans-serif TTF with plotters' text renderer (once); false when
 /// none is found.
+#[cfg(feature = "plots")]
 fn register_font() -> bool {
     use std::sync::OnceLock;
     static FOUND: OnceLock<bool> = OnceLock::new();
@@ -1415,9 +1416,20 @@ fn register_font() -> bool {
     })
 }
 
+/// [`plot`] in a build without the `plots` feature: writes nothing, returns an error.
+#[cfg(not(feature = "plots"))]
+pub fn plot(_rows: &[Row], dir: &std::path::Path) -> Result<Vec<String>, String> {
+    Err(format!(
+        "{}: no charts: phyxel was built without the `plots` feature (enable it in Cargo.toml)",
+        dir.display()
+    ))
+}
+
 /// One chart per case of the accuracy rows: seconds per step (x, log) against relative
 /// error (y, log), one series per backend, the tolerance as a dashed line; written as
 /// `DIR/CASE.svg` and `DIR/CASE.png`. Returns notes (e.g. no font found: SVG only).
+/// In a build without the `plots` feature it writes nothing and returns an error.
+#[cfg(feature = "plots")]
 pub fn plot(rows: &[Row], dir: &std::path::Path) -> Result<Vec<String>, String> {
     let font = register_font();
     let mut notes = Vec::new();
@@ -1462,6 +1474,7 @@ pub fn plot(rows: &[Row], dir: &std::path::Path) -> Result<Vec<String>, String> 
     Ok(notes)
 }
 
+#[cfg(feature = "plots")]
 fn chart<DB: plotters::prelude::DrawingBackend>(
     backend: DB,
     case: &str,
