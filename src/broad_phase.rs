@@ -20,7 +20,16 @@ impl Aabb {
         max: Vec3::splat(f32::NEG_INFINITY),
     };
 
-    /// Bounding box of the first `len` points of the columns (SIMD over lanes).
+    /// The box of points of which one has a non-finite coordinate: NaN corners, and
+    /// it overlaps nothing, so that a blown-up object takes no part in contact (the
+    /// world reports it instead: [`crate::world::NonFinite`]).
+    pub const NON_FINITE: Aabb = Aabb {
+        min: Vec3::NAN,
+        max: Vec3::NAN,
+    };
+
+    /// Bounding box of the first `len` points of the columns (SIMD over lanes);
+    /// [`Aabb::NON_FINITE`] if a coordinate is infinite or NaN.
     pub fn of(points: &Vec3s) -> Aabb {
         let n = points.len();
         if n == 0 {
@@ -29,12 +38,16 @@ impl Aabb {
         let full = n / LANES * LANES;
         let mut lo = [f32x8::splat(f32::INFINITY); 3];
         let mut hi = [f32x8::splat(f32::NEG_INFINITY); 3];
+        // `0·v` is 0 for a finite v and NaN for ±inf or NaN: summed, it flags a
+        // non-finite point at the cost of two lane operations (the loop is memory-bound).
+        let (mut flag, zero) = (f32x8::splat(0.0), f32x8::splat(0.0));
         let cols = [&points.x, &points.y, &points.z];
         for at in (0..full).step_by(LANES) {
             for c in 0..3 {
                 let v = load8(cols[c], at);
                 lo[c] = lo[c].min(v);
                 hi[c] = hi[c].max(v);
+                flag += v * zero;
             }
         }
         let reduce =
@@ -49,11 +62,21 @@ impl Aabb {
             reduce(hi[1], f32::max, f32::NEG_INFINITY),
             reduce(hi[2], f32::max, f32::NEG_INFINITY),
         );
+        let mut finite = flag.to_array().iter().all(|&f| f == 0.0);
         for i in full..n {
+            finite &= points.get(i).is_finite();
             min = min.min(points.get(i));
             max = max.max(points.get(i));
         }
+        if !finite {
+            return Aabb::NON_FINITE;
+        }
         Aabb { min, max }
+    }
+
+    /// Is this [`Aabb::NON_FINITE`] (a NaN corner)?
+    pub fn is_non_finite(&self) -> bool {
+        self.min.is_nan() || self.max.is_nan()
     }
 
     /// The intersection box, or `None` when the boxes do not overlap.
@@ -80,12 +103,17 @@ pub struct Pair {
 }
 
 /// All overlapping pairs in a fixed order (by `a`, then `b`); pairs of two static
-/// objects are skipped (they never move, so they never need a response).
+/// objects are skipped (they never move, so they never need a response), and so are
+/// [`Aabb::NON_FINITE`] boxes.
 pub fn overlapping_pairs(boxes: &[Aabb], is_static: &[bool], out: &mut Vec<Pair>) {
     out.clear();
     for a in 0..boxes.len() {
         for b in a + 1..boxes.len() {
             if is_static[a] && is_static[b] {
+                continue;
+            }
+            // (`Vec3::max` drops NaN, so a NaN box must be skipped, not intersected.)
+            if boxes[a].is_non_finite() || boxes[b].is_non_finite() {
                 continue;
             }
             if let Some(bounds) = boxes[a].intersection(&boxes[b]) {

@@ -135,6 +135,23 @@ impl Vec3s {
             .all(|v| v.is_finite())
     }
 
+    /// The first point with a non-finite coordinate, if any. The scan ANDs whole
+    /// chunks (which vectorizes) and looks for the point only in a chunk that failed.
+    pub fn first_non_finite(&self) -> Option<usize> {
+        const CHUNK: usize = 256;
+        let n = self.len;
+        let (x, y, z) = (&self.x[..n], &self.y[..n], &self.z[..n]);
+        let ok = |v: &[f32]| v.iter().fold(true, |a, v| a & v.is_finite());
+        (0..n).step_by(CHUNK).find_map(|at| {
+            let r = at..(at + CHUNK).min(n);
+            if ok(&x[r.clone()]) && ok(&y[r.clone()]) && ok(&z[r.clone()]) {
+                None
+            } else {
+                r.into_iter().find(|&i| !self.get(i).is_finite())
+            }
+        })
+    }
+
     /// Gathers the points at `idx`, in that order.
     pub fn gather(&self, idx: &[usize]) -> Self {
         let mut c = Self::zeros(idx.len());

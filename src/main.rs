@@ -429,7 +429,12 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
     if summary.finite {
         ExitCode::SUCCESS
     } else {
-        eprintln!("error: the state became non-finite (NaN or infinity); try a smaller --dt");
+        match &summary.non_finite {
+            Some(e) => eprintln!("error: {e}; the run stopped there (try a smaller --dt)"),
+            None => eprintln!(
+                "error: the state became non-finite (NaN or infinity); try a smaller --dt"
+            ),
+        }
         ExitCode::FAILURE
     }
 }
@@ -581,6 +586,9 @@ fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitC
         .filter(|s| !s.finite)
         .map(|s| s.backend.as_str())
         .collect();
+    for e in summaries.iter().filter_map(|s| s.non_finite.as_ref()) {
+        eprintln!("error: {e}; that run stopped there");
+    }
     if blown.is_empty() {
         ExitCode::SUCCESS
     } else {

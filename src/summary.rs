@@ -71,6 +71,10 @@ pub struct RunSummary {
     pub phase_work: BTreeMap<String, u64>,
     /// All state finite at the end, and the sums below (momentum, energies, strains).
     pub finite: bool,
+    /// Where the state first became non-finite ([`crate::world::NonFinite`]); the run
+    /// stopped at the end of that step, and `steps` counts the steps run. `null` when it
+    /// stayed finite.
+    pub non_finite: Option<String>,
     /// kg·m/s
     pub momentum_initial: [f64; 3],
     pub momentum_final: [f64; 3],
@@ -123,12 +127,18 @@ pub fn run(
     frame(&world, 0)?;
     frames += write_frames.is_some() as u64;
     let t0 = Instant::now();
+    let mut ran = 0;
     // The loop runs on a pool thread: the steps' parallel loops then push their jobs to
     // local deques instead of rayon's global injector, which allocates one block per 63
     // calls from outside the pool (so the steady-state step allocates nothing).
     rayon::scope(|_| -> Result<(), SceneError> {
         for s in 1..=steps {
             world.step();
+            ran = s;
+            if world.non_finite.is_some() {
+                // Nothing after a blow-up is a result: stop, and say where it began.
+                break;
+            }
             if s % every == 0 && write_frames.is_some() {
                 frame(&world, s / every)?;
                 frames += 1;
@@ -138,7 +148,7 @@ pub fn run(
         Ok(())
     })?;
     let wall = t0.elapsed().as_secs_f64();
-    let summary = summarize(&world, scene, steps, wall, momentum_initial, frames);
+    let summary = summarize(&world, scene, ran, wall, momentum_initial, frames);
     Ok((world, summary))
 }
 
@@ -191,7 +201,8 @@ pub fn summarize(
         .map(|o| o.phyxels.kinetic_energy())
         .sum();
     // Finite state whose sums overflow is no result either.
-    let finite = world.all_finite()
+    let finite = world.non_finite.is_none()
+        && world.all_finite()
         && kinetic_energy.is_finite()
         && momentum_final.iter().all(|p| p.is_finite())
         && bodies.iter().all(|b| {
@@ -217,6 +228,7 @@ pub fn summarize(
             .map(|&p| (p.name().to_string(), world.times.work(p)))
             .collect(),
         finite,
+        non_finite: world.non_finite.as_ref().map(|e| e.to_string()),
         momentum_initial,
         momentum_final,
         kinetic_energy,

@@ -1072,3 +1072,52 @@ fn compare_hertz_reports_the_hertz_error() {
     let e: f64 = error_of("2000").parse().expect("a number after the ramp");
     assert!(e.is_finite() && e < 0.3, "Hertz error {e}");
 }
+
+/// A run that blows up stops in the first step whose state is not finite and says
+/// where: the step, the object, its backend and the phase; it exits non-zero with the
+/// JSON summary still printed, and the same run cut one step earlier reports nothing
+/// (the library test `detect.rs::the_first_non_finite_step_is_reported` checks the step
+/// against every column).
+#[test]
+fn a_blow_up_stops_the_run_and_names_where() {
+    let args = |steps: &str| {
+        phyxel(&[
+            "run",
+            "falling-sphere",
+            "--dt",
+            "0.01",
+            "--allow-unstable",
+            "--steps",
+            steps,
+            "--json",
+        ])
+    };
+    let out = args("3000");
+    assert!(!out.status.success(), "a blown-up run must fail");
+    let stderr = text(&out.stderr);
+    assert!(!stderr.contains("panicked"), "panicked:\n{stderr}");
+    let v: Value = serde_json::from_slice(&out.stdout)
+        .unwrap_or_else(|e| panic!("no JSON summary ({e}); stderr:\n{stderr}"));
+    assert_eq!(field(&v, "finite").as_bool(), Some(false));
+    let ran = field(&v, "steps").as_u64().unwrap();
+    assert!(
+        (1..3000).contains(&ran),
+        "the run did not stop early: {ran} steps"
+    );
+    let what = field(&v, "non_finite")
+        .as_str()
+        .unwrap_or_else(|| panic!("{v:#}"));
+    for part in [
+        &format!("step {ran}:"),
+        "object 'sphere'",
+        "backend mls",
+        "in the dynamics step",
+    ] {
+        assert!(what.contains(part), "{what:?} lacks {part:?}");
+        assert!(stderr.contains(part), "stderr lacks {part:?}:\n{stderr}");
+    }
+    // (It may still fail: an elastic-energy sum can overflow before the state does.)
+    let before = args(&(ran - 1).to_string());
+    let v: Value = serde_json::from_slice(&before.stdout).unwrap();
+    assert!(field(&v, "non_finite").is_null(), "{v:#}");
+}

@@ -1,7 +1,7 @@
 //! Embedding proof: a backend written outside the crate, against the public API only,
 //! drives objects through the same step (dynamics, surfel advection, contact phases).
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::{Dynamics, StepContext, integrate_symplectic};
 use phyxel::grid::Grid;
@@ -246,4 +246,147 @@ fn object_with_an_invalid_material_panics() {
         material,
         Box::new(NoBound),
     );
+}
+
+/// Springs that, from their `at`-th step, write NaN into one phyxel's velocity, or
+/// (with `gradient`) into its displacement gradient only (broken user backends).
+struct Poisoned {
+    springs: Springs,
+    steps: u32,
+    at: u32,
+    phyxel: usize,
+    /// `Some`: report this gradient (zero, NaN at `phyxel` from step `at`) and leave the
+    /// velocities alone.
+    gradient: Option<Vec<Mat3>>,
+}
+
+impl Poisoned {
+    fn new(p: &Phyxels, at: u32, phyxel: usize, gradient: bool) -> Self {
+        Self {
+            springs: Springs::new(p, 2000.0, 0.5),
+            steps: 0,
+            at,
+            phyxel,
+            gradient: gradient.then(|| vec![Mat3::ZERO; p.len()]),
+        }
+    }
+}
+
+impl Dynamics for Poisoned {
+    fn name(&self) -> &str {
+        "poisoned"
+    }
+
+    fn step(&mut self, p: &mut Phyxels, ctx: &StepContext<'_>) {
+        self.springs.step(p, ctx);
+        self.steps += 1;
+        if self.steps == self.at {
+            match &mut self.gradient {
+                Some(g) => g[self.phyxel] = Mat3::from_diagonal(Vec3::splat(f32::NAN)),
+                None => p.vel.set(self.phyxel, Vec3::new(0.0, f32::NAN, 0.0)),
+            }
+        }
+    }
+
+    fn stable_dt(&self, p: &Phyxels, m: &Material) -> f32 {
+        self.springs.stable_dt(p, m)
+    }
+
+    fn displacement_gradient(&self) -> Option<&[Mat3]> {
+        self.gradient.as_deref()
+    }
+}
+
+/// A backend that writes NaN is caught at the end of that very step, by object, backend,
+/// phyxel and quantity (`World::non_finite`), before contact could carry it into the
+/// other object: `None` for the steps before, then exactly the injected value.
+#[test]
+fn a_backend_nan_is_reported_at_its_step() {
+    let mut broken = spring_ball(1, Vec3::new(0.3, 0.0, 0.0), Vec3::new(-1.0, 0.0, 0.0));
+    broken.dynamics = Box::new(Poisoned::new(&broken.phyxels, 4, 7, false));
+    let objects = vec![
+        spring_ball(0, Vec3::new(-0.3, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0)),
+        broken,
+    ];
+    let mut world = World::new(objects, Vec3::ZERO, 0.0);
+    world.dt = world.stable_dt().0;
+    for _ in 0..3 {
+        world.step();
+        assert_eq!(world.non_finite, None, "step {}", world.steps);
+    }
+    world.step();
+    let e = world
+        .non_finite
+        .clone()
+        .expect("the NaN of step 4 is reported");
+    assert_eq!(
+        (e.step, e.object_id, e.object.as_str(), e.backend.as_str()),
+        (4, 1, "ball1", "poisoned")
+    );
+    assert_eq!((e.index, e.quantity), (7, "phyxel velocity"));
+    assert_eq!(e.source(), "the dynamics step");
+    world.step();
+    assert_eq!(world.non_finite, Some(e), "the first event is kept");
+}
+
+/// A backend whose displacement gradient turns NaN while its phyxels stay finite: the
+/// surfels it advects are caught in that step (by the broad phase's box), as surfel
+/// positions written by the advection.
+#[test]
+fn a_nan_gradient_is_reported_as_the_surfels() {
+    let mut broken = spring_ball(0, Vec3::ZERO, Vec3::new(-1.0, 0.0, 0.0));
+    broken.dynamics = Box::new(Poisoned::new(&broken.phyxels, 3, 7, true));
+    let mut world = World::new(vec![broken], Vec3::ZERO, 0.0);
+    world.dt = world.stable_dt().0;
+    for _ in 0..4 {
+        world.step();
+    }
+    let e = world
+        .non_finite
+        .clone()
+        .expect("the NaN gradient of step 3 is reported");
+    assert_eq!((e.step, e.quantity), (3, "surfel position"));
+    assert_eq!(e.source(), "the surfel advection");
+    assert!(world.objects[0].phyxels.all_finite());
+}
+
+/// A blown-up object takes no part in contact: after its backend writes NaN (step 4),
+/// its box overlaps nothing, so the other ball, which would have hit it (the same balls
+/// unpoisoned are paired: reference run), stays finite and is never paired with it,
+/// whether the broken ball comes first or second in the object list.
+#[test]
+fn a_blown_up_object_takes_no_part_in_contact() {
+    let run = |poisoned: Option<usize>| {
+        let mut balls = vec![
+            spring_ball(0, Vec3::new(-0.15, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0)),
+            spring_ball(1, Vec3::new(0.15, 0.0, 0.0), Vec3::new(-1.0, 0.0, 0.0)),
+        ];
+        if let Some(k) = poisoned {
+            balls[k].dynamics = Box::new(Poisoned::new(&balls[k].phyxels, 4, 7, false));
+        }
+        let mut world = World::new(balls, Vec3::ZERO, 0.0);
+        world.dt = world.stable_dt().0;
+        let mut touched = 0;
+        for _ in 0..(0.15 / world.dt) as usize {
+            world.step();
+            touched += !world.pairs.is_empty() as usize;
+        }
+        (world, touched)
+    };
+    let (_, touched) = run(None);
+    assert!(touched > 0, "the reference balls never touched");
+    for k in 0..2 {
+        let (world, touched) = run(Some(k));
+        let e = world.non_finite.as_ref().expect("reported");
+        assert_eq!((e.step, e.object_id), (4, k as u32));
+        assert_eq!(
+            touched, 0,
+            "the blown-up ball {k} still took part in contact"
+        );
+        let other = &world.objects[1 - k];
+        assert!(
+            other.phyxels.all_finite() && other.surfels.all_finite(),
+            "NaN spread from ball {k}"
+        );
+    }
 }
