@@ -48,6 +48,8 @@ pub struct SurfelBinding {
     /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
     /// does not allocate.
     table: Vec<AffineRow>,
+    /// Phyxel count of the rest shape it was built from.
+    phyxels: usize,
 }
 
 /// Weighted sum of the table rows of one surfel's binding entries, in entry order.
@@ -64,6 +66,11 @@ fn row_sum(table: &[AffineRow], entries: &[(u32, f32)]) -> (f32x8, f32x8) {
 }
 
 impl SurfelBinding {
+    /// The surfel and phyxel counts it was built for.
+    pub fn counts(&self) -> (usize, usize) {
+        (self.offsets.len() - 1, self.phyxels)
+    }
+
     /// Binds every surfel to the phyxels within [`BINDING_FRACTION`] of their influence
     /// radius at rest, or to its [`MIN_BINDING`] nearest phyxels when fewer lie there.
     ///
@@ -72,6 +79,7 @@ impl SurfelBinding {
     pub fn build(surfels: &Surfels, phyxels: &Phyxels) -> Self {
         let mut b = Self {
             offsets: vec![0],
+            phyxels: phyxels.len(),
             ..Default::default()
         };
         if phyxels.is_empty() {

@@ -77,6 +77,24 @@ fn force_carriers(surfels: &Surfels, surfel_spacing: f32, carrier_spacing: f32) 
         .collect()
 }
 
+/// A summary (name, backend, counts, spacings, material): the columns themselves are
+/// too long to print, and the backend is a trait object.
+impl std::fmt::Debug for Object {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Object")
+            .field("id", &self.id)
+            .field("name", &self.name)
+            .field("backend", &self.dynamics.name())
+            .field("surfels", &self.surfels.len())
+            .field("phyxels", &self.phyxels.len())
+            .field("surfel_spacing", &self.surfel_spacing)
+            .field("phyxel_spacing", &self.phyxel_spacing)
+            .field("material", &self.material)
+            .field("parent", &self.parent)
+            .finish_non_exhaustive()
+    }
+}
+
 impl Object {
     /// Assembles an object and binds its surfels to its phyxels.
     ///
@@ -182,6 +200,23 @@ impl Object {
         }
     }
 
+    /// Whether the surfel and phyxel columns still have the counts the object was built
+    /// with (its binding, force carriers and backend state are sized by them): the
+    /// columns are public, and replacing them with another count must be an error that
+    /// names the object, not an index panic deep in a phase.
+    pub fn check_counts(&self) -> Result<(), String> {
+        let (surfels, phyxels) = self.binding.counts();
+        let now = (self.surfels.len(), self.phyxels.len());
+        if now == (surfels, phyxels) && self.force_carrier.len() == surfels {
+            return Ok(());
+        }
+        Err(format!(
+            "object '{}' (id {}) has {} surfels and {} phyxels but was built with {surfels} \
+             and {phyxels}: build a new Object (Object::new) instead of replacing its columns",
+            self.name, self.id, now.0, now.1
+        ))
+    }
+
     /// True for objects whose backend never moves them.
     pub fn is_static(&self) -> bool {
         self.dynamics.is_static()
@@ -191,7 +226,17 @@ impl Object {
     /// MLS estimate when the backend has none).
     pub fn advect_surfels(&mut self) {
         let grad: &[Mat3] = match self.dynamics.displacement_gradient() {
-            Some(g) => g,
+            Some(g) => {
+                assert_eq!(
+                    g.len(),
+                    self.phyxels.len(),
+                    "object '{}': backend '{}' gave a displacement gradient per phyxel of the \
+                     wrong length",
+                    self.name,
+                    self.dynamics.name()
+                );
+                g
+            }
             None => {
                 let (stencil, grad) = self.estimate.get_or_insert_with(|| {
                     (

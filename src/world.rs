@@ -71,6 +71,24 @@ pub struct World {
     pub non_finite: Option<NonFinite>,
 }
 
+/// A summary: the objects (each as [`Object`]'s summary), the step, the pairs and
+/// contacts of the last step; not the caches and scratch.
+impl std::fmt::Debug for World {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("World")
+            .field("objects", &self.objects)
+            .field("gravity", &self.gravity)
+            .field("dt", &self.dt)
+            .field("steps", &self.steps)
+            .field("pairs", &self.pairs.len())
+            .field("patches", &self.patches.len())
+            .field("max_penetration", &self.max_penetration)
+            .field("splits", &self.splits.len())
+            .field("non_finite", &self.non_finite)
+            .finish_non_exhaustive()
+    }
+}
+
 /// Where the state first stopped being finite, found by the step's checks of every
 /// moving object (surfel positions through the broad phase's boxes, which flag a
 /// non-finite point for free; phyxel positions, velocities and forces at the end of the
@@ -365,13 +383,19 @@ impl World {
     /// # Panics
     ///
     /// If `dt` is not a finite number > 0 (`World::new` takes it as given; `Scene::build`
-    /// also checks it against [`World::stable_dt`]).
+    /// also checks it against [`World::stable_dt`]), or if an object's surfel or phyxel
+    /// columns no longer have the counts it was built with ([`Object::check_counts`]).
     pub fn step(&mut self) {
         assert!(
             self.dt.is_finite() && self.dt > 0.0,
             "World::dt = {}: must be a finite number > 0",
             self.dt
         );
+        for o in &self.objects {
+            if let Err(e) = o.check_counts() {
+                panic!("World::step: {e}");
+            }
+        }
         self.step_until_topology();
         self.step_topology();
     }

@@ -213,6 +213,25 @@ fn stepping_with_a_zero_dt_panics() {
     world.step();
 }
 
+/// Replacing an object's phyxel columns with another count (they are public) is named
+/// as such by `World::step`, not an index panic inside the advection.
+#[test]
+#[should_panic(
+    expected = "object 'ball0' (id 0) has 1257 surfels and 432 phyxels but was \
+                           built with 1257 and 280"
+)]
+fn replacing_the_phyxels_with_another_count_panics_clearly() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    let finer = Shape::Sphere { radius: 0.1 }.sample_volume(0.0215);
+    let o = &mut world.objects[0];
+    o.phyxels = Phyxels::at_rest(&finer.positions, finer.cell_volume, 1000.0);
+    world.step();
+}
+
 /// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` froze
 /// every object without a word).
 #[test]
@@ -223,7 +242,7 @@ fn unknown_backend_override_is_an_error() {
             backend: Some(name.to_string()),
             ..Default::default()
         };
-        let e = scene.build(&opts).err().expect("refused").to_string();
+        let e = scene.build(&opts).expect_err("refused").to_string();
         assert!(e.contains(&format!("backend override \"{name}\"")), "{e}");
     }
 }
@@ -389,4 +408,32 @@ fn a_blown_up_object_takes_no_part_in_contact() {
             "NaN spread from ball {k}"
         );
     }
+}
+
+/// `World` and `Object` print a summary with `{:?}` (the columns are too long to print):
+/// each object's name, backend and counts, and the step.
+#[test]
+fn world_debug_prints_a_summary() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    world.step();
+    let text = format!("{world:?}");
+    let o = &world.objects[0];
+    for part in [
+        "name: \"ball0\"".to_string(),
+        "backend: \"springs\"".to_string(),
+        format!("surfels: {}", o.surfels.len()),
+        format!("phyxels: {}", o.phyxels.len()),
+        "steps: 1".to_string(),
+    ] {
+        assert!(text.contains(&part), "{text} lacks {part}");
+    }
+    assert!(
+        text.len() < 2000,
+        "not a summary: {} characters",
+        text.len()
+    );
 }
