@@ -55,7 +55,55 @@ pub fn read_ply(path: &Path) -> Result<PlyFile, String> {
         };
         payload.insert(key.clone(), elems);
     }
+    check_nothing_after(&name.to_string(), &header, reader.get_mut())?;
     Ok(PlyFile { header, payload })
+}
+
+/// Data after the last declared element means the header's counts do not match the
+/// data (a reader that stopped there would silently drop points): an error, except for
+/// trailing white space in an ASCII file.
+fn check_nothing_after(
+    name: &str,
+    header: &Header,
+    rest: &mut impl std::io::Read,
+) -> Result<(), String> {
+    let mut tail = Vec::new();
+    rest.read_to_end(&mut tail)
+        .map_err(|e| format!("{name}: reading after the last element: {e}"))?;
+    let extra = if header.encoding == Encoding::Ascii {
+        tail.iter()
+            .position(|b| !b.is_ascii_whitespace())
+            .map(|at| &tail[at..])
+    } else {
+        (!tail.is_empty()).then_some(&tail[..])
+    };
+    let Some(extra) = extra else {
+        return Ok(());
+    };
+    let counts: Vec<String> = header
+        .elements
+        .iter()
+        .map(|(k, d)| format!("{} '{k}'", d.count))
+        .collect();
+    let shown = if header.encoding == Encoding::Ascii {
+        let line = String::from_utf8_lossy(extra);
+        let line = line
+            .lines()
+            .next()
+            .unwrap_or("")
+            .chars()
+            .take(40)
+            .collect::<String>();
+        format!(": \"{line}\"")
+    } else {
+        String::new()
+    };
+    Err(format!(
+        "{name}: {} bytes after the declared elements ({}){shown}: the header's element \
+         counts do not match the data",
+        extra.len(),
+        counts.join(", ")
+    ))
 }
 
 /// A scalar property of element `i` as f32, or an error naming the file and element.

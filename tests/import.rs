@@ -198,3 +198,39 @@ fn missing_and_malformed_frames_are_errors() {
     let err = read_frame(&p).unwrap_err();
     assert!(err.contains("short.ply") && err.contains("vertex"), "{err}");
 }
+
+/// Data after the declared elements is an error (the header's counts do not match the
+/// data, and a reader stopping there would drop points silently), binary and ASCII;
+/// trailing white space in ASCII is not.
+#[test]
+fn data_after_the_declared_elements_is_an_error() {
+    let dir = TempDir::new("import", "extra");
+    let mut f = Frame::default();
+    f.push(glam::Vec3::ZERO, glam::Vec3::Z, 0.1, 0, 0);
+    let p = dir.0.join("extra.ply");
+    f.write_ply(&p).unwrap();
+    assert_eq!(read_frame(&p).unwrap().len(), 1);
+    let mut bytes = std::fs::read(&p).unwrap();
+    bytes.extend_from_slice(&[0; 33]); // one more vertex than declared
+    std::fs::write(&p, &bytes).unwrap();
+    let err = read_frame(&p).unwrap_err();
+    assert!(
+        err.contains("extra.ply") && err.contains("33 bytes after") && err.contains("1 'vertex'"),
+        "{err}"
+    );
+    let ascii = "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nend_header\n0 0 0\n";
+    let p = dir.0.join("ascii.ply");
+    std::fs::write(&p, format!("{ascii}\n  \n")).unwrap();
+    assert_eq!(
+        read_frame(&p).unwrap().len(),
+        1,
+        "trailing white space is fine"
+    );
+    std::fs::write(&p, format!("{ascii}1 2 3\n")).unwrap();
+    let err = read_frame(&p).unwrap_err();
+    assert!(
+        err.contains("ascii.ply") && err.contains("\"1 2 3\"") && err.contains("counts"),
+        "{err}"
+    );
+}
