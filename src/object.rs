@@ -98,6 +98,9 @@ impl std::fmt::Debug for Object {
 impl Object {
     /// Assembles an object and binds its surfels to its phyxels.
     ///
+    /// An object without surfels is allowed (a mass moved by its backend alone) but takes
+    /// no part in contact: detection and contact forces act on surfels.
+    ///
     /// # Panics
     ///
     /// Without phyxels (surfels follow phyxels, and contact forces act on them), with a
