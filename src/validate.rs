@@ -978,7 +978,11 @@ pub fn run_accuracy(
             }
             progress(&format!("{} ({b})", cases.join(", ")));
             match run(b, quick) {
-                Ok(r) => rows.extend(r),
+                // A runner measures several cases at once: keep the ones asked for.
+                Ok(r) => rows.extend(
+                    r.into_iter()
+                        .filter(|row| only.is_none_or(|o| row.case.starts_with(o))),
+                ),
                 Err(e) => rows.push(Row {
                     case: cases[0].into(),
                     group: "accuracy".into(),
@@ -1125,7 +1129,14 @@ fn run_hard(
     });
     let pen = w.max_penetration as f64;
     let (status, note) = if !finite {
-        ("unstable", format!("non-finite state after {at} steps"))
+        let first = w
+            .non_finite
+            .as_ref()
+            .map_or(String::new(), |e| format!(" ({e})"));
+        (
+            "unstable",
+            format!("non-finite state after {at} steps{first}"),
+        )
     } else if pen.is_nan() || pen >= bound {
         (
             "unstable",
@@ -1207,8 +1218,8 @@ pub fn stability(
     }
 
     // dt at and above the stable bound.
-    if want("dt-at-bound") {
-        progress(&format!("dt-at-bound ({backend})"));
+    if want("dt-at-bound") || want("dt-above-bound") {
+        progress(&format!("dt-at-bound, dt-above-bound ({backend})"));
         let s = builtin("sphere-on-plane");
         let bound = build(&s, &o).map(|w| w.stable_dt().0);
         match bound {
@@ -1217,15 +1228,18 @@ pub fn stability(
                     dt: Some(bound),
                     ..o.clone()
                 };
-                rows.push(match build(&s, &at) {
-                    Ok(w) => run_hard("dt-at-bound", backend, w, 0.3 * scale, 0.01, |_| Ok(())),
-                    Err(e) => hard_error("dt-at-bound", backend, e),
-                });
+                if want("dt-at-bound") {
+                    rows.push(match build(&s, &at) {
+                        Ok(w) => run_hard("dt-at-bound", backend, w, 0.3 * scale, 0.01, |_| Ok(())),
+                        Err(e) => hard_error("dt-at-bound", backend, e),
+                    });
+                }
                 let above = BuildOptions {
                     dt: Some(2.0 * bound),
                     ..o.clone()
                 };
-                rows.push(match build(&s, &above) {
+                if want("dt-above-bound") {
+                    rows.push(match build(&s, &above) {
                 Err(e) if e.contains("stable bound") => {
                     let mut r = stability_row(
                         "dt-above-bound",
@@ -1250,7 +1264,9 @@ pub fn stability(
                             n += 1;
                             w.all_finite()
                         });
-                        if !w.all_finite() {
+                        if let Some(e) = &w.non_finite {
+                            r.note += &format!(" [forced with --allow-unstable: {e}]");
+                        } else if !w.all_finite() {
                             r.note += &format!(" [forced with --allow-unstable: non-finite after {n} steps]");
                         } else {
                             r.note += " [forced with --allow-unstable: still finite after 2000 steps]";
@@ -1261,6 +1277,7 @@ pub fn stability(
                 Err(e) => hard_error("dt-above-bound", backend, format!("refused without naming the bound: {e}")),
                 Ok(_) => hard_error("dt-above-bound", backend, "dt = 2× the stable bound was accepted".into()),
             });
+                }
             }
             Err(e) => rows.push(hard_error("dt-at-bound", backend, e)),
         }

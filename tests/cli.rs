@@ -1121,3 +1121,24 @@ fn a_blow_up_stops_the_run_and_names_where() {
     let v: Value = serde_json::from_slice(&before.stdout).unwrap();
     assert!(field(&v, "non_finite").is_null(), "{v:#}");
 }
+
+/// `validate --case NAME` runs exactly the cases whose name starts with NAME: a case that
+/// shares a runner with another (`dt-above-bound` with `dt-at-bound`, `incline-slide`
+/// with `incline-stick`) is found on its own, and its partner's rows are not printed.
+#[test]
+fn validate_case_selects_exactly_that_case() {
+    for (case, status) in [("dt-above-bound", "refused"), ("incline-slide", "")] {
+        let v: Value = serde_json::from_str(&stdout_of(&[
+            "validate", "--quick", "--json", "--backend", "mls", "--case", case,
+        ]))
+        .expect("stdout is a JSON array");
+        let rows = v.as_array().unwrap();
+        assert!(!rows.is_empty(), "{case}: no rows");
+        for r in rows {
+            assert_eq!(field(r, "case").as_str(), Some(case), "{r:#}");
+            if !status.is_empty() {
+                assert_eq!(field(r, "status").as_str(), Some(status), "{r:#}");
+            }
+        }
+    }
+}
