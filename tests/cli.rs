@@ -1129,7 +1129,13 @@ fn a_blow_up_stops_the_run_and_names_where() {
 fn validate_case_selects_exactly_that_case() {
     for (case, status) in [("dt-above-bound", "refused"), ("incline-slide", "")] {
         let v: Value = serde_json::from_str(&stdout_of(&[
-            "validate", "--quick", "--json", "--backend", "mls", "--case", case,
+            "validate",
+            "--quick",
+            "--json",
+            "--backend",
+            "mls",
+            "--case",
+            case,
         ]))
         .expect("stdout is a JSON array");
         let rows = v.as_array().unwrap();
