@@ -186,6 +186,47 @@ pub fn scalar_column(values: impl ExactSizeIterator<Item = f32>) -> Vec<f32> {
     v
 }
 
+/// Checks a column set against the point count `n` the SIMD loops assume: every
+/// [`Vec3s`] holds `n` points and every column at least `padded_len(n)` entries. `Err`
+/// names the first column that does not.
+pub fn check_lengths(
+    n: usize,
+    vectors: &[(&str, &Vec3s)],
+    scalars: &[(&str, usize)],
+) -> Result<(), String> {
+    let p = padded_len(n);
+    for (name, v) in vectors {
+        if v.len() != n {
+            return Err(format!("{name} holds {} points, not {n}", v.len()));
+        }
+        if [v.x.len(), v.y.len(), v.z.len()].iter().any(|&l| l < p) {
+            return Err(format!(
+                "{name}.x/.y/.z hold fewer than the {p} padded entries"
+            ));
+        }
+    }
+    for &(name, len) in scalars {
+        if len < p {
+            return Err(format!(
+                "{name} holds {len} entries, not {p} ({n} points padded to {LANES}: build \
+                 columns with columns::scalar_column)"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The first of `values` (named `name`) that is not finite and > 0, as an error.
+pub fn check_positive(name: &str, values: &[f32]) -> Result<(), String> {
+    match values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+        Some(i) => Err(format!(
+            "{name}[{i}] = {}: must be finite and > 0",
+            values[i]
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Loads lanes `at..at + 8` of a padded column.
 #[inline]
 pub fn load8(s: &[f32], at: usize) -> wide::f32x8 {

@@ -134,9 +134,18 @@ impl Material {
         self.plastic_yield.is_finite() && self.plastic_creep > 0.0
     }
 
-    /// For scene files: plastic parameters given to an elastic material (infinite
-    /// `plastic_yield`) do nothing, which in a file is a mistake. (Code that turns a
-    /// plastic material elastic by raising the yield stress may leave them.)
+    /// Turns plastic flow off: an infinite yield stress, and the creep rate and strain
+    /// limit at 0 (which [`Material::plastic_keys_used`] requires of an elastic material).
+    pub fn make_elastic(&mut self) {
+        self.plastic_yield = f32::INFINITY;
+        self.plastic_creep = 0.0;
+        self.plastic_max = 0.0;
+    }
+
+    /// For scenes (`Scene::validate`, which `Scene::build` runs too): plastic parameters
+    /// given to an elastic material (infinite `plastic_yield`) do nothing, which is a
+    /// mistake. Code that turns a plastic material elastic uses
+    /// [`Material::make_elastic`].
     pub fn plastic_keys_used(&self) -> Result<(), String> {
         if self.plastic_yield.is_finite() {
             return Ok(());

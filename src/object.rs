@@ -104,8 +104,11 @@ impl Object {
     /// # Panics
     ///
     /// Without phyxels (surfels follow phyxels, and contact forces act on them), with a
-    /// material that [`Material::validate`] refuses, or with a non-finite phyxel or surfel
-    /// position: each would turn the world NaN a few steps later, far from the cause.
+    /// material that [`Material::validate`] refuses, with a non-finite phyxel or surfel
+    /// position or surfel normal, with columns of the wrong length, or with a mass,
+    /// volume, spacing, influence radius or disk radius that is not finite and > 0
+    /// ([`Phyxels::check`], [`Surfels::check`]): each would turn the world NaN, or
+    /// silently freeze or hide part of the object, far from the cause.
     pub fn new(
         id: u32,
         name: impl Into<String>,
@@ -116,12 +119,18 @@ impl Object {
     ) -> Self {
         let name = name.into();
         assert!(!phyxels.is_empty(), "Object::new '{name}': no phyxels");
+        if let Err(e) = phyxels.check(true) {
+            panic!("Object::new '{name}': phyxels.{e}");
+        }
+        if let Err(e) = surfels.check(true) {
+            panic!("Object::new '{name}': surfels.{e}");
+        }
         if let Err(e) = material.validate() {
             panic!("Object::new '{name}': invalid material: {e}");
         }
         assert!(
-            phyxels.pos.all_finite() && surfels.pos.all_finite(),
-            "Object::new '{name}': a phyxel or surfel position is not finite"
+            phyxels.pos.all_finite() && surfels.pos.all_finite() && surfels.normal.all_finite(),
+            "Object::new '{name}': a phyxel or surfel position or a surfel normal is not finite"
         );
         let binding = SurfelBinding::build(&surfels, &phyxels);
         let mean = |v: &[f32]| {
@@ -204,14 +213,19 @@ impl Object {
     }
 
     /// Whether the surfel and phyxel columns still have the counts the object was built
-    /// with (its binding, force carriers and backend state are sized by them): the
-    /// columns are public, and replacing them with another count must be an error that
-    /// names the object, not an index panic deep in a phase.
+    /// with (its binding, force carriers and backend state are sized by them) and the
+    /// padded lengths the SIMD loops read: the columns are public, and replacing them
+    /// with another count must be an error that names the object, not an index panic
+    /// deep in a phase or a column silently skipped.
     pub fn check_counts(&self) -> Result<(), String> {
         let (surfels, phyxels) = self.binding.counts();
         let now = (self.surfels.len(), self.phyxels.len());
         if now == (surfels, phyxels) && self.force_carrier.len() == surfels {
-            return Ok(());
+            let named = |e: String, what: &str| {
+                format!("object '{}' (id {}): {what}.{e}", self.name, self.id)
+            };
+            self.phyxels.check(false).map_err(|e| named(e, "phyxels"))?;
+            return self.surfels.check(false).map_err(|e| named(e, "surfels"));
         }
         Err(format!(
             "object '{}' (id {}) has {} surfels and {} phyxels but was built with {surfels} \

@@ -40,6 +40,39 @@ pub struct Phyxels {
 }
 
 impl Phyxels {
+    /// Checks the columns' lengths against the phyxel count (see
+    /// [`columns::check_lengths`](crate::columns::check_lengths)) and, with `values`,
+    /// that masses, volumes, spacings and influence radii are finite and > 0 (a
+    /// zero-mass phyxel never moves, a zero radius reaches nothing). `Err` names the
+    /// column.
+    pub fn check(&self, values: bool) -> Result<(), String> {
+        let n = self.len();
+        crate::columns::check_lengths(
+            n,
+            &[
+                ("pos", &self.pos),
+                ("rest", &self.rest),
+                ("vel", &self.vel),
+                ("force", &self.force),
+            ],
+            &[
+                ("mass", self.mass.len()),
+                ("volume", self.volume.len()),
+                ("spacing", self.spacing.len()),
+                ("radius", self.radius.len()),
+                ("fixed", self.fixed.len()),
+            ],
+        )?;
+        if values {
+            use crate::columns::check_positive;
+            check_positive("mass", &self.mass[..n])?;
+            check_positive("volume", &self.volume[..n])?;
+            check_positive("spacing", &self.spacing[..n])?;
+            check_positive("radius", &self.radius[..n])?;
+        }
+        Ok(())
+    }
+
     /// Phyxels at rest at `points`, each standing for `cell_volume` of material of `density`.
     ///
     /// Mass is `density · cell_volume`, so the total mass is the sampled volume times the

@@ -403,13 +403,16 @@ impl Scene {
         toml::to_string(self).expect("a scene serialises")
     }
 
-    /// Samples every object and assembles the world.
+    /// Samples every object and assembles the world. The scene is checked first
+    /// ([`Scene::validate`]): its fields are public, and a scene changed in code must
+    /// get the same errors as one read from a file, not a panic or a NaN world.
     pub fn build(&self, opts: &BuildOptions) -> Result<World, SceneError> {
         let origin = if self.name.is_empty() {
             "scene"
         } else {
             &self.name
         };
+        self.validate(origin)?;
         for (flag, name, n, limit) in [
             ("--surfels", "surfels", opts.surfels, MAX_SURFELS),
             ("--phyxel-count", "phyxels", opts.phyxels, MAX_PHYXELS),

@@ -16,6 +16,29 @@ pub struct Surfels {
 }
 
 impl Surfels {
+    /// Checks the columns' lengths against the surfel count (see
+    /// [`columns::check_lengths`](crate::columns::check_lengths)) and, with `values`,
+    /// that the disk radii are finite and > 0 (a zero radius makes every kernel weight
+    /// zero: the object's surface would vanish from detection). `Err` names the column.
+    pub fn check(&self, values: bool) -> Result<(), String> {
+        let n = self.len();
+        crate::columns::check_lengths(
+            n,
+            &[
+                ("pos", &self.pos),
+                ("rest", &self.rest),
+                ("normal", &self.normal),
+                ("rest_normal", &self.rest_normal),
+                ("vel", &self.vel),
+            ],
+            &[("radius", self.radius.len())],
+        )?;
+        if values {
+            crate::columns::check_positive("radius", &self.radius[..n])?;
+        }
+        Ok(())
+    }
+
     /// Surfels at rest.
     ///
     /// # Panics

@@ -232,6 +232,45 @@ fn replacing_the_phyxels_with_another_count_panics_clearly() {
     world.step();
 }
 
+/// A column built by hand with the wrong length (a `collect` one short of the count, or
+/// without the SIMD padding) is named by `Object::new`, not an index panic inside the
+/// dynamics.
+#[test]
+#[should_panic(expected = "Object::new 'ball': phyxels.fixed holds 279 entries, not 280")]
+fn an_unpadded_column_is_named() {
+    let b = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    let mut p = b.phyxels.clone();
+    let n = p.len();
+    p.fixed = (0..n).map(|i| (p.pos.get(i).y > 0.09) as u8).collect();
+    p.fixed.pop(); // one short of the point count (280: a multiple of 8, no padding)
+    Object::new(
+        0,
+        "ball",
+        b.surfels.clone(),
+        p,
+        Material::default(),
+        Box::new(NoBound),
+    );
+}
+
+/// A surfel disk radius of 0 would make every kernel weight of the surface zero (the
+/// object would pass through others): refused, naming the surfel.
+#[test]
+#[should_panic(expected = "Object::new 'ball': surfels.radius[3] = 0: must be finite and > 0")]
+fn a_zero_surfel_radius_is_refused() {
+    let b = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    let mut s = b.surfels.clone();
+    s.radius[3] = 0.0;
+    Object::new(
+        0,
+        "ball",
+        s,
+        b.phyxels.clone(),
+        Material::default(),
+        Box::new(NoBound),
+    );
+}
+
 /// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` froze
 /// every object without a word).
 #[test]
@@ -244,6 +283,30 @@ fn unknown_backend_override_is_an_error() {
         };
         let e = scene.build(&opts).expect_err("refused").to_string();
         assert!(e.contains(&format!("backend override \"{name}\"")), "{e}");
+    }
+}
+
+/// A scene changed in code is checked by `Scene::build` as a file would be by
+/// `Scene::load`: errors naming the field, not a panic in sampling or a NaN world.
+#[test]
+fn a_scene_changed_in_code_is_checked_by_build() {
+    let base = phyxel::scene::Scene::builtin("two-spheres").unwrap();
+    let mut negative = base.clone();
+    negative.objects[0].spacing = -0.05;
+    let mut soft = base.clone();
+    soft.objects[1].material.young = 0.0;
+    let mut nan = base.clone();
+    nan.gravity = [f32::NAN; 3];
+    for (scene, want) in [
+        (negative, "objects[0]"),
+        (soft, "objects[1].material"),
+        (nan, "gravity"),
+    ] {
+        let e = scene
+            .build(&Default::default())
+            .expect_err(want)
+            .to_string();
+        assert!(e.starts_with("two-spheres: ") && e.contains(want), "{e}");
     }
 }
 

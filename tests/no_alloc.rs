@@ -110,7 +110,7 @@ fn steady_state_steps_do_not_allocate() {
     // The bar of `plastic-fracture`, made elastic so that it hangs without tearing:
     // the fracture check runs every step and finds one piece, allocating nothing.
     let mut scene = Scene::builtin("plastic-fracture").unwrap();
-    scene.objects[1].material.plastic_yield = f32::INFINITY;
+    scene.objects[1].material.make_elastic();
     let mut bar = scene.build(&BuildOptions::default()).unwrap();
     let allocs = topology_allocations(&mut bar, 300, 100);
     assert_eq!(bar.objects.len(), 2, "the elastic bar stays whole");

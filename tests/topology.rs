@@ -144,7 +144,7 @@ fn plastic_fracture(elastic: bool) -> Scene {
     let mut scene = Scene::builtin("plastic-fracture").unwrap();
     if elastic {
         // Same load, same fracture check, no plastic flow.
-        scene.objects[1].material.plastic_yield = f32::INFINITY;
+        scene.objects[1].material.make_elastic();
     }
     scene
 }
@@ -428,7 +428,7 @@ fn pile_dents(plastic: bool, steps: u64) -> Vec<f32> {
     let mut scene = Scene::builtin("plastic-pile").unwrap();
     if !plastic {
         for o in &mut scene.objects {
-            o.material.plastic_yield = f32::INFINITY;
+            o.material.make_elastic();
         }
     }
     let mut w = scene.build(&BuildOptions::default()).unwrap();
