@@ -70,9 +70,17 @@ pub trait Dynamics: Send + Sync {
 
     /// True if the object may break apart. Only then does the topology phase check the
     /// phyxels' connectivity after each step (no topology work for bodies that cannot
-    /// fracture). A piece gets a fresh backend of the same name, built from its phyxels.
+    /// fracture). Each piece gets its backend from [`Dynamics::fragment`].
     fn can_fracture(&self, _material: &Material) -> bool {
         false
+    }
+
+    /// The backend of a piece that broke off, built for the piece's `phyxels` (their
+    /// rest state is the current one); `None` keeps the object whole. Default: the
+    /// built-in backend of [`Dynamics::name`] (`crate::backends::create`), `None` for
+    /// any other name: a user backend that may fracture overrides this.
+    fn fragment(&self, phyxels: &Phyxels, material: &Material) -> Option<Box<dyn Dynamics>> {
+        crate::backends::create(self.name(), phyxels, material).ok()
     }
 
     /// True when the backend's plastic flow asks for a new rest configuration (Desbrun–Cani

@@ -17,9 +17,9 @@
 //! rest; two phyxels that come closer than their spacing without being rest neighbours
 //! are pushed apart by an equal and opposite penalty force ([`SelfCollision`]).
 
-use crate::backends;
 use crate::columns::Vec3s;
 pub use crate::connectivity::{Components, components};
+use crate::dynamics::Dynamics;
 use crate::grid::Grid;
 use crate::material::Material;
 use crate::object::Object;
@@ -53,24 +53,37 @@ pub struct SplitEvent {
 }
 
 /// Splits `object` along `comps` (which must have ≥ 2 components). Piece `c` gets id
-/// `*next_id + c`. Gives the object back unchanged when its backend is not one
-/// [`backends::create`] knows (a custom backend cannot be rebuilt for a piece).
+/// `*next_id + c` and the backend [`Dynamics::fragment`] builds for it. Gives the object
+/// back unchanged when the backend builds none for some piece (e.g. a user backend
+/// that does not override `fragment`).
 pub fn split(
     object: Object,
     comps: &Components,
     step: u64,
     next_id: &mut u32,
 ) -> Result<(Vec<Object>, SplitEvent), Box<Object>> {
-    let name = object.dynamics.name().to_string();
-    if backends::create(&name, &Phyxels::default(), &object.material).is_err() {
-        return Err(Box::new(object));
-    }
     let p = &object.phyxels;
     let n = p.len();
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); comps.count];
     for i in 0..n {
         members[comps.label[i] as usize].push(i);
     }
+    // Each piece's phyxels (rest = current) and backend, before anything is cut.
+    let piece_phyxels: Vec<Phyxels> = members
+        .iter()
+        .map(|idx| {
+            let mut phyxels = p.gather(idx);
+            phyxels.rest = phyxels.pos.clone();
+            phyxels
+        })
+        .collect();
+    let backends: Option<Vec<Box<dyn Dynamics>>> = piece_phyxels
+        .iter()
+        .map(|ph| object.dynamics.fragment(ph, &object.material))
+        .collect();
+    let Some(backends) = backends else {
+        return Err(Box::new(object));
+    };
     // Each surfel goes to the piece of its nearest phyxel (current positions).
     let grid = Grid::build(p.pos.iter(), object.max_influence.max(1e-6));
     let surfel_piece: Vec<u32> = (0..object.surfels.len())
@@ -100,9 +113,8 @@ pub fn split(
         crack_surfels: 0,
     };
     let mut pieces = Vec::with_capacity(comps.count);
-    for (c, idx) in members.iter().enumerate() {
-        let mut phyxels = p.gather(idx);
-        phyxels.rest = phyxels.pos.clone();
+    let pieces_in = members.iter().zip(piece_phyxels).zip(backends);
+    for (c, ((idx, phyxels), dynamics)) in pieces_in.enumerate() {
         let mut surfels = object.surfels.gather(&surfel_members[c]);
         surfels.rest = surfels.pos.clone();
         surfels.rest_normal = surfels.normal.clone();
@@ -110,8 +122,6 @@ pub fn split(
         let crack = crack_surfels(p, &comps.label, c as u32, idx, &surfels, &grid);
         event.crack_surfels += crack.len();
         let surfels = surfels.concat(&crack);
-        let dynamics = backends::create(&name, &phyxels, &object.material)
-            .expect("backend name checked above");
         let id = *next_id;
         *next_id += 1;
         let mass = phyxels.total_mass();

@@ -66,9 +66,12 @@ pub struct World {
     pub rest_renewals: u64,
     /// Id the next fragment gets.
     next_id: u32,
-    /// The first non-finite phyxel value the end-of-step check found (`None`: all
-    /// finite so far); see [`NonFinite`].
+    /// The first non-finite value the step's checks found (`None`: all finite so far);
+    /// see [`NonFinite`].
     pub non_finite: Option<NonFinite>,
+    /// Simulated time (s): the sum of the steps' `dt` (which may change between steps);
+    /// loads ramp up over it.
+    pub time: f64,
 }
 
 /// A summary: the objects (each as [`Object`]'s summary), the step, the pairs and
@@ -303,8 +306,16 @@ pub fn contact_stable_dt(contact_stiffness: f32, e_star: f32, density: f32, spac
 }
 
 impl World {
+    /// A world of `objects` under `gravity` (m/s²) stepped by `dt` (s), taken as given:
+    /// set it from [`World::stable_dt`] (its bound may be infinite, e.g. for static
+    /// objects only: then pick one). Object ids must be distinct and below `u32::MAX`
+    /// ([`World::step`] checks); fragments get ids above every id seen.
     pub fn new(objects: Vec<Object>, gravity: Vec3, dt: f32) -> Self {
-        let objects_next_id = objects.iter().map(|o| o.id + 1).max().unwrap_or(0);
+        let objects_next_id = objects
+            .iter()
+            .map(|o| o.id.saturating_add(1))
+            .max()
+            .unwrap_or(0);
         Self {
             objects,
             gravity,
@@ -330,6 +341,7 @@ impl World {
             rest_renewals: 0,
             next_id: objects_next_id,
             non_finite: None,
+            time: 0.0,
         }
     }
 
@@ -383,19 +395,11 @@ impl World {
     /// # Panics
     ///
     /// If `dt` is not a finite number > 0 (`World::new` takes it as given; `Scene::build`
-    /// also checks it against [`World::stable_dt`]), or if an object's surfel or phyxel
-    /// columns no longer have the counts it was built with ([`Object::check_counts`]).
+    /// also checks it against [`World::stable_dt`]), if an object's surfel or phyxel
+    /// columns no longer have the counts it was built with ([`Object::check_counts`]),
+    /// if its material is invalid ([`crate::Material::validate`]), or if two objects
+    /// share an id or one has the id `u32::MAX`. Each message names the object.
     pub fn step(&mut self) {
-        assert!(
-            self.dt.is_finite() && self.dt > 0.0,
-            "World::dt = {}: must be a finite number > 0",
-            self.dt
-        );
-        for o in &self.objects {
-            if let Err(e) = o.check_counts() {
-                panic!("World::step: {e}");
-            }
-        }
         self.step_until_topology();
         self.step_topology();
     }
@@ -404,6 +408,7 @@ impl World {
     /// [`World::step_topology`] it makes one [`World::step`] (split so that the state
     /// just before a split can be inspected).
     pub fn step_until_topology(&mut self) {
+        self.check_inputs();
         let mut t = std::mem::take(&mut self.times);
         self.arena.reset();
         t.time(Phase::Dynamics, || self.dynamics());
@@ -425,6 +430,43 @@ impl World {
         t.time(Phase::Distribute, || self.distribute());
         self.times = t;
         self.steps += 1;
+        self.time += self.dt as f64;
+    }
+
+    /// What the step relies on and the caller may have changed (the fields are public):
+    /// a finite dt > 0, distinct object ids below `u32::MAX` (the caches and fragments
+    /// key on them), valid materials, and columns of the counts each object was built
+    /// with. O(objects): a few comparisons per object and step.
+    fn check_inputs(&mut self) {
+        assert!(
+            self.dt.is_finite() && self.dt > 0.0,
+            "World::dt = {}: must be a finite number > 0",
+            self.dt
+        );
+        for (k, o) in self.objects.iter().enumerate() {
+            if let Err(e) = o.check_counts() {
+                panic!("World::step: {e}");
+            }
+            if let Err(e) = o.material.validate() {
+                panic!(
+                    "World::step: object '{}' (id {}): invalid material: {e}",
+                    o.name, o.id
+                );
+            }
+            assert!(
+                o.id != u32::MAX,
+                "World::step: object '{}': id u32::MAX is reserved",
+                o.name
+            );
+            if let Some(other) = self.objects[..k].iter().find(|p| p.id == o.id) {
+                panic!(
+                    "World::step: objects '{}' and '{}' share the id {}: ids must be distinct",
+                    other.name, o.name, o.id
+                );
+            }
+            // Objects added since `new`: fragments' ids stay above theirs.
+            self.next_id = self.next_id.max(o.id + 1);
+        }
     }
 
     /// The topology phase of the step: self-collision forces and fracture. Returns the
@@ -456,6 +498,7 @@ impl World {
     /// out of order, a phase works on whatever the last step left (e.g. `detect` on the
     /// last step's grids), and `dynamics` advances the phyxels.
     pub fn run_phase(&mut self, phase: Phase) {
+        self.check_inputs();
         self.arena.reset();
         match phase {
             Phase::Dynamics => self.dynamics(),
@@ -496,7 +539,7 @@ impl World {
     #[inline(never)] // a named frame in flamegraphs
     fn dynamics(&mut self) {
         let (dt, gravity) = (self.dt, self.gravity);
-        let t = self.steps as f32 * dt;
+        let t = self.time as f32;
         self.objects
             .par_iter_mut()
             .filter(|o| !o.is_static())
@@ -875,7 +918,8 @@ impl World {
         (work, splits)
     }
 
-    /// Total linear momentum of all objects (kg·m/s).
+    /// Total linear momentum of the moving objects (kg·m/s; static objects, which
+    /// take up any momentum without moving, are left out).
     pub fn momentum(&self) -> [f64; 3] {
         let mut p = [0.0; 3];
         for o in self.objects.iter().filter(|o| !o.is_static()) {

@@ -271,6 +271,58 @@ fn a_zero_surfel_radius_is_refused() {
     );
 }
 
+/// Two objects with one id would share the static caches and collide with fragment
+/// ids: `World::step` names both.
+#[test]
+#[should_panic(expected = "objects 'ball3' and 'ball3' share the id 3")]
+fn duplicate_object_ids_are_named() {
+    let mut world = World::new(
+        vec![spring_ball(3, Vec3::new(-0.5, 0.0, 0.0), Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    world.step();
+    world
+        .objects
+        .push(spring_ball(3, Vec3::new(0.5, 0.0, 0.0), Vec3::ZERO));
+    world.step();
+}
+
+/// A material made invalid after `Object::new` (the field is public) is refused by the
+/// next step, naming the object, rather than stepped with Young's modulus 0.
+#[test]
+#[should_panic(expected = "object 'ball0' (id 0): invalid material: young = 0")]
+fn a_material_made_invalid_later_is_named() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    world.objects[0].material.young = 0.0;
+    world.step();
+}
+
+/// `World::time` is the sum of the steps' dt, also when dt changes between steps (the
+/// load ramp reads it; `steps · dt` would not be the elapsed time).
+#[test]
+fn world_time_sums_the_steps() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    for dt in [1e-4f32, 5e-5, 2e-4] {
+        world.dt = dt;
+        world.step();
+    }
+    let want = 1e-4f32 as f64 + 5e-5f32 as f64 + 2e-4f32 as f64;
+    assert!(
+        (world.time - want).abs() < 1e-15,
+        "{} against {want}",
+        world.time
+    );
+}
+
 /// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` froze
 /// every object without a word).
 #[test]
@@ -499,4 +551,70 @@ fn world_debug_prints_a_summary() {
         "not a summary: {} characters",
         text.len()
     );
+}
+
+/// Springs that may break, with or without their own `fragment`.
+struct BreakingSprings {
+    springs: Springs,
+    own_fragment: bool,
+}
+
+impl Dynamics for BreakingSprings {
+    fn name(&self) -> &str {
+        "breaking-springs"
+    }
+
+    fn step(&mut self, p: &mut Phyxels, ctx: &StepContext<'_>) {
+        self.springs.step(p, ctx);
+    }
+
+    fn stable_dt(&self, p: &Phyxels, m: &Material) -> f32 {
+        self.springs.stable_dt(p, m)
+    }
+
+    fn can_fracture(&self, _m: &Material) -> bool {
+        true
+    }
+
+    fn fragment(&self, p: &Phyxels, _m: &Material) -> Option<Box<dyn Dynamics>> {
+        self.own_fragment.then(|| {
+            Box::new(BreakingSprings {
+                springs: Springs::new(p, 2000.0, 0.5),
+                own_fragment: true,
+            }) as Box<dyn Dynamics>
+        })
+    }
+}
+
+/// A user backend that may fracture splits through its own `Dynamics::fragment`: a ball
+/// torn in two (its x > 0 half moved 1 m away) becomes two objects driven by the user's
+/// backend, with the mass conserved; without an override (the default knows only the
+/// built-in names) it stays whole.
+#[test]
+fn a_user_backend_fractures_through_fragment() {
+    for own in [true, false] {
+        let mut ball = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+        ball.dynamics = Box::new(BreakingSprings {
+            springs: Springs::new(&ball.phyxels, 2000.0, 0.5),
+            own_fragment: own,
+        });
+        let mut world = World::new(vec![ball], Vec3::ZERO, 1e-4);
+        let mass = world.objects[0].phyxels.total_mass();
+        world.step();
+        let p = &mut world.objects[0].phyxels;
+        for i in 0..p.len() {
+            if p.pos.get(i).x > 0.0 {
+                p.pos.set(i, p.pos.get(i) + Vec3::X);
+            }
+        }
+        world.step();
+        let names: Vec<&str> = world.objects.iter().map(|o| o.dynamics.name()).collect();
+        if own {
+            assert_eq!(names, ["breaking-springs"; 2], "split into two pieces");
+            let after: f64 = world.objects.iter().map(|o| o.phyxels.total_mass()).sum();
+            assert!((after - mass).abs() < 1e-9 * mass, "mass {mass} -> {after}");
+        } else {
+            assert_eq!(names, ["breaking-springs"], "no fragment: kept whole");
+        }
+    }
 }
