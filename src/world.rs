@@ -294,13 +294,21 @@ pub const CONTACT_LAYER_SPACINGS: f32 = 2.5;
 /// Margin of the contact bound below the explicit limit (as the backends' own).
 const CONTACT_STABILITY_MARGIN: f32 = 0.8;
 
-/// Largest stable step (s) of the penalty spring `k = contact_stiffness · E*/h` per
-/// contact area acting on a layer of [`CONTACT_LAYER_SPACINGS`] spacings of mass
-/// (`ρ · 2.5 h` per area): `0.8 · 2/ω` with `ω² = k / (2.5 ρ h)`. With the default
-/// stiffness it is several times the elastic bound; it binds when `contact_stiffness`
-/// is raised by orders of magnitude (docs/SCENES.md, "Time step").
-pub fn contact_stable_dt(contact_stiffness: f32, e_star: f32, density: f32, spacing: f32) -> f32 {
-    let k = contact_stiffness * e_star / spacing;
+/// Largest stable step (s) of the penalty spring `k = contact_stiffness · E*/h_pair` per
+/// contact area (`h_pair`: the pair's finest moving phyxel spacing, as in
+/// [`contact_params`]) acting on a layer of [`CONTACT_LAYER_SPACINGS`] of the object's
+/// own spacings `h` of mass (`ρ · 2.5 h` per area): `0.8 · 2/ω` with
+/// `ω² = k / (2.5 ρ h)`. With the default stiffness it is several times the elastic
+/// bound; it binds when `contact_stiffness` is raised by orders of magnitude
+/// (docs/SCENES.md, "Time step").
+pub fn contact_stable_dt(
+    contact_stiffness: f32,
+    e_star: f32,
+    density: f32,
+    spacing: f32,
+    pair_spacing: f32,
+) -> f32 {
+    let k = contact_stiffness * e_star / pair_spacing;
     let omega = (k / (CONTACT_LAYER_SPACINGS * density * spacing)).sqrt();
     CONTACT_STABILITY_MARGIN * damped_euler_limit(omega, 0.0)
 }
@@ -350,7 +358,14 @@ impl World {
     /// ([`contact_stable_dt`]).
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
         // The stiffest partner any object could meet: the pair's E* and mean
-        // `contact_stiffness` are largest against it.
+        // `contact_stiffness` are largest against it, and the spring `κE*/h` takes the
+        // finest spacing of the pair's moving objects (`contact_params`).
+        let finest_moving = self
+            .objects
+            .iter()
+            .filter(|o| !o.is_static())
+            .map(|o| o.phyxel_spacing)
+            .fold(f32::INFINITY, f32::min);
         let partner = (self.objects.len() >= 2).then(|| {
             self.objects
                 .iter()
@@ -369,7 +384,8 @@ impl World {
                     Some((c, k)) if !o.is_static() => {
                         let e_star = 1.0 / (compliance(&o.material) + c);
                         let k = 0.5 * (o.material.contact_stiffness + k);
-                        contact_stable_dt(k, e_star, o.material.density, o.phyxel_spacing)
+                        let h = o.phyxel_spacing;
+                        contact_stable_dt(k, e_star, o.material.density, h, h.min(finest_moving))
                     }
                     _ => f32::INFINITY,
                 };

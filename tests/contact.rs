@@ -494,3 +494,34 @@ fn the_first_non_finite_step_is_reported() {
     }
     panic!("no blow-up in 200 steps at dt = 0.01 s");
 }
+
+/// The contact bound uses the spring the contact force uses: for a coarse, light
+/// sphere (twice the phyxel spacing, a tenth of the density) against the fine
+/// `two-spheres` sphere at 128 times the default contact stiffness, the world's stable
+/// dt is within `0.8 · 2/ω` (the bound's margin and the undamped explicit limit) for
+/// each sphere, with `ω² = k / (2.5 ρ h)` from the stiffness `k` that
+/// `world::contact_params` gives the pair (which takes the finer spacing) and the
+/// sphere's own layer of mass. Taking each sphere's own spacing for `k` put the coarse
+/// sphere's bound √2 too high.
+#[test]
+fn the_contact_bound_uses_the_pairs_spring() {
+    let mut scene = Scene::builtin("two-spheres").unwrap();
+    for o in &mut scene.objects {
+        o.material.contact_stiffness = 512.0;
+    }
+    scene.objects[1].spacing *= 2.0;
+    scene.objects[1].material.density /= 10.0;
+    let w = scene.build(&BuildOptions::default()).unwrap();
+    let (dt, _) = w.stable_dt();
+    let (a, b) = (&w.objects[0], &w.objects[1]);
+    let k = phyxel::world::contact_params(a, b, dt).stiffness;
+    for o in [a, b] {
+        let layer = phyxel::world::CONTACT_LAYER_SPACINGS * o.material.density * o.phyxel_spacing;
+        let limit = 0.8 * 2.0 / (k / layer).sqrt();
+        assert!(
+            dt <= limit * 1.0001,
+            "{}: stable dt {dt:.4e} s above the contact limit {limit:.4e} s",
+            o.name
+        );
+    }
+}
