@@ -57,13 +57,17 @@ impl Vec3s {
         self.len == 0
     }
 
+    /// Point `i` (`i < len`; the padding is not a point, and debug builds check).
     #[inline]
     pub fn get(&self, i: usize) -> Vec3 {
+        debug_assert!(i < self.len, "Vec3s::get({i}) of {} points", self.len);
         Vec3::new(self.x[i], self.y[i], self.z[i])
     }
 
+    /// Sets point `i` (`i < len`: the padding stays zero, and debug builds check).
     #[inline]
     pub fn set(&mut self, i: usize, v: Vec3) {
+        debug_assert!(i < self.len, "Vec3s::set({i}) of {} points", self.len);
         self.x[i] = v.x;
         self.y[i] = v.y;
         self.z[i] = v.z;

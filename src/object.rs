@@ -95,6 +95,10 @@ impl std::fmt::Debug for Object {
     }
 }
 
+/// Relative difference allowed between a phyxel's mass and `material.density` times
+/// its volume ([`Object::new`]): round-off of the product, not a second density.
+pub const MASS_DENSITY_TOLERANCE: f32 = 1e-4;
+
 impl Object {
     /// Assembles an object and binds its surfels to its phyxels.
     ///
@@ -107,8 +111,9 @@ impl Object {
     /// material that [`Material::validate`] refuses, with a non-finite phyxel or surfel
     /// position or surfel normal, with columns of the wrong length, or with a mass,
     /// volume, spacing, influence radius or disk radius that is not finite and > 0
-    /// ([`Phyxels::check`], [`Surfels::check`]): each would turn the world NaN, or
-    /// silently freeze or hide part of the object, far from the cause.
+    /// ([`Phyxels::check`], [`Surfels::check`]), or with phyxel masses that are not
+    /// `material.density` × volume (within [`MASS_DENSITY_TOLERANCE`]): each would turn
+    /// the world NaN, or silently freeze or hide part of the object, far from the cause.
     pub fn new(
         id: u32,
         name: impl Into<String>,
@@ -124,6 +129,22 @@ impl Object {
         }
         if let Err(e) = surfels.check(true) {
             panic!("Object::new '{name}': surfels.{e}");
+        }
+        // The backends' bounds and the contact constants read `material.density`, the
+        // forces the phyxel masses: they must describe the same body.
+        let rho = material.density;
+        if let Some(i) = (0..phyxels.len()).find(|&i| {
+            let want = rho * phyxels.volume[i];
+            (phyxels.mass[i] - want).abs() > MASS_DENSITY_TOLERANCE * want
+        }) {
+            panic!(
+                "Object::new '{name}': phyxel {i} has mass {} kg, but density × volume = {} × {} \
+                 = {} kg: build the phyxels with the material's density",
+                phyxels.mass[i],
+                rho,
+                phyxels.volume[i],
+                rho * phyxels.volume[i]
+            );
         }
         if let Err(e) = material.validate() {
             panic!("Object::new '{name}': invalid material: {e}");

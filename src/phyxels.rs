@@ -22,8 +22,11 @@ pub const SUPPORT_FACTOR: f32 = 2.0;
 /// phyxel set is fixed once it is bound to surfels (`Object::new`).
 #[derive(Clone, Debug, Default)]
 pub struct Phyxels {
+    /// Current positions (m), moved by the backend.
     pub pos: Vec3s,
+    /// Rest positions (m): the displacement `u = pos − rest` strains the material.
     pub rest: Vec3s,
+    /// Velocities (m/s).
     pub vel: Vec3s,
     /// External force for the next step (N).
     pub force: Vec3s,

@@ -6,10 +6,16 @@ use glam::Vec3;
 /// SoA columns of an object's surfels.
 #[derive(Clone, Debug, Default)]
 pub struct Surfels {
+    /// Current disk centres (m), written by the advection each step.
     pub pos: Vec3s,
+    /// Rest positions (m): the advection moves each surfel from here with its phyxels.
     pub rest: Vec3s,
+    /// Current unit normals (outward), written by the advection.
     pub normal: Vec3s,
+    /// Rest unit normals (outward).
     pub rest_normal: Vec3s,
+    /// Current velocities (m/s), written by the advection (friction and damping read
+    /// them).
     pub vel: Vec3s,
     /// Disk radius (m).
     pub radius: Vec<f32>,

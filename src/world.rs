@@ -18,6 +18,9 @@ use rayon::prelude::*;
 
 /// All objects of a scene and the state of the run.
 pub struct World {
+    /// The objects. They may be reordered, added or removed between steps (ids must stay
+    /// distinct: [`World::step`] checks); an object's columns keep the counts it was
+    /// built with ([`Object::check_counts`]).
     pub objects: Vec<Object>,
     /// Gravitational acceleration (m/s²).
     pub gravity: Vec3,

@@ -323,6 +323,25 @@ fn world_time_sums_the_steps() {
     );
 }
 
+/// Phyxels built with another density than the material's (the backends' bounds read
+/// the material, the forces the masses: SPH's bound came out about 30 times too large
+/// for a 1000-fold mismatch) are refused, naming the phyxel and both figures.
+#[test]
+#[should_panic(expected = "phyxel 0 has mass")]
+fn a_mass_that_is_not_density_times_volume_is_refused() {
+    let b = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    let vol = Shape::Sphere { radius: 0.1 }.sample_volume(0.025);
+    let light = Phyxels::at_rest(&vol.positions, vol.cell_volume, 1.0);
+    Object::new(
+        0,
+        "ball",
+        b.surfels.clone(),
+        light,
+        Material::default(),
+        Box::new(NoBound),
+    );
+}
+
 /// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` froze
 /// every object without a word).
 #[test]
