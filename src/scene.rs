@@ -364,6 +364,29 @@ impl Scene {
                     ));
                 }
             }
+            // f32 coordinates must resolve the object's finest spacing where it stands:
+            // far out they round distances to 0 (zero phyxel spacings) or motion away.
+            let coarse = o.spacing.max(0.0);
+            let fine = [
+                if coarse > 0.0 { coarse } else { size },
+                o.surfel_spacing.unwrap_or(f32::INFINITY),
+            ]
+            .into_iter()
+            .fold(f32::INFINITY, f32::min);
+            let reach = o.position.iter().fold(0.0f32, |m, c| m.max(c.abs())) + size;
+            let resolution = reach * f32::EPSILON;
+            if resolution > POSITION_RESOLUTION * fine {
+                return Err(err(
+                    &format!("{at}.position"),
+                    format!(
+                        "position = {:?}: too far from the origin for f32 coordinates: there \
+                         they resolve {resolution:.2e} m, more than 1/{} of the finest \
+                         spacing {fine} m; move the scene nearer the origin",
+                        o.position,
+                        (1.0 / POSITION_RESOLUTION).round()
+                    ),
+                ));
+            }
             if !o.is_static && !backends::NAMES.contains(&o.backend.as_str()) {
                 return Err(err(
                     &format!("{at}.backend"),
@@ -493,6 +516,12 @@ impl Scene {
         Ok(world)
     }
 }
+
+/// Finest f32 resolution allowed at an object's position, as a fraction of its finest
+/// spacing (`Scene::validate`): a millimetre-spaced object may stand up to about 10 m
+/// from the origin, a 4 cm-spaced one about 300 m. Further out, f32 rounded phyxel
+/// spacings to 0 and per-step motions away (a body at 50 km did not move at 1 m/s).
+pub const POSITION_RESOLUTION: f32 = 1e-3;
 
 /// Most phyxels one object may have: each costs about a kilobyte (neighbour lists, MLS
 /// matrices, grids), so this is some 5 GB, and a spacing typed a few orders of magnitude

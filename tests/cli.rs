@@ -562,6 +562,26 @@ fn error_numbers_beyond_f32() {
     );
 }
 
+/// An object so far from the origin that f32 coordinates there cannot resolve its
+/// spacing is refused, naming the position: at 10⁷ m the phyxel spacings rounded to 0
+/// (a panic), at 5·10⁴ m a body at 1 m/s did not move. 100 m out (f32 steps of 8 µm
+/// against a 25 mm spacing) still runs.
+#[test]
+fn error_position_too_far_for_f32() {
+    for far in ["5e4", "1e7"] {
+        expect_scene_error(
+            &format!("far-{far}"),
+            &format!("{SPHERE}position = [{far}, 0.0, 0.0]\n"),
+            &["objects[0].position", "too far from the origin", "0.025"],
+        );
+    }
+    let dir = TempPath::new("near");
+    std::fs::create_dir_all(&dir.0).unwrap();
+    let path = dir.0.join("near.toml");
+    std::fs::write(&path, format!("{SPHERE}position = [100.0, 0.0, 0.0]\n")).unwrap();
+    stdout_of(&["run", path.to_str().unwrap(), "--steps", "2"]);
+}
+
 /// Settings that would silently do nothing are errors: a fixed box that holds no phyxel
 /// (the body would be free), plastic flow parameters without a yield stress.
 #[test]
