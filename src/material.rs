@@ -88,6 +88,11 @@ impl Default for Material {
 /// Damping ratio of the fastest resolved mode under the default damping.
 pub const DEFAULT_DAMPING_RATIO: f32 = 0.1;
 
+/// Largest Young's modulus (Pa) a material may have: a thousand times diamond's. The
+/// backends' stiffness bounds square it with the inverse spacing, which overflowed f32
+/// at 1e37 Pa (the bound came out infinite and the run went NaN at its third step).
+pub const MAX_YOUNG: f32 = 1e15;
+
 /// Largest Coulomb coefficient accepted. Below the regularisation speed friction is a
 /// viscous force `μ F_n / v_slip`, integrated explicitly; at the default time step it
 /// gained energy from μ = 30 on in an oblique impact of two spheres (and went NaN at
@@ -181,6 +186,13 @@ impl Material {
         };
         positive("density", self.density)?;
         positive("young", self.young)?;
+        if self.young > MAX_YOUNG {
+            return Err(format!(
+                "young = {}: must be at most {MAX_YOUNG:e} Pa (a thousand times diamond's; \
+                 above it the stiffness bound overflows f32)",
+                self.young
+            ));
+        }
         if !(self.poisson > -1.0 && self.poisson < 0.5) {
             return Err(format!(
                 "poisson = {}: must lie strictly between -1 and 0.5",

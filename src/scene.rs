@@ -366,6 +366,8 @@ impl Scene {
             }
             // f32 coordinates must resolve the object's finest spacing where it stands:
             // far out they round distances to 0 (zero phyxel spacings) or motion away.
+            // (The offset only: a spacing too fine for the shape's own size is the
+            // sample-count limit's business.)
             let coarse = o.spacing.max(0.0);
             let fine = [
                 if coarse > 0.0 { coarse } else { size },
@@ -373,7 +375,7 @@ impl Scene {
             ]
             .into_iter()
             .fold(f32::INFINITY, f32::min);
-            let reach = o.position.iter().fold(0.0f32, |m, c| m.max(c.abs())) + size;
+            let reach = o.position.iter().fold(0.0f32, |m, c| m.max(c.abs()));
             let resolution = reach * f32::EPSILON;
             if resolution > POSITION_RESOLUTION * fine {
                 return Err(err(

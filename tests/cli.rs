@@ -637,6 +637,17 @@ fn error_friction_above_the_limit() {
     );
 }
 
+/// A Young's modulus above `material::MAX_YOUNG` is refused with the limit (at 1e37 Pa
+/// the stiffness bound overflowed: "no stable bound", then NaN at step 3).
+#[test]
+fn error_young_above_the_limit() {
+    expect_scene_error(
+        "young",
+        &format!("{SPHERE}material = {{ young = 1e37 }}\n"),
+        &["objects[0].material", "young = ", "at most 1e15"],
+    );
+}
+
 /// Keys that only act on moving objects are refused on a static one (naming the key)
 /// rather than ignored.
 #[test]
