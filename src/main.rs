@@ -87,6 +87,13 @@ enum Command {
         /// Print the run summaries as one JSON array on stdout (the `run --json` objects).
         #[arg(long)]
         json: bool,
+        /// Time step (s) for every run (default: the scene's, else 90% of each backend's
+        /// stable bound).
+        #[arg(long, allow_hyphen_values = true)]
+        dt: Option<f64>,
+        /// Run even when dt exceeds a backend's stable bound.
+        #[arg(long)]
+        allow_unstable: bool,
     },
     /// Render a surfel frame (PLY) to a PNG image.
     Render {
@@ -154,7 +161,15 @@ fn main() -> ExitCode {
             backends,
             steps,
             json,
-        } => compare(&scene, &backends, steps, json),
+            dt,
+            allow_unstable,
+        } => match dt.map(dt_option).transpose() {
+            Ok(dt) => compare(&scene, &backends, steps, json, (dt, allow_unstable)),
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Command::Render {
             frame,
             out,
@@ -524,7 +539,15 @@ fn step_bar(steps: u64, label: &str) -> ProgressBar {
 }
 
 /// `phyxel compare`: the scene once per backend, like `run --backend B`.
-fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitCode {
+/// Runs `arg` once per backend of `names`; `(dt, allow_unstable)` are `--dt` and
+/// `--allow-unstable`, as for `run`.
+fn compare(
+    arg: &str,
+    names: &[String],
+    steps: Option<u64>,
+    json: bool,
+    (dt, allow_unstable): (Option<f32>, bool),
+) -> ExitCode {
     for b in names {
         if !backends::NAMES.contains(&b.as_str()) {
             eprintln!(
@@ -553,6 +576,8 @@ fn compare(arg: &str, names: &[String], steps: Option<u64>, json: bool) -> ExitC
         let opts = RunOptions {
             build: BuildOptions {
                 backend: Some(b.clone()),
+                dt,
+                allow_unstable,
                 ..Default::default()
             },
             steps,

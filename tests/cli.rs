@@ -1179,3 +1179,40 @@ fn validate_case_selects_exactly_that_case() {
         }
     }
 }
+
+/// `compare --dt` runs every backend at that dt, and a dt above a backend's bound is
+/// refused with the bound's message (whose advice, `--dt` or `--allow-unstable`, compare
+/// now accepts); `--allow-unstable` runs it anyway.
+#[test]
+fn compare_takes_dt_and_allow_unstable() {
+    let v: Value = serde_json::from_str(&stdout_of(&[
+        "compare",
+        "two-spheres",
+        "--steps",
+        "2",
+        "--dt",
+        "2e-4",
+        "--json",
+    ]))
+    .expect("a JSON array");
+    let runs = v.as_array().unwrap();
+    assert_eq!(runs.len(), 3);
+    for r in runs {
+        assert_eq!(field(r, "dt").as_f64().map(|d| d as f32), Some(2e-4_f32));
+    }
+    expect_error(
+        &["compare", "two-spheres", "--steps", "2", "--dt", "0.01"],
+        &["stable bound", "--allow-unstable"],
+    );
+    stdout_of(&[
+        "compare",
+        "two-spheres",
+        "--steps",
+        "2",
+        "--dt",
+        "0.01",
+        "--allow-unstable",
+        "--backends",
+        "mls",
+    ]);
+}
