@@ -385,9 +385,15 @@ fn start_profiler(path: &Path) -> Result<(pprof::ProfilerGuard<'static>, std::fs
     Ok((guard, file))
 }
 
-fn write_flamegraph(guard: &pprof::ProfilerGuard<'_>, file: std::fs::File) -> Result<(), String> {
+/// Writes the flamegraph; `Ok(false)` when the profiler took no sample (a run shorter
+/// than its 1 ms period): there is no graph to draw, and an empty SVG is no picture.
+fn write_flamegraph(guard: &pprof::ProfilerGuard<'_>, file: std::fs::File) -> Result<bool, String> {
     let report = guard.report().build().map_err(|e| e.to_string())?;
-    report.flamegraph(file).map_err(|e| e.to_string())
+    if report.data.is_empty() {
+        return Ok(false);
+    }
+    report.flamegraph(file).map_err(|e| e.to_string())?;
+    Ok(true)
 }
 
 fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>) -> ExitCode {
@@ -420,11 +426,23 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         }
     });
     bar.finish_and_clear();
-    if let (Some((guard, file)), Some(path)) = (profiler, flamegraph)
-        && let Err(e) = write_flamegraph(&guard, file)
-    {
-        eprintln!("error: --flamegraph {}: {e}", path.display());
-        return ExitCode::FAILURE;
+    if let (Some((guard, file)), Some(path)) = (profiler, flamegraph) {
+        match write_flamegraph(&guard, file) {
+            Ok(true) => {}
+            Ok(false) => {
+                // The file was created up front (to fail early on a bad path).
+                let _ = std::fs::remove_file(path);
+                eprintln!(
+                    "warning: --flamegraph {}: no samples (the run was shorter than the \
+                     profiler's 1 ms period); no file written: run more --steps",
+                    path.display()
+                );
+            }
+            Err(e) => {
+                eprintln!("error: --flamegraph {}: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+        }
     }
     let (_, summary) = match result {
         Ok(r) => r,
