@@ -153,6 +153,13 @@ impl Material {
     /// [`Material::make_elastic`].
     pub fn plastic_keys_used(&self) -> Result<(), String> {
         if self.plastic_yield.is_finite() {
+            if self.plastic_creep == 0.0 {
+                return Err(format!(
+                    "plastic_yield = {} with plastic_creep = 0: no plastic flow (give \
+                     plastic_creep > 0, or leave plastic_yield out for an elastic material)",
+                    self.plastic_yield
+                ));
+            }
             return Ok(());
         }
         let given = [

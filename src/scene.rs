@@ -344,6 +344,12 @@ impl Scene {
                     format!("surfel_spacing = {s}: must be a finite number > 0"),
                 ));
             }
+            if o.load_ramp != 0.0 && o.load == [0.0; 3] && !o.is_static {
+                return Err(err(
+                    &format!("{at}.load_ramp"),
+                    format!("load_ramp = {}: has no effect without a load", o.load_ramp),
+                ));
+            }
             if !(o.load_ramp.is_finite() && o.load_ramp >= 0.0) {
                 return Err(err(
                     &format!("{at}.load_ramp"),
@@ -643,6 +649,16 @@ fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
     }
     if !o.fixed.is_empty() {
         return Err(("fixed", format!("{} fixed box(es): {idle}", o.fixed.len())));
+    }
+    // A static body never deforms: it can neither flow nor break.
+    if o.material.fracture {
+        return Err(("material", format!("fracture = true: {idle}")));
+    }
+    if o.material.plastic_yield.is_finite() {
+        return Err((
+            "material",
+            format!("plastic_yield = {}: {idle}", o.material.plastic_yield),
+        ));
     }
     Ok(())
 }

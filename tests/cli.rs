@@ -596,6 +596,20 @@ fn error_settings_without_effect() {
         &format!("{SPHERE}material = {{ plastic_creep = 5.0 }}\n"),
         &["objects[0].material", "plastic_creep = 5", "plastic_yield"],
     );
+    expect_scene_error(
+        "yield-no-creep",
+        &format!("{SPHERE}material = {{ plastic_yield = 0.1 }}\n"),
+        &[
+            "objects[0].material",
+            "plastic_yield = 0.1",
+            "plastic_creep = 0",
+        ],
+    );
+    expect_scene_error(
+        "ramp-no-load",
+        &format!("{SPHERE}load_ramp = 1.0\n"),
+        &["objects[0].load_ramp", "without a load"],
+    );
 }
 
 /// Bodies that start inside one another (phyxels more than a spacing deep) are refused,
@@ -648,8 +662,8 @@ fn error_young_above_the_limit() {
     );
 }
 
-/// Keys that only act on moving objects are refused on a static one (naming the key)
-/// rather than ignored.
+/// Keys that only act on moving objects (and materials that flow or break) are refused
+/// on a static one (naming the key) rather than ignored.
 #[test]
 fn error_moving_keys_on_static_object() {
     let plane = "[[objects]]\nshape = { type = \"plane\", size = [1.0, 1.0] }\n\
@@ -659,6 +673,11 @@ fn error_moving_keys_on_static_object() {
         ("backend", "backend = \"sph\""),
         ("load", "load = [0.0, -1.0, 0.0]"),
         ("self_collision", "self_collision = true"),
+        ("material", "material = { fracture = true }"),
+        (
+            "material",
+            "material = { plastic_yield = 0.1, plastic_creep = 1.0 }",
+        ),
     ] {
         expect_scene_error(
             &format!("static-{key}"),
