@@ -294,6 +294,14 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
 /// stiffest backend for contact (`lj`, `two-spheres`, dt 0.8 ms): stable at
 /// `contact_stiffness` 128, unstable at 256, which this layer puts at the bound.
 pub const CONTACT_LAYER_SPACINGS: f32 = 2.5;
+/// The layer, in spacings, that a body of `phyxels` phyxels can put behind its contact
+/// surface: [`CONTACT_LAYER_SPACINGS`], or the body's own thickness (about `n^(1/3)`
+/// spacings) when it is thinner. A one-phyxel body is one spacing thick: at the 2.5
+/// spacings' bound two such spheres left a collision with twice their energy.
+pub fn contact_layer(phyxels: usize) -> f32 {
+    CONTACT_LAYER_SPACINGS.min((phyxels.max(1) as f32).cbrt())
+}
+
 /// Margin of the contact bound below the explicit limit (as the backends' own).
 const CONTACT_STABILITY_MARGIN: f32 = 0.8;
 
@@ -310,9 +318,10 @@ pub fn contact_stable_dt(
     density: f32,
     spacing: f32,
     pair_spacing: f32,
+    phyxels: usize,
 ) -> f32 {
     let k = contact_stiffness * e_star / pair_spacing;
-    let omega = (k / (CONTACT_LAYER_SPACINGS * density * spacing)).sqrt();
+    let omega = (k / (contact_layer(phyxels) * density * spacing)).sqrt();
     CONTACT_STABILITY_MARGIN * damped_euler_limit(omega, 0.0)
 }
 
@@ -388,7 +397,8 @@ impl World {
                         let e_star = 1.0 / (compliance(&o.material) + c);
                         let k = 0.5 * (o.material.contact_stiffness + k);
                         let h = o.phyxel_spacing;
-                        contact_stable_dt(k, e_star, o.material.density, h, h.min(finest_moving))
+                        let (rho, n) = (o.material.density, o.phyxels.len());
+                        contact_stable_dt(k, e_star, rho, h, h.min(finest_moving), n)
                     }
                     _ => f32::INFINITY,
                 };
