@@ -154,11 +154,22 @@ pub fn read_frame(path: &Path) -> Result<Frame, String> {
         } else {
             Vec3::Z
         };
+        if !normal.is_finite() {
+            return Err(format!(
+                "{file}: element 'vertex' {i}: normal {normal} is not finite"
+            ));
+        }
         let radius = if e.contains_key("radius") {
             get("radius")?
         } else {
             0.0
         };
+        // 0 means "unknown" (the renderer picks one); negative or non-finite is no disk.
+        if !(radius.is_finite() && radius >= 0.0) {
+            return Err(format!(
+                "{file}: element 'vertex' {i}: radius {radius} must be finite and >= 0"
+            ));
+        }
         let object = integer(e.get("object")).unwrap_or(0) as i32;
         let contact = integer(e.get("contact")).unwrap_or(0).clamp(0, 255) as u8;
         frame.push(pos, normal, radius, object, contact);

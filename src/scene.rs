@@ -278,6 +278,16 @@ impl Scene {
         }
         for (k, o) in self.objects.iter().enumerate() {
             let at = format!("objects[{k}]");
+            // Messages, summaries and fragments name objects: two of one name would be
+            // ambiguous in all three.
+            if !o.name.is_empty()
+                && let Some(first) = self.objects[..k].iter().position(|p| p.name == o.name)
+            {
+                return Err(err(
+                    &format!("{at}.name"),
+                    format!("name = \"{}\": objects[{first}] has it too", o.name),
+                ));
+            }
             o.shape
                 .validate()
                 .map_err(|m| err(&format!("{at}.shape"), m))?;
@@ -324,6 +334,13 @@ impl Scene {
             }
             if o.phyxels.is_some() && o.spacing == 0.0 {
                 // The spacing follows from the count once the shape is sampled.
+            } else if o.spacing == 0.0 {
+                return Err(err(
+                    &format!("{at}.spacing"),
+                    "spacing = 0 (or missing): give a phyxel spacing > 0 (m) or a `phyxels` \
+                     count"
+                        .into(),
+                ));
             } else if !(o.spacing.is_finite() && o.spacing > 0.0) {
                 return Err(err(
                     &format!("{at}.spacing"),

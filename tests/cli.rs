@@ -486,13 +486,29 @@ fn error_poisson_out_of_range() {
     );
 }
 
-/// A zero phyxel spacing names the object, the field and the value.
+/// A zero phyxel spacing names the object, the field and the value; a missing one
+/// says what to give.
 #[test]
 fn error_zero_spacing() {
     expect_scene_error(
         "spacing",
         "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0\n",
         &["objects[0]", "spacing = 0"],
+    );
+    expect_scene_error(
+        "no-spacing",
+        "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\n",
+        &["objects[0].spacing", "missing", "`phyxels` count"],
+    );
+}
+
+/// Two objects of one name are refused (messages, summaries and fragments name them).
+#[test]
+fn error_duplicate_object_names() {
+    expect_scene_error(
+        "names",
+        &format!("{SPHERE}name = \"ball\"\n{SPHERE}name = \"ball\"\nposition = [1.0, 0.0, 0.0]\n"),
+        &["objects[1].name", "\"ball\"", "objects[0] has it too"],
     );
 }
 

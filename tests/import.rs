@@ -234,3 +234,46 @@ fn data_after_the_declared_elements_is_an_error() {
         "{err}"
     );
 }
+
+/// A frame vertex with a negative or infinite disk radius, or a NaN normal, is an error
+/// naming the file and the vertex (the renderer drew nothing for them, silently).
+#[test]
+fn bad_radius_or_normal_in_a_frame_is_an_error() {
+    let dir = TempDir::new("import", "radius");
+    for (name, normal, radius, want) in [
+        (
+            "neg",
+            glam::Vec3::Z,
+            -1.0,
+            "'vertex' 1: radius -1 must be finite and >= 0",
+        ),
+        (
+            "inf",
+            glam::Vec3::Z,
+            f32::INFINITY,
+            "'vertex' 1: radius inf must be",
+        ),
+        (
+            "nan-normal",
+            glam::Vec3::new(0.0, f32::NAN, 1.0),
+            0.1,
+            "'vertex' 1: normal",
+        ),
+    ] {
+        let mut f = Frame::default();
+        f.push(glam::Vec3::ZERO, glam::Vec3::Z, 0.1, 0, 0);
+        f.push(glam::Vec3::X, normal, radius, 0, 0);
+        let p = dir.0.join(format!("{name}.ply"));
+        f.write_ply(&p).unwrap();
+        let err = read_frame(&p).unwrap_err();
+        assert!(
+            err.contains(&format!("{name}.ply")) && err.contains(want),
+            "{err}"
+        );
+    }
+    let mut f = Frame::default();
+    f.push(glam::Vec3::ZERO, glam::Vec3::Z, 0.0, 0, 0);
+    let p = dir.0.join("zero.ply");
+    f.write_ply(&p).unwrap();
+    assert_eq!(read_frame(&p).unwrap().len(), 1, "radius 0 means unknown");
+}
