@@ -132,11 +132,7 @@ impl Vec3s {
 
     /// True when every coordinate is finite.
     pub fn all_finite(&self) -> bool {
-        self.x
-            .iter()
-            .chain(&self.y)
-            .chain(&self.z)
-            .all(|v| v.is_finite())
+        self.first_non_finite().is_none()
     }
 
     /// The first point with a non-finite coordinate, if any. The scan ANDs whole
