@@ -391,13 +391,8 @@ impl Scene {
             // far out they round distances to 0 (zero phyxel spacings) or motion away.
             // (The offset only: a spacing too fine for the shape's own size is the
             // sample-count limit's business.)
-            let coarse = o.spacing.max(0.0);
-            let fine = [
-                if coarse > 0.0 { coarse } else { size },
-                o.surfel_spacing.unwrap_or(f32::INFINITY),
-            ]
-            .into_iter()
-            .fold(f32::INFINITY, f32::min);
+            let phyxel_spacing = if o.spacing > 0.0 { o.spacing } else { size };
+            let fine = phyxel_spacing.min(o.surfel_spacing.unwrap_or(f32::INFINITY));
             let reach = o.position.iter().fold(0.0f32, |m, c| m.max(c.abs()));
             let resolution = reach * f32::EPSILON;
             if resolution > POSITION_RESOLUTION * fine {
