@@ -324,7 +324,18 @@ fn render_frame(
             fov: fov.unwrap_or(base.fov),
             ..base
         };
-        cam.validate().map_err(|e| format!("camera: {e}"))?;
+        // Say where the camera came from: a fitted one is only as good as the frame's
+        // bounds (a coordinate near f32's limit overflows the fit).
+        let source = match (
+            eye.is_some() || target.is_some() || fov.is_some(),
+            scene,
+            opts.camera,
+        ) {
+            (true, _, _) => "the options' camera".to_string(),
+            (false, Some(s), Some(_)) => format!("the camera of scene {s}"),
+            _ => format!("the camera fitted to {}'s bounds", frame.display()),
+        };
+        cam.validate().map_err(|e| format!("{source}: {e}"))?;
         opts.camera = Some(cam);
         render(&surface, &opts).write_png(out)?;
         Ok(format!(

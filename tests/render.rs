@@ -314,3 +314,23 @@ fn scene_camera_is_used_and_checked() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("camera") && err.contains("fov = 500"), "{err}");
 }
+
+/// A frame whose bounds overflow the fitted camera (a coordinate near f32's limit) is
+/// refused naming the frame the camera was fitted to, not an anonymous "camera".
+#[test]
+fn an_unfittable_frame_is_named() {
+    let dir = TempDir::new("render", "huge");
+    let mut f = Frame::default();
+    f.push(Vec3::ZERO, Vec3::Z, 0.1, 0, 0);
+    f.push(Vec3::new(1e38, 0.0, 0.0), Vec3::Z, 0.1, 0, 0);
+    let ply = dir.0.join("huge.ply");
+    f.write_ply(&ply).unwrap();
+    let png = dir.0.join("huge.png");
+    let o = phyxel(&["render", ply.to_str().unwrap(), "-o", png.to_str().unwrap()]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("camera fitted to") && err.contains("huge.ply") && err.contains("finite"),
+        "{err}"
+    );
+}
