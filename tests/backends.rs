@@ -277,8 +277,8 @@ backend = "sph"
 /// A fast impact (10 m/s) of a Lennard-Jones ball (R = 0.1 m, E = 100 kPa) on a rigid
 /// plane breaks bonds past the cutoff; the topology phase then splits the ball: more than
 /// one object besides the ground after 0.1 s. (Measured without the topology phase, by
-/// wrapping the backend: 87% of the 1,932 bonds break by 0.1 s at 10 m/s, 12% at 4 m/s,
-/// 6 bonds at 2 m/s.)
+/// wrapping the backend: 51% of the 1,932 bonds break by 0.1 s at 10 m/s, 16% at 4 m/s,
+/// 26 bonds at 2 m/s; docs/BACKENDS.md.)
 #[test]
 fn fast_lj_impact_breaks_the_ball() {
     let mut scene = coarse("sphere-on-plane", 0.01);
