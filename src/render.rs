@@ -272,9 +272,55 @@ pub fn camera_for(frame: &Frame, opts: &RenderOptions) -> Camera {
         let (lo, hi) = frame
             .bounds()
             .unwrap_or((Vec3::splat(-1.0), Vec3::splat(1.0)));
-        Camera::fit(lo, hi, opts.width, opts.height)
+        // The discs stick out of the centres' box: fitting the box alone would put the
+        // eye inside the disc of a single point (a blank image).
+        let fallback = fallback_radius(frame);
+        let pad = (0..frame.len())
+            .filter(|&i| frame.pos[i].is_finite())
+            .map(|i| disc_radius(frame, i, fallback))
+            .fold(0.0f32, f32::max)
+            * opts.splat_scale;
+        Camera::fit(
+            lo - Vec3::splat(pad),
+            hi + Vec3::splat(pad),
+            opts.width,
+            opts.height,
+        )
     })
 }
+
+/// Disc radius used for points whose frame gives none (m): the frame box's surface area
+/// per point; for collinear points the box's diagonal per point, for coincident points
+/// [`DEFAULT_RADIUS`].
+fn fallback_radius(frame: &Frame) -> f32 {
+    let Some((lo, hi)) = frame.bounds() else {
+        return DEFAULT_RADIUS;
+    };
+    let d = hi - lo;
+    let n = frame.len().max(1) as f32;
+    let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
+    let r = (area / n).sqrt() * 0.7;
+    let r = if r > 0.0 { r } else { d.length() / n };
+    if r > 0.0 && r.is_finite() {
+        r
+    } else {
+        DEFAULT_RADIUS
+    }
+}
+
+/// Radius of point `i`'s disc before [`RenderOptions::splat_scale`]: its own radius if
+/// finite and > 0, else `fallback`.
+fn disc_radius(frame: &Frame, i: usize, fallback: f32) -> f32 {
+    let r = frame.radius[i];
+    if r > 0.0 && r.is_finite() {
+        r
+    } else {
+        fallback
+    }
+}
+
+/// Disc radius of points without one in a frame whose points all coincide (m).
+pub const DEFAULT_RADIUS: f32 = 0.01;
 
 /// Renders `frame` as splats.
 pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
@@ -290,24 +336,10 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
     let mut ov_depth = depth.clone();
     // Key light from the upper left of the viewer, fill from the camera.
     let key = (-0.45 * right + 0.8 * up - 0.5 * fwd).normalize();
-    // Radius for frames without one: from the bounds and the count.
-    let fallback = frame
-        .bounds()
-        .map(|(lo, hi)| {
-            let d = hi - lo;
-            let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
-            (area / frame.len().max(1) as f32).sqrt() * 0.7
-        })
-        .unwrap_or(0.01)
-        .max(1e-6);
+    let fallback = fallback_radius(frame);
     for i in 0..frame.len() {
         let p = frame.pos[i];
-        let r0 = if frame.radius[i] > 0.0 && frame.radius[i].is_finite() {
-            frame.radius[i]
-        } else {
-            fallback
-        };
-        let r = r0 * opts.splat_scale;
+        let r = disc_radius(frame, i, fallback) * opts.splat_scale;
         let q = p - eye;
         let z = q.dot(fwd);
         if z <= r || !p.is_finite() {

@@ -334,3 +334,48 @@ fn an_unfittable_frame_is_named() {
         "{err}"
     );
 }
+
+/// Degenerate frames still show their points with the fitted camera: one point (its
+/// own radius, or none), coincident points and collinear points without radii. The
+/// centre pixel is drawn and the corners are background. (The camera used to be fitted
+/// to the points' box alone: for one point the eye sat inside its disc, a blank image;
+/// points without radius in a flat box got 1 µm discs.)
+#[test]
+fn degenerate_frames_are_drawn() {
+    let one = |r: f32| {
+        let mut f = Frame::default();
+        f.push(Vec3::new(0.3, -0.2, 1.0), Vec3::Z, r, 0, 0);
+        f
+    };
+    let mut coincident = Frame::default();
+    let mut collinear = Frame::default();
+    for i in 0..5 {
+        coincident.push(Vec3::ONE, Vec3::Y, 0.0, 0, 0);
+        collinear.push(Vec3::new(0.1 * i as f32, 0.0, 0.0), Vec3::ZERO, 0.0, 0, 0);
+    }
+    let opts = RenderOptions {
+        width: 80,
+        height: 60,
+        ..Default::default()
+    };
+    for (name, frame) in [
+        ("one point", one(0.05)),
+        ("one point without radius", one(0.0)),
+        ("coincident points", coincident),
+        ("collinear points", collinear),
+    ] {
+        let img = render(&frame, &opts);
+        let cam = phyxel::render::camera_for(&frame, &opts);
+        let (x, y, _) = cam
+            .project(centre(&frame), img.width, img.height)
+            .unwrap_or_else(|| panic!("{name}: centre behind the camera"));
+        assert_ne!(
+            img.pixel(x as u32, y as u32),
+            BACKGROUND,
+            "{name}: centre pixel ({x}, {y}) is background"
+        );
+        for (cx, cy) in [(0, 0), (img.width - 1, img.height - 1)] {
+            assert_eq!(img.pixel(cx, cy), BACKGROUND, "{name}: corner ({cx}, {cy})");
+        }
+    }
+}
