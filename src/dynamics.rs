@@ -92,7 +92,9 @@ pub trait Dynamics: Send + Sync {
     }
 
     /// Called after the object replaced `phyxels.rest` by the current positions: rebuild
-    /// whatever depends on the rest state (stencil, plastic strain). Default: nothing.
+    /// whatever depends on the rest state (stencil, plastic strain, and what
+    /// [`Dynamics::stable_dt`] reads: the world then lowers its dt if the bound fell).
+    /// Default: nothing.
     fn rest_replaced(&mut self, _phyxels: &Phyxels, _material: &Material) {}
 
     /// True for backends that never move their phyxels (ground planes, fixed obstacles):

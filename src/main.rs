@@ -470,6 +470,7 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
     } else {
         print_table(&summary);
     }
+    note_dt_changes("", &summary);
     if summary.finite {
         ExitCode::SUCCESS
     } else {
@@ -481,6 +482,26 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         }
         ExitCode::FAILURE
     }
+}
+
+/// Tells on stderr that the run lowered its dt (`dt_changes`): the first change, and
+/// how many there were in all.
+fn note_dt_changes(prefix: &str, s: &RunSummary) {
+    let Some(first) = s.dt_changes.first() else {
+        return;
+    };
+    eprintln!("note: {prefix}{first}");
+    if s.dt_changes.len() > 1 {
+        eprintln!(
+            "note: {prefix}dt was lowered {} times in all, to {:.3e} s",
+            s.dt_changes.len(),
+            s.dt
+        );
+    }
+    eprintln!(
+        "note: {prefix}the {} steps cover {:.4e} s of simulated time",
+        s.steps, s.time
+    );
 }
 
 fn print_table(s: &RunSummary) {
@@ -640,6 +661,9 @@ fn compare(
         .filter(|s| !s.finite)
         .map(|s| s.backend.as_str())
         .collect();
+    for s in &summaries {
+        note_dt_changes(&format!("backend {}: ", s.backend), s);
+    }
     for e in summaries.iter().filter_map(|s| s.non_finite.as_ref()) {
         eprintln!("error: {e}; that run stopped there");
     }

@@ -533,6 +533,7 @@ impl Scene {
             None => 1.0e-3,
         };
         world.dt = dt;
+        world.keep_stable = !opts.allow_unstable;
         Ok(world)
     }
 }

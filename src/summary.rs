@@ -55,8 +55,13 @@ pub struct RunSummary {
     /// The backend of the deformable objects ("mixed" when they differ).
     pub backend: String,
     pub steps: u64,
-    /// s
+    /// The last step's dt (s): the scene's, unless `dt_changes` lowered it.
     pub dt: f32,
+    /// Simulated time (s): the sum of the steps' dt.
+    pub time: f64,
+    /// Each lowering of dt after a rest renewal or a fracture made an object stiffer
+    /// ([`crate::world::DtChange`]; none with `--allow-unstable`).
+    pub dt_changes: Vec<crate::world::DtChange>,
     /// Largest stable dt over the objects (s).
     pub stable_dt: f32,
     pub objects: usize,
@@ -213,6 +218,8 @@ pub fn summarize(
         backend,
         steps,
         dt: world.dt,
+        time: world.time,
+        dt_changes: world.dt_changes.clone(),
         stable_dt: world.stable_dt().0,
         objects: world.objects.len(),
         surfels: world.objects.iter().map(|o| o.surfels.len()).sum(),

@@ -67,6 +67,8 @@ pub struct World {
     pub splits: Vec<SplitEvent>,
     /// Rest configurations renewed by plastic flow so far (all objects).
     pub rest_renewals: u64,
+    /// `rest_renewals` at the last end of step (to notice a renewal in this step).
+    renewals_seen: u64,
     /// Id the next fragment gets.
     next_id: u32,
     /// The first non-finite value the step's checks found (`None`: all finite so far);
@@ -75,7 +77,46 @@ pub struct World {
     /// Simulated time (s): the sum of the steps' `dt` (which may change between steps);
     /// loads ramp up over it.
     pub time: f64,
+    /// Keep `dt` within the stable bound when the topology changes: after a step that
+    /// renewed a rest shape or split an object, the bound is recomputed and, if it fell
+    /// below `dt`, `dt` is lowered to 90% of it ([`DtChange`]). Default `true`;
+    /// `Scene::build` sets it to `false` with `allow_unstable`.
+    pub keep_stable: bool,
+    /// Every lowering of `dt` so far, in order.
+    pub dt_changes: Vec<DtChange>,
 }
+
+/// `dt` lowered after a change of topology ([`World::keep_stable`]): a rest shape
+/// renewed by plastic flow, or a fragment, can be much stiffer than the body the run
+/// started with (a compressed, torn MLS rest stencil raised `ω_max` sevenfold), and an
+/// explicit step above its bound gains energy without bound, often with no NaN.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct DtChange {
+    /// Step after which `dt` changed (1-based, as [`World::steps`]).
+    pub step: u64,
+    /// The old and the new `dt` (s).
+    pub from: f32,
+    pub to: f32,
+    /// The new stable bound (s), and the object that sets it.
+    pub bound: f32,
+    pub object: String,
+    pub object_id: u32,
+}
+
+impl std::fmt::Display for DtChange {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "step {}: dt lowered from {:.3e} to {:.3e} s: the stable bound of object '{}' \
+             (id {}) fell to {:.3e} s after a rest renewal or a fracture",
+            self.step, self.from, self.to, self.object, self.object_id, self.bound
+        )
+    }
+}
+
+/// Fraction of the stable bound `dt` is lowered to ([`World::keep_stable`]): the
+/// default dt's margin (`Scene::build`).
+pub const DT_FRACTION: f32 = 0.9;
 
 /// A summary: the objects (each as [`Object`]'s summary), the step, the pairs and
 /// contacts of the last step; not the caches and scratch.
@@ -359,9 +400,12 @@ impl World {
             distribute_scratch: Vec::new(),
             splits: Vec::new(),
             rest_renewals: 0,
+            renewals_seen: 0,
             next_id: objects_next_id,
             non_finite: None,
             time: 0.0,
+            keep_stable: true,
+            dt_changes: Vec::new(),
         }
     }
 
@@ -509,7 +553,35 @@ impl World {
         if self.non_finite.is_none() {
             self.non_finite = self.find_non_finite();
         }
+        let renewed = self.rest_renewals != self.renewals_seen;
+        self.renewals_seen = self.rest_renewals;
+        if self.keep_stable && (splits > 0 || renewed) {
+            self.keep_dt_stable();
+        }
         splits
+    }
+
+    /// Lowers `dt` to [`DT_FRACTION`] of the stable bound if it has fallen below `dt`
+    /// ([`World::keep_stable`]). A bound that is not a number > 0 is left to the
+    /// finiteness checks.
+    fn keep_dt_stable(&mut self) {
+        let (bound, limiter) = self.stable_dt();
+        let Some(o) = limiter else {
+            return;
+        };
+        if !(bound > 0.0 && bound < self.dt) {
+            return;
+        }
+        let change = DtChange {
+            step: self.steps,
+            from: self.dt,
+            to: DT_FRACTION * bound,
+            bound,
+            object: o.name.clone(),
+            object_id: o.id,
+        };
+        self.dt = change.to;
+        self.dt_changes.push(change);
     }
 
     /// The first moving object's first non-finite phyxel value (the end-of-step

@@ -1251,3 +1251,58 @@ fn compare_takes_dt_and_allow_unstable() {
         "mls",
     ]);
 }
+
+/// When plastic flow renews a rest shape that is stiffer than the body's start (two
+/// plastic, breakable spheres crushed at ±5 m/s; `tests/plasticity.rs` checks the
+/// energy), `run` lowers dt below the new bound and says so: `dt_changes` lists each
+/// lowering (step, from, to, bound, object), `dt` is the last one's `to`, `time` sums the
+/// steps' dt, and stderr notes it. `--allow-unstable` keeps the dt as given.
+#[test]
+fn a_stiffer_rest_shape_lowers_dt_and_says_so() {
+    let sphere = |name: &str, x: f32, v: f32| {
+        format!(
+            "[[objects]]\nname = \"{name}\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\n\
+             spacing = 0.025\nposition = [{x}, 0.0, 0.0]\nvelocity = [{v}, 0.0, 0.0]\n\
+             material = {{ young = 1e5, plastic_yield = 0.01, plastic_creep = 200.0, \
+             plastic_max = 0.3, fracture = true }}\n"
+        )
+    };
+    let scene = TempPath::scene(
+        "crush",
+        &format!(
+            "name = \"crush\"\ngravity = [0.0, 0.0, 0.0]\n{}{}",
+            sphere("left", -0.11, 5.0),
+            sphere("right", 0.11, -5.0)
+        ),
+    );
+    let file = scene.arg();
+    let out = phyxel(&["run", file, "--steps", "40", "--json"]);
+    let stderr = text(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let changes = field(&v, "dt_changes").as_array().unwrap();
+    assert!(!changes.is_empty(), "no dt change: {v:#}");
+    let mut dt0 = None;
+    for c in changes {
+        let (from, to, bound) = (
+            field(c, "from").as_f64().unwrap(),
+            field(c, "to").as_f64().unwrap(),
+            field(c, "bound").as_f64().unwrap(),
+        );
+        dt0.get_or_insert(from);
+        assert!(to < bound && bound < from, "{c}");
+        assert!(field(c, "step").as_u64().unwrap() <= 40, "{c}");
+        assert!(field(c, "object").as_str().is_some(), "{c}");
+    }
+    let last = field(changes.last().unwrap(), "to").as_f64().unwrap();
+    assert_eq!(field(&v, "dt").as_f64().unwrap(), last);
+    let time = field(&v, "time").as_f64().unwrap();
+    assert!(
+        time < 40.0 * dt0.unwrap() && time > 40.0 * last,
+        "time {time}"
+    );
+    assert!(stderr.contains("dt lowered from"), "{stderr}");
+    let out = phyxel(&["run", file, "--steps", "40", "--json", "--allow-unstable"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(field(&v, "dt_changes").as_array().map(Vec::len), Some(0));
+}

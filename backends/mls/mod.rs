@@ -81,7 +81,7 @@ impl MlsDynamics {
         let stencil = fracture_stencil(phyxels, material);
         let (in_off, incoming) = incoming_of(&stencil);
         let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
-        Self {
+        let mut mls = Self {
             stress_rows: vec![[0.0; 16]; lanes.padded()],
             state: Vec::new(),
             lanes,
@@ -107,14 +107,15 @@ impl MlsDynamics {
                 .iter()
                 .fold(f32::INFINITY, |a, &b| a.min(b)),
             omega2_max: 0.0,
-        }
-        .with_stiffness_rate(phyxels, material)
+        };
+        mls.omega2_max = mls.stiffness_rate(phyxels, material);
+        mls
     }
 
     /// Largest squared angular frequency `ω²_max` (1/s²) of the small-strain
     /// problem `K v = ω² M v`, by power iteration with the
     /// Rayleigh quotient; fixed phyxels are held at zero.
-    fn with_stiffness_rate(mut self, phyxels: &Phyxels, material: &Material) -> Self {
+    fn stiffness_rate(&self, phyxels: &Phyxels, material: &Material) -> f32 {
         let n = self.stencil.len();
         let free = |j: usize| phyxels.fixed[j] == 0 && phyxels.mass[j] > 0.0;
         // A deterministic, rough start vector excites the high modes.
@@ -156,8 +157,7 @@ impl MlsDynamics {
             }
             v.iter_mut().for_each(|x| *x /= norm);
         }
-        self.omega2_max = rate;
-        self
+        rate
     }
 
     /// `K v`: the stiffness of the material's law linearised about the rest state
@@ -591,6 +591,9 @@ impl Dynamics for MlsDynamics {
         self.grad.iter_mut().for_each(|g| *g = Mat3::ZERO);
         self.new_rest = false;
         self.rest_updates += 1;
+        // The new stencil has its own highest frequency (a torn or compressed rest
+        // shape can be much stiffer): the stable bound must follow it.
+        self.omega2_max = self.stiffness_rate(phyxels, material);
     }
 
     fn diagnostics(&self, phyxels: &Phyxels, material: &Material) -> Diagnostics {
