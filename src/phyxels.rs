@@ -40,6 +40,12 @@ pub struct Phyxels {
     pub radius: Vec<f32>,
     /// Anchored phyxels (1) are never moved.
     pub fixed: Vec<u8>,
+    /// What the last position update lost to f32 rounding (m), added to the next one
+    /// (compensated summation): a step's motion can be far below a position's ulp (a
+    /// stiff body's small stable dt, or a body far from the origin), and plain `x + v·dt`
+    /// then moved it too little or not at all. Zero at rest; setting `pos` by hand may
+    /// leave it as it is (it is below half an ulp).
+    pub pos_carry: Vec3s,
 }
 
 impl Phyxels {
@@ -57,6 +63,7 @@ impl Phyxels {
                 ("rest", &self.rest),
                 ("vel", &self.vel),
                 ("force", &self.force),
+                ("pos_carry", &self.pos_carry),
             ],
             &[
                 ("mass", self.mass.len()),
@@ -96,6 +103,7 @@ impl Phyxels {
             spacing: scalar_column(spacing.into_iter()),
             radius,
             fixed: vec![0; crate::columns::padded_len(n)],
+            pos_carry: Vec3s::zeros(n),
         }
     }
 
@@ -114,6 +122,7 @@ impl Phyxels {
             spacing: col(&self.spacing),
             radius: col(&self.radius),
             fixed,
+            pos_carry: self.pos_carry.gather(idx),
         }
     }
 

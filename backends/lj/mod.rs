@@ -156,7 +156,7 @@ impl LjDynamics {
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material) {
         let n = phyxels.len();
         let tau = self.tau(material);
-        let (pos, vel) = (&phyxels.pos, &phyxels.vel);
+        let (pos, vel, carry) = (&phyxels.pos, &phyxels.vel, &phyxels.pos_carry);
         let (off, nbr, r0s, ks) = (&self.off, &self.nbr, &self.rest_length, &self.stiffness);
         // Each row writes only its own entries of `broken` (atomics: no per-step split).
         let broken = &self.broken;
@@ -167,11 +167,13 @@ impl LjDynamics {
             .zip(z[..n].par_iter_mut())
             .enumerate()
             .map(|(i, ((fx, fy), fz))| {
-                let (xi, vi) = (pos.get(i), vel.get(i));
+                let (xi, vi, ci) = (pos.get(i), vel.get(i), carry.get(i));
                 let (mut f, mut e, mut strain) = (Vec3::ZERO, 0.0f64, 0.0f32);
                 for kk in off[i] as usize..off[i + 1] as usize {
                     let j = nbr[kk] as usize;
-                    let d = xi - pos.get(j);
+                    // With the position sums' carries: rounding of positions far from
+                    // the origin would otherwise strain stiff bonds (`Phyxels::pos_carry`).
+                    let d = (xi - pos.get(j)) + (ci - carry.get(j));
                     let r = d.length();
                     let r0 = r0s[kk];
                     let mut br = broken[kk].load(Relaxed);

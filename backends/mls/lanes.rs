@@ -410,10 +410,19 @@ impl Law {
 }
 
 /// Packs the stress pass's state rows `[u, v, 0, 0]` of every phyxel, eight at a time
-/// (lane loads of the columns, one lane transpose): `u = pos − rest`, and `v = vel`
-/// when `vel` is given (zero otherwise). `state` has [`LaneStencil::padded`] rows; the
-/// columns' zero padding gives zero rows past the last phyxel.
-pub fn pack_state(pos: &Vec3s, rest: &Vec3s, vel: Option<&Vec3s>, state: &mut [[f32; 8]]) {
+/// (lane loads of the columns, one lane transpose): `u = (pos − rest) + carry` (`pos −
+/// rest` is exact, the two being close; `carry` is the motion the compensated position
+/// sum could not store in `pos`, `Phyxels::pos_carry`: without it a stiff body far from
+/// the origin strains by its positions' rounding), and `v = vel` when `vel` is given
+/// (zero otherwise). `state` has [`LaneStencil::padded`] rows; the columns' zero padding
+/// gives zero rows past the last phyxel.
+pub fn pack_state(
+    pos: &Vec3s,
+    rest: &Vec3s,
+    carry: &Vec3s,
+    vel: Option<&Vec3s>,
+    state: &mut [[f32; 8]],
+) {
     use rayon::prelude::*;
     state
         .par_chunks_mut(LANES)
@@ -421,13 +430,13 @@ pub fn pack_state(pos: &Vec3s, rest: &Vec3s, vel: Option<&Vec3s>, state: &mut [[
         .with_min_len(GROUP_GRAIN)
         .for_each(|(g, rows)| {
             let at = g * LANES;
-            let u = |c: &[f32], r: &[f32]| load8(c, at) - load8(r, at);
+            let u = |c: &[f32], r: &[f32], k: &[f32]| (load8(c, at) - load8(r, at)) + load8(k, at);
             let v = |axis: fn(&Vec3s) -> &[f32]| vel.map_or(f32x8::ZERO, |v| load8(axis(v), at));
             let z = f32x8::ZERO;
             let t = f32x8::transpose([
-                u(&pos.x, &rest.x),
-                u(&pos.y, &rest.y),
-                u(&pos.z, &rest.z),
+                u(&pos.x, &rest.x, &carry.x),
+                u(&pos.y, &rest.y, &carry.y),
+                u(&pos.z, &rest.z, &carry.z),
                 v(|v| &v.x),
                 v(|v| &v.y),
                 v(|v| &v.z),

@@ -213,7 +213,8 @@ impl MlsDynamics {
         let law = Law::new(material, dt, self.tau(material));
         self.state.resize(self.lanes.padded(), [0.0; 8]);
         let vel = (law.tau > 0.0).then_some(&phyxels.vel);
-        lanes::pack_state(&phyxels.pos, &phyxels.rest, vel, &mut self.state);
+        let p = phyxels;
+        lanes::pack_state(&p.pos, &p.rest, &p.pos_carry, vel, &mut self.state);
         self.stress_rows.resize(self.lanes.padded(), [0.0; 16]);
         let input = LaneInputs {
             law,
@@ -239,7 +240,10 @@ impl MlsDynamics {
         self.disp
             .par_iter_mut()
             .enumerate()
-            .for_each(|(i, u)| *u = phyxels.pos.get(i) - phyxels.rest.get(i));
+            // As `lanes::pack_state`: exact `pos − rest`, plus the position sum's carry.
+            .for_each(|(i, u)| {
+                *u = (phyxels.pos.get(i) - phyxels.rest.get(i)) + phyxels.pos_carry.get(i)
+            });
         let law = Law::new(material, dt, self.tau(material));
         if law.tau > 0.0 {
             self.vel.resize(n, Vec3::ZERO);

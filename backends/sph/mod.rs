@@ -327,6 +327,7 @@ impl SphDynamics {
         let tau = self.tau(material);
         let elastic = self.options.elasticity;
         let pos = &phyxels.pos;
+        let carry = &phyxels.pos_carry;
         let vel = &phyxels.vel;
         let mass = &phyxels.mass;
         let volume = &phyxels.volume;
@@ -372,9 +373,12 @@ impl SphDynamics {
                 let mut strain_norm = (ratio - 1.0).abs();
                 if elastic {
                     let (vi, mut f, mut fd) = (vel.get(i), rest_offset[i], Mat3::ZERO);
+                    let ci = carry.get(i);
                     for k in off[i] as usize..off[i + 1] as usize {
                         let j = nbr[k] as usize;
-                        f += outer(pos.get(j) - xi, d[k]);
+                        // With the position sums' carries (`Phyxels::pos_carry`), so that
+                        // rounding far from the origin does not strain a stiff body.
+                        f += outer((pos.get(j) - xi) + (carry.get(j) - ci), d[k]);
                         fd += outer(vel.get(j) - vi, d[k]);
                     }
                     *q = polar_rotation(f, *q);
