@@ -5,7 +5,7 @@
 
 use glam::Vec3;
 use phyxel::World;
-use phyxel::backends::lj::{BOND_STIFFNESS, LjDynamics};
+use phyxel::backends::lj::LjDynamics;
 use phyxel::backends::sph::SphDynamics;
 use phyxel::dynamics::Dynamics;
 use phyxel::scene::{BuildOptions, Scene};
@@ -125,12 +125,13 @@ fn two_spheres_conserve_momentum_with_every_backend() {
 }
 
 /// A resting SPH block (0.2 × 0.1 × 0.2 m, ρ = 1000 kg/m³, E = 100 kPa, ν = 0.3) on a
-/// rigid plane under gravity: after 0.4 s every phyxel's SPH density is within 3% of its
-/// rest density (weak compressibility). Reference: the free block is under uniaxial
-/// stress, `ρ g H` = 981 Pa at the bottom, so its volume strain there is
-/// `ρ g H (1 − 2ν)/E` = 0.39%; the largest deviation must be at least 0.1% (the block
-/// bears its weight, so the check can fail). The densities are recomputed by a fresh
-/// `SphDynamics` on the final state, independent of the run's backend state.
+/// rigid plane under gravity: after 0.4 s its largest SPH density deviation
+/// `|ρ/ρ⁰ − 1|` matches the analytic peak volume strain within ±30%. Reference: the
+/// free block is under uniaxial stress, `ρ g H` = 981 Pa at the bottom, so its volume
+/// strain there is `ρ g H (1 − 2ν)/E` = 0.39% (bulk modulus `K = E/(3(1 − 2ν))`);
+/// measured 0.34% (the contact spreads the load over the bottom layers). The densities
+/// are recomputed by a fresh `SphDynamics` on the final state, independent of the run's
+/// backend state.
 #[test]
 fn sph_resting_block_keeps_its_density() {
     let scene = Scene::parse(
@@ -171,16 +172,26 @@ material = { density = 1000.0, young = 1.0e5, poisson = 0.3, damping = 1.0e-3, c
         .map(|i| (rho[i] / rho0[i] - 1.0).abs())
         .fold(0.0f32, f32::max);
     let v = com_velocity(&w, 1).length();
-    println!("sph block: {steps} steps, largest |ρ/ρ0 − 1| = {worst:.4}, |v| {v:.2e} m/s");
-    assert!(worst < 0.03, "density deviates {worst} from rest");
-    assert!(worst > 0.001, "the block carries no load ({worst})");
+    let (rho_m, g, height, young, poisson) = (1000.0f32, 9.81f32, 0.1f32, 1.0e5f32, 0.3f32);
+    let reference = rho_m * g * height * (1.0 - 2.0 * poisson) / young;
+    println!(
+        "sph block: {steps} steps, largest |ρ/ρ0 − 1| = {worst:.5} (analytic {reference:.5}), \
+         |v| {v:.2e} m/s"
+    );
+    assert!(
+        (worst / reference - 1.0).abs() < 0.3,
+        "largest density deviation {worst}, analytic {reference}"
+    );
     assert!(v < 0.01, "the block is not at rest ({v} m/s)");
 }
 
-/// A Lennard-Jones lattice at rest is in equilibrium: on a 0.2 m box sampled at 2.5 cm
-/// the largest net bond force is below 1e-6 of the bond force scale `k a` (N; `k = 0.4 E
-/// a` the bond stiffness), and 200 steps without gravity move no phyxel by more than
-/// 1e-6 of the spacing.
+/// A Lennard-Jones lattice at rest stays at rest: a 0.2 m box sampled at 2.5 cm gets
+/// exactly the 6 axis and 12 face-diagonal bonds per interior phyxel (counted
+/// analytically), and 200 steps of the whole `World::step` without gravity (contact
+/// pipeline, integrator, dashpots) move no phyxel by more than 1e-6 of the spacing. The
+/// rest force is zero by construction (each bond's σ comes from its own rest length, so
+/// `u = 1` exactly): its check (below 1e-6 of `k a`, `k = 0.4 E a`, N) only guards that
+/// choice; one σ for all bonds would leave the face diagonals pulling.
 #[test]
 fn lj_rest_lattice_stays_at_rest() {
     let scene = Scene::parse(
@@ -198,7 +209,7 @@ material = { density = 1000.0, young = 1.0e5, poisson = 0.25 }
     let mut w = scene.build(&BuildOptions::default()).unwrap();
     let o = &w.objects[0];
     let a = 0.025f32;
-    let k = BOND_STIFFNESS * o.material.young * a;
+    let k = 0.4 * o.material.young * a;
     let mut lj = LjDynamics::new(&o.phyxels, &o.material);
     let (bonds, broken) = lj.bonds();
     // An n³ lattice (n = 8) has 3n²(n − 1) axis bonds and 6n(n − 1)² face diagonals.
@@ -322,12 +333,16 @@ fn sph_polar_rotation_recovers_the_rotation() {
     assert!(err < 1e-3, "rotation off by {err}: {got} vs {r}");
 }
 
-/// The LJ lattice's stiffness matches the elastic constant it is calibrated to: under a
-/// uniaxial strain e = 1e-4 along x (an affine stretch of an 8³ lattice, spacing a), the
-/// bonds crossing the mid-plane pull the two halves together with `C₁₁ e a²` per axis
-/// bond row, `C₁₁ = 3k/a = 1.2 E` (docs/BACKENDS.md): `F = k e a (n² + 2n(n − 1))` with
-/// the n² axis bonds (k e a each) and the 4n(n − 1) face diagonals (k e a / 2 each).
-/// Tolerance 1% (the LJ bond's nonlinearity at this strain is 0.1%).
+/// The LJ lattice's stiffness matches the elastic constant it is calibrated to,
+/// `C₁₁ = 1.2 E` (docs/BACKENDS.md), with no library constant in the reference: under a
+/// uniaxial strain e = 1e-4 along x (an affine stretch of an 8³ lattice, spacing a),
+/// the bonds crossing the mid-plane pull the two halves together (N). In the bulk each
+/// a² of the plane carries `C₁₁ e a²`: one axis bond (stretch e a, force k e a) and
+/// four face diagonals (x-force k e a / 2 each) of equal springs k, so `C₁₁ = 3k/a`, the
+/// axis bond carries `C₁₁ e a²/3` and each diagonal `C₁₁ e a²/6`. The finite lattice
+/// has n² axis bonds and 4n(n − 1) diagonals across the plane:
+/// `F = C₁₁ e a² (n²/3 + 4n(n − 1)/6)`. Tolerance 1% (measured 0.003%; the LJ bond's
+/// nonlinearity at this strain is below 0.1%).
 #[test]
 fn lj_lattice_stiffness_matches_the_calibration() {
     let scene = Scene::parse(
@@ -360,8 +375,8 @@ material = { young = 1.0e5, poisson = 0.25 }
         .map(|i| f.get(i).x)
         .sum();
     let (a, n) = (0.025f32, 8.0f32);
-    let k = BOND_STIFFNESS * o.material.young * a;
-    let expected = -k * strain * a * (n * n + 2.0 * n * (n - 1.0));
+    let c11 = 1.2 * o.material.young;
+    let expected = -c11 * strain * a * a * (n * n / 3.0 + 4.0 * n * (n - 1.0) / 6.0);
     println!("pull {pull} N, expected {expected} N");
     assert!(
         (pull / expected - 1.0).abs() < 0.01,
@@ -423,14 +438,16 @@ material = { young = 1.0e5, poisson = 0.25 }
 }
 
 /// SPH pressure and artificial-viscosity forces (elasticity off) against a brute-force
-/// f64 evaluation of the same formulas (Monaghan 1992 cubic spline with h = a, Tait
-/// `p = (K/7)((ρ/ρ⁰)^7 − 1)`, `f_i = −Σ_j m_i m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij`)
-/// over all pairs, on a jittered 8³ lattice (±10% of the spacing) with random velocities:
-/// this checks the hash-grid neighbours and the eight-lane kernel. Tolerance 1e-3 of the
-/// largest force (N).
+/// f64 evaluation of the documented formulas (docs/BACKENDS.md: Monaghan 1992 cubic
+/// spline with h = a, Tait `p = (K/7)((ρ/ρ⁰)^7 − 1)` with the bulk modulus
+/// `K = E/(3(1 − 2ν))` written here, `c = √(K/ρ)`,
+/// `f_i = −Σ_j m_i m_j (p_i/ρ_i² + p_j/ρ_j² + Π_ij) ∇_i W_ij`) over all pairs, on a
+/// jittered 8³ lattice (±10% of the spacing) with random velocities: this checks the
+/// pressure law, the hash-grid neighbours and the eight-lane kernel. Tolerance 1e-3 of
+/// the largest force (N).
 #[test]
 fn sph_pressure_forces_match_a_brute_force_reference() {
-    use phyxel::backends::sph::{SphOptions, bulk_modulus};
+    use phyxel::backends::sph::SphOptions;
     let scene = Scene::parse(
         r#"
 gravity = [0.0, 0.0, 0.0]
@@ -511,7 +528,7 @@ backend = "sph"
             .collect()
     };
     let (rho, rho0) = (density(&p.pos), density(&p.rest));
-    let k_bulk = bulk_modulus(m) as f64;
+    let k_bulk = m.young as f64 / (3.0 * (1.0 - 2.0 * m.poisson as f64));
     let c = (k_bulk / m.density as f64).sqrt();
     let pt: Vec<f64> = (0..n)
         .map(|i| k_bulk / 7.0 * ((rho[i] / rho0[i]).powi(7) - 1.0) / (rho[i] * rho[i]))

@@ -486,34 +486,48 @@ fn the_first_non_finite_step_is_reported() {
 
 /// The contact bound uses the spring the contact force uses: for a coarse, light
 /// sphere (twice the phyxel spacing, a tenth of the density) against the fine
-/// `two-spheres` sphere at 128 times the default contact stiffness, the world's stable
-/// dt is within `0.8 · 2/ω` (the bound's margin and the undamped explicit limit) for
-/// each sphere, with `ω² = k / (2.5 ρ h)` from the stiffness `k` that
-/// `world::contact_params` gives the pair (which takes the finer spacing) and the
-/// sphere's own layer of mass. Taking each sphere's own spacing for `k` put the coarse
-/// sphere's bound √2 too high.
+/// `two-spheres` sphere (E = 100 kPa, ν = 0.3) at 128 times the default contact
+/// stiffness (κ = 512), the world's stable dt (s) equals the smaller of the two spheres'
+/// undamped explicit contact limits `0.8 · 2/ω` (the bound's margin), written here from
+/// the documented law: the pair's spring per area `k = κ E*/h_fine` with
+/// `E* = 1/((1 − ν₁²)/E₁ + (1 − ν₂²)/E₂)` and the finer phyxel spacing
+/// (`Object::phyxel_spacing`), on each sphere's layer of 2.5 of its own spacings `h` of
+/// mass (both are thicker: `n^(1/3)` ≥ 2.5), so `ω² = k/(2.5 ρ h)`. Tolerance 1e-4
+/// relative (f32). Taking each sphere's own spacing for `k` put the coarse sphere's
+/// bound √2 too high.
 #[test]
 fn the_contact_bound_uses_the_pairs_spring() {
     let mut scene = Scene::builtin("two-spheres").unwrap();
+    let kappa = 512.0f32;
     for o in &mut scene.objects {
-        o.material.contact_stiffness = 512.0;
+        o.material.contact_stiffness = kappa;
     }
     scene.objects[1].spacing *= 2.0;
     scene.objects[1].material.density /= 10.0;
     let w = scene.build(&BuildOptions::default()).unwrap();
     let (dt, _) = w.stable_dt();
-    let (a, b) = (&w.objects[0], &w.objects[1]);
-    let k = phyxel::world::contact_params(a, b, dt).stiffness;
-    for o in [a, b] {
-        let layer =
-            phyxel::world::contact_layer(o.phyxels.len()) * o.material.density * o.phyxel_spacing;
-        let limit = 0.8 * 2.0 / (k / layer).sqrt();
-        assert!(
-            dt <= limit * 1.0001,
-            "{}: stable dt {dt:.4e} s above the contact limit {limit:.4e} s",
-            o.name
+    let (young, poisson) = (1.0e5f32, 0.3f32);
+    let e_star = 1.0 / (2.0 * (1.0 - poisson * poisson) / young);
+    let h_fine = w.objects[0].phyxel_spacing.min(w.objects[1].phyxel_spacing);
+    let k = kappa * e_star / h_fine;
+    let mut limits = Vec::new();
+    for (o, density) in w.objects.iter().zip([1000.0f32, 100.0]) {
+        let n = o.phyxels.len();
+        assert!((n as f32).cbrt() >= 2.5, "{}: {n} phyxels", o.name);
+        let omega = (k / (2.5 * density * o.phyxel_spacing)).sqrt();
+        let limit = 0.8 * 2.0 / omega;
+        println!(
+            "{}: {n} phyxels, spacing {:.4} m, contact limit {limit:.4e} s",
+            o.name, o.phyxel_spacing
         );
+        limits.push(limit);
     }
+    let limit = limits[0].min(limits[1]);
+    println!("stable dt {dt:.4e} s, contact limit {limit:.4e} s");
+    assert!(
+        (dt / limit - 1.0).abs() < 1e-4,
+        "stable dt {dt:.4e} s, contact limit {limit:.4e} s"
+    );
 }
 
 /// Bodies of one phyxel (`two-spheres` with `phyxels = 1`): the contact bound takes the
