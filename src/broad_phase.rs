@@ -86,6 +86,17 @@ impl Aabb {
         (min.cmple(max).all()).then_some(Aabb { min, max })
     }
 
+    /// The smallest box holding both (a non-finite box stays [`Aabb::NON_FINITE`]).
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        if self.is_non_finite() || other.is_non_finite() {
+            return Aabb::NON_FINITE;
+        }
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
     /// Is `p` inside (boundary included)?
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()

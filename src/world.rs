@@ -686,11 +686,22 @@ impl World {
                 self.grids[k] = None;
             }
             if fresh || !o.is_static() {
-                self.boxes[k] = Aabb::of(&o.surfels.pos);
-                if self.boxes[k].is_non_finite() && self.non_finite.is_none() {
+                let surface = Aabb::of(&o.surfels.pos);
+                if surface.is_non_finite() && self.non_finite.is_none() {
                     // (The step being taken: `steps` counts it at the end.)
                     self.non_finite = NonFinite::find(o, self.steps + 1, true);
                 }
+                // The volume too: a closed surface holds its phyxels, but an open one
+                // (a `plane`: surfels on top, phyxels below) does not, and a box of its
+                // surfels alone is flat, so no surfel of a body sinking into it was
+                // ever a candidate (a 2 cm ball fell through a plane of 5 cm surfels).
+                // (Non-finite phyxels are caught at the end of the step.)
+                let volume = Aabb::of(&o.phyxels.pos);
+                self.boxes[k] = if volume.is_non_finite() {
+                    surface
+                } else {
+                    surface.union(&volume)
+                };
             }
         }
         let is_static =
