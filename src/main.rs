@@ -470,7 +470,7 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
     } else {
         print_table(&summary);
     }
-    note_dt_changes("", &summary);
+    note_run("", &summary);
     if summary.finite {
         ExitCode::SUCCESS
     } else {
@@ -485,8 +485,11 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
 }
 
 /// Tells on stderr that the run lowered its dt (`dt_changes`): the first change, and
-/// how many there were in all.
-fn note_dt_changes(prefix: &str, s: &RunSummary) {
+/// how many there were in all; and warns of an energy gain (`energy_warning`).
+fn note_run(prefix: &str, s: &RunSummary) {
+    if let Some(w) = &s.energy_warning {
+        eprintln!("warning: {prefix}{w}");
+    }
     let Some(first) = s.dt_changes.first() else {
         return;
     };
@@ -662,7 +665,7 @@ fn compare(
         .map(|s| s.backend.as_str())
         .collect();
     for s in &summaries {
-        note_dt_changes(&format!("backend {}: ", s.backend), s);
+        note_run(&format!("backend {}: ", s.backend), s);
     }
     for e in summaries.iter().filter_map(|s| s.non_finite.as_ref()) {
         eprintln!("error: {e}; that run stopped there");

@@ -83,6 +83,14 @@ pub struct RunSummary {
     /// kg·m/s
     pub momentum_initial: [f64; 3],
     pub momentum_final: [f64; 3],
+    /// Mechanical energy of the moving objects at the start and the end (J: kinetic,
+    /// elastic, gravitational potential; [`crate::world::World::energy`]).
+    pub energy_initial: crate::world::Energy,
+    pub energy_final: crate::world::Energy,
+    /// Set when the energy grew by more than [`crate::world::ENERGY_GAIN_WARNING`] of
+    /// the run's energy scale in a scene without loads (which alone could add energy):
+    /// a numerical failure, often without a NaN. `null` otherwise.
+    pub energy_warning: Option<String>,
     /// Kinetic energy at the end (J).
     pub kinetic_energy: f64,
     /// Largest signed penetration depth of a colliding surfel over the run (m).
@@ -105,6 +113,7 @@ pub fn run(
     world.render_contacts = opts.out.is_some();
     let steps = opts.steps.unwrap_or(scene.steps);
     let momentum_initial = world.momentum();
+    let energy_initial = world.energy();
     let write_frames = opts.out.clone();
     let every = scene.output.every;
     let phyxels = opts.phyxels || scene.output.phyxels;
@@ -153,8 +162,36 @@ pub fn run(
         Ok(())
     })?;
     let wall = t0.elapsed().as_secs_f64();
-    let summary = summarize(&world, scene, ran, wall, momentum_initial, frames);
+    let start = (momentum_initial, energy_initial);
+    let summary = summarize(&world, scene, ran, wall, start, frames);
     Ok((world, summary))
+}
+
+/// The warning of [`RunSummary::energy_warning`]: the gain `E₁ − E₀` against the scale
+/// `max(K₀ + U₀, K₁ + U₁, |P₁ − P₀|)` (kinetic, elastic, potential).
+fn energy_warning(
+    world: &World,
+    e0: crate::world::Energy,
+    e1: crate::world::Energy,
+) -> Option<String> {
+    if world.objects.iter().any(|o| o.load != glam::Vec3::ZERO) {
+        return None;
+    }
+    let scale = (e0.kinetic + e0.elastic)
+        .max(e1.kinetic + e1.elastic)
+        .max((e1.potential - e0.potential).abs());
+    let gain = e1.total() - e0.total();
+    (gain > crate::world::ENERGY_GAIN_WARNING * scale).then(|| {
+        format!(
+            "the energy grew from {:.4e} to {:.4e} J (kinetic {:.4e} → {:.4e} J) with no \
+             load to supply it: a numerical failure; try a smaller --dt, a finer spacing or a \
+             higher contact_stiffness (docs/SCENES.md, \"Limits\")",
+            e0.total(),
+            e1.total(),
+            e0.kinetic,
+            e1.kinetic
+        )
+    })
 }
 
 /// The summary of `world` after `steps` steps that took `wall` seconds.
@@ -163,7 +200,7 @@ pub fn summarize(
     scene: &Scene,
     steps: u64,
     wall: f64,
-    momentum_initial: [f64; 3],
+    (momentum_initial, energy_initial): ([f64; 3], crate::world::Energy),
     frames: u64,
 ) -> RunSummary {
     let mut backends: Vec<&str> = world
@@ -200,6 +237,7 @@ pub fn summarize(
         })
         .collect();
     let momentum_final = world.momentum();
+    let energy_final = world.energy();
     let kinetic_energy: f64 = world
         .objects
         .iter()
@@ -237,6 +275,9 @@ pub fn summarize(
         finite,
         non_finite: world.non_finite.as_ref().map(|e| e.to_string()),
         momentum_initial,
+        energy_initial,
+        energy_final,
+        energy_warning: energy_warning(world, energy_initial, energy_final),
         momentum_final,
         kinetic_energy,
         max_penetration: world.max_penetration,

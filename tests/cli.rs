@@ -1256,7 +1256,9 @@ fn compare_takes_dt_and_allow_unstable() {
 /// plastic, breakable spheres crushed at ±5 m/s; `tests/plasticity.rs` checks the
 /// energy), `run` lowers dt below the new bound and says so: `dt_changes` lists each
 /// lowering (step, from, to, bound, object), `dt` is the last one's `to`, `time` sums the
-/// steps' dt, and stderr notes it. `--allow-unstable` keeps the dt as given.
+/// steps' dt, and stderr notes it. `--allow-unstable` keeps the dt as given, and the
+/// run then gains energy (kinetic + elastic + potential, J) more than tenfold with every
+/// value finite: `energy_warning` says so, and stderr warns.
 #[test]
 fn a_stiffer_rest_shape_lowers_dt_and_says_so() {
     let sphere = |name: &str, x: f32, v: f32| {
@@ -1302,7 +1304,27 @@ fn a_stiffer_rest_shape_lowers_dt_and_says_so() {
         "time {time}"
     );
     assert!(stderr.contains("dt lowered from"), "{stderr}");
+    assert!(field(&v, "energy_warning").is_null(), "{v:#}");
     let out = phyxel(&["run", file, "--steps", "40", "--json", "--allow-unstable"]);
     let v: Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(field(&v, "dt_changes").as_array().map(Vec::len), Some(0));
+    // Kept at the start's dt, the crush gains energy with every value finite: the
+    // energy check is what tells (below, and `energy_warning` stays null above).
+    let stderr = text(&out.stderr);
+    let total = |e: &Value| {
+        ["kinetic", "elastic", "potential"]
+            .iter()
+            .map(|k| field(e, k).as_f64().unwrap())
+            .sum::<f64>()
+    };
+    let (e0, e1) = (
+        total(field(&v, "energy_initial")),
+        total(field(&v, "energy_final")),
+    );
+    assert!(e1 > 10.0 * e0, "no energy gain to warn of: {e0} → {e1} J");
+    let warning = field(&v, "energy_warning")
+        .as_str()
+        .unwrap_or_else(|| panic!("{v:#}"));
+    assert!(warning.contains("energy grew"), "{warning}");
+    assert!(stderr.contains("warning: the energy grew"), "{stderr}");
 }
