@@ -484,9 +484,13 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
     }
 }
 
-/// Tells on stderr that the run lowered its dt (`dt_changes`): the first change, and
-/// how many there were in all; and warns of an energy gain (`energy_warning`).
+/// Warns on stderr of the build's `warnings` and of an energy gain (`energy_warning`),
+/// and tells that the run lowered its dt (`dt_changes`): the first change, and how many
+/// there were in all.
 fn note_run(prefix: &str, s: &RunSummary) {
+    for w in &s.warnings {
+        eprintln!("warning: {prefix}{w}");
+    }
     if let Some(w) = &s.energy_warning {
         eprintln!("warning: {prefix}{w}");
     }

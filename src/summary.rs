@@ -91,6 +91,9 @@ pub struct RunSummary {
     /// the run's energy scale in a scene without loads (which alone could add energy):
     /// a numerical failure, often without a NaN. `null` otherwise.
     pub energy_warning: Option<String>,
+    /// What the scene's build found suspect but legal ([`World::warnings`]: a body too
+    /// coarsely sampled for its mass).
+    pub warnings: Vec<String>,
     /// Kinetic energy at the end (J).
     pub kinetic_energy: f64,
     /// Largest signed penetration depth of a colliding surfel over the run (m).
@@ -278,6 +281,7 @@ pub fn summarize(
         energy_initial,
         energy_final,
         energy_warning: energy_warning(world, energy_initial, energy_final),
+        warnings: world.warnings.clone(),
         momentum_final,
         kinetic_energy,
         max_penetration: world.max_penetration,

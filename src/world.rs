@@ -84,6 +84,9 @@ pub struct World {
     pub keep_stable: bool,
     /// Every lowering of `dt` so far, in order.
     pub dt_changes: Vec<DtChange>,
+    /// What the world's builder found suspect but legal (`Scene::build`: a body too
+    /// coarsely sampled for its mass, [`crate::scene::MASS_WARNING`]); `run` prints them.
+    pub warnings: Vec<String>,
 }
 
 /// `dt` lowered after a change of topology ([`World::keep_stable`]): a rest shape
@@ -428,6 +431,7 @@ impl World {
             time: 0.0,
             keep_stable: true,
             dt_changes: Vec::new(),
+            warnings: Vec::new(),
         }
     }
 
