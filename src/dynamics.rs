@@ -40,6 +40,9 @@ pub struct Diagnostics {
     pub elastic_energy: Option<f64>,
     /// Largest Frobenius norm of the strain over the phyxels.
     pub max_strain: Option<f32>,
+    /// Largest Frobenius norm of the plastic strain, where the backend keeps plastic
+    /// state (`None`: it keeps none, as for elastic materials: no plasticity work).
+    pub max_plastic_strain: Option<f32>,
 }
 
 /// A dynamics backend for the phyxels of one object.

@@ -44,6 +44,9 @@ pub struct BodySummary {
     pub velocity: [f64; 3],
     /// Largest strain norm (dimensionless), where the backend reports it.
     pub max_strain: Option<f32>,
+    /// Largest plastic strain norm (dimensionless); `null` where the backend keeps no
+    /// plastic state (elastic materials).
+    pub max_plastic_strain: Option<f32>,
     /// Elastic energy (J), where the backend reports it.
     pub elastic_energy: Option<f64>,
 }
@@ -235,6 +238,7 @@ pub fn summarize(
                 com: o.phyxels.centre_of_mass(),
                 velocity: if m > 0.0 { p.map(|c| c / m) } else { [0.0; 3] },
                 max_strain: d.max_strain,
+                max_plastic_strain: d.max_plastic_strain,
                 elastic_energy: d.elastic_energy,
             }
         })

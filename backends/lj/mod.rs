@@ -276,6 +276,7 @@ impl Dynamics for LjDynamics {
         Diagnostics {
             elastic_energy: Some(self.energy),
             max_strain: Some(self.max_strain),
+            max_plastic_strain: None,
         }
     }
 

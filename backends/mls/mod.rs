@@ -611,6 +611,12 @@ impl Dynamics for MlsDynamics {
         Diagnostics {
             elastic_energy: Some(energy),
             max_strain: Some(self.max_strain),
+            max_plastic_strain: (!self.plastic.is_empty()).then(|| {
+                self.plastic
+                    .iter()
+                    .map(|&ep| frobenius(ep))
+                    .fold(0.0, f32::max)
+            }),
         }
     }
 }

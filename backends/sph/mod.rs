@@ -644,6 +644,7 @@ impl Dynamics for SphDynamics {
         Diagnostics {
             elastic_energy: Some(self.energy),
             max_strain: Some(self.max_strain),
+            max_plastic_strain: None,
         }
     }
 }
