@@ -1328,3 +1328,45 @@ fn a_stiffer_rest_shape_lowers_dt_and_says_so() {
     assert!(warning.contains("energy grew"), "{warning}");
     assert!(stderr.contains("warning: the energy grew"), "{stderr}");
 }
+
+/// A body sampled too coarsely for its mass (the falling sphere on 20 phyxels holds 52%
+/// more lattice volume than the sphere) is run, with a warning on stderr naming the
+/// object, and `warnings` in the JSON; at its own spacing the scene has none.
+#[test]
+fn a_coarse_body_is_run_with_a_warning() {
+    let out = phyxel(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "1",
+        "--phyxel-count",
+        "20",
+        "--json",
+    ]);
+    let stderr = text(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("warning:")
+            && stderr.contains("'sphere'")
+            && stderr.contains("phyxels hold"),
+        "{stderr}"
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        field(&v, "warnings").as_array().map(Vec::len),
+        Some(1),
+        "{v:#}"
+    );
+    let out = phyxel(&["run", "falling-sphere", "--steps", "1", "--json"]);
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        field(&v, "warnings").as_array().map(Vec::len),
+        Some(0),
+        "{v:#}"
+    );
+    assert!(
+        !text(&out.stderr).contains("warning:"),
+        "{}",
+        text(&out.stderr)
+    );
+}
