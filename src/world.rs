@@ -717,16 +717,18 @@ impl World {
                     // (The step being taken: `steps` counts it at the end.)
                     self.non_finite = NonFinite::find(o, self.steps + 1, true);
                 }
-                // The volume too: a closed surface holds its phyxels, but an open one
-                // (a `plane`: surfels on top, phyxels below) does not, and a box of its
-                // surfels alone is flat, so no surfel of a body sinking into it was
-                // ever a candidate (a 2 cm ball fell through a plane of 5 cm surfels).
-                // (Non-finite phyxels are caught at the end of the step.)
-                let volume = Aabb::of(&o.phyxels.pos);
-                self.boxes[k] = if volume.is_non_finite() {
-                    surface
+                // A static object's box holds its volume too: a closed surface holds
+                // its phyxels, but an open one (a `plane`: surfels on top, phyxels
+                // below) does not, and a box of its surfels alone is flat, so no surfel
+                // of a body sinking into it was ever a candidate (a 2 cm ball fell
+                // through a plane of 5 cm surfels). Moving bodies keep the surfels' box
+                // (the paper's): in a fast impact the phyxels of a squashed sphere
+                // reach past its surfels, and the larger box let surfels near them
+                // count as deep inside (12 m/s: deepest 4.8 → 9.2 cm of 10).
+                self.boxes[k] = if o.is_static() {
+                    surface.union(&Aabb::of(&o.phyxels.pos))
                 } else {
-                    surface.union(&volume)
+                    surface
                 };
             }
         }

@@ -278,9 +278,9 @@ fn hertz_at_three_resolutions() {
 /// above the ground plane, no surfel ever gets deeper into another object than the
 /// thinnest body part (the torus tube radius, 3 cm: nothing passes through), and the
 /// kinetic energy decays: after 1.5 s it is below 10% of its peak (J). Measured 3.8%
-/// (2.1% with one-sided contact on the plane and the coarser capsule of earlier
-/// versions, 5.3% with two-sided contact and that capsule): the pile is chaotic and
-/// still rocks a little at 1.5 s; a pile that kept bouncing would stay near its peak.
+/// (2.1% in earlier versions, with one-sided contact on the plane and a coarser
+/// capsule): the pile is chaotic and still rocks a little at 1.5 s; a pile that kept
+/// bouncing would stay near its peak.
 #[test]
 fn pile_comes_to_rest_without_passing_through() {
     let scene = Scene::builtin("pile").unwrap();
@@ -573,7 +573,8 @@ fn collide_without_energy_gain(w: &mut World, steps: u64, label: &str) -> f64 {
 /// 12 cm onto a `plane` of 10 cm phyxels (5 cm surfels): it must be caught, not pass
 /// through. The plane's surfels lie flat at y = 0 and its phyxels below, so a box of
 /// its surfels alone was flat and no surfel of the ball ever became a candidate (it fell
-/// to y = −0.74 m in 3,000 steps); the broad phase's box now holds the phyxels too.
+/// to y = −0.74 m in 3,000 steps); a static object's broad-phase box now holds its
+/// phyxels too.
 /// Reference: the ground's top, y = 0: the ball's centre of mass (m) never goes below
 /// it (it penetrates a few mm), the pair is detected, and after 0.4 s the ball is above
 /// the plane.
