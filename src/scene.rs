@@ -524,7 +524,7 @@ impl Scene {
                 if dt > stable && !opts.allow_unstable {
                     // Full precision: rounded to a few digits, dt and the bound can print equal.
                     // The suggestion (the default dt) rounds to a value still below the bound.
-                    let suggest = 0.9 * stable;
+                    let suggest = crate::world::DT_FRACTION * stable;
                     return Err(SceneError(format!(
                         "{origin}: dt = {dt} s exceeds the stable bound {stable} s of object '{limiter}' \
                          (explicit integration would blow up); use --dt {suggest:.3e} (90% of the bound, \
@@ -533,7 +533,7 @@ impl Scene {
                 }
                 dt
             }
-            None if stable.is_finite() => 0.9 * stable,
+            None if stable.is_finite() => crate::world::DT_FRACTION * stable,
             None => 1.0e-3,
         };
         world.dt = dt;
