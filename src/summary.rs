@@ -245,11 +245,8 @@ pub fn summarize(
         .collect();
     let momentum_final = world.momentum();
     let energy_final = world.energy();
-    let kinetic_energy: f64 = world
-        .objects
-        .iter()
-        .map(|o| o.phyxels.kinetic_energy())
-        .sum();
+    // (Static objects have none: the moving objects' sum is the whole.)
+    let kinetic_energy = energy_final.kinetic;
     // Finite state whose sums overflow is no result either.
     let finite = world.non_finite.is_none()
         && world.all_finite()
