@@ -95,7 +95,7 @@ pub struct RunSummary {
     /// a numerical failure, often without a NaN. `null` otherwise.
     pub energy_warning: Option<String>,
     /// What the scene's build found suspect but legal ([`World::warnings`]: a body too
-    /// coarsely sampled for its mass).
+    /// coarsely sampled for its mass, a faster-than-sound approach).
     pub warnings: Vec<String>,
     /// Kinetic energy at the end (J).
     pub kinetic_energy: f64,

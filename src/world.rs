@@ -85,7 +85,8 @@ pub struct World {
     /// Every lowering of `dt` so far, in order.
     pub dt_changes: Vec<DtChange>,
     /// What the world's builder found suspect but legal (`Scene::build`: a body too
-    /// coarsely sampled for its mass, [`crate::scene::MASS_WARNING`]); `run` prints them.
+    /// coarsely sampled for its mass, [`crate::scene::MASS_WARNING`]; two bodies whose
+    /// start velocities close them faster than the P-wave speed); `run` prints them.
     pub warnings: Vec<String>,
 }
 
