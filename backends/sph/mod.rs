@@ -347,10 +347,14 @@ impl SphDynamics {
             .zip(self.current_len.par_iter_mut())
             .enumerate()
             .map(|(i, ((((((rho_out, pt), pf), gr), q), slots), len))| {
-                let xi = pos.get(i);
+                let (xi, ci) = (pos.get(i), carry.get(i));
                 let mut rho = 0.0f32;
                 let mut count = 0usize;
-                grid.for_each_within(xi, support, |j, r2| {
+                grid.for_each_within(xi, support, |j, _| {
+                    // With the position sums' carries (`Phyxels::pos_carry`): the grid's
+                    // distance of the rounded positions would make a stiff body far
+                    // from the origin breathe with their rounding.
+                    let r2 = ((pos.get(j) - xi) + (carry.get(j) - ci)).length_squared();
                     rho += mass[j] * kernel.w(r2);
                     if j != i {
                         if count < MAX_STORED {
@@ -407,6 +411,7 @@ impl SphDynamics {
         let (current, current_len) = (&self.current, &self.current_len);
         let fluid = Fluid {
             pos,
+            carry,
             vel,
             mass,
             pressure_term: pt,
@@ -421,14 +426,16 @@ impl SphDynamics {
             .zip(z[..n].par_iter_mut())
             .enumerate()
             .for_each(|(i, ((fx, fy), fz))| {
-                let (xi, vi) = (pos.get(i), vel.get(i));
+                let (xi, vi, ci) = (pos.get(i), vel.get(i), carry.get(i));
                 let (mi, pti, rhoi) = (mass[i], pt[i], density[i]);
                 let mut f = Vec3::ZERO;
-                let mut pair = |j: usize, r2: f32| {
+                let mut pair = |j: usize, _: f32| {
+                    // With the carries, as the density (and `pair_forces_x8`).
+                    let xij = (xi - pos.get(j)) + (ci - carry.get(j));
+                    let r2 = xij.length_squared();
                     if j == i || r2 <= 0.0 {
                         return;
                     }
-                    let xij = xi - pos.get(j);
                     let vij = vi - vel.get(j);
                     let vx = vij.dot(xij);
                     let mut s = pti + pt[j];
@@ -461,6 +468,8 @@ impl SphDynamics {
 /// What the pressure and viscosity forces read.
 struct Fluid<'a> {
     pos: &'a Vec3s,
+    /// `Phyxels::pos_carry`: relative positions are `(x_j − x_i) + (c_j − c_i)`.
+    carry: &'a Vec3s,
     vel: &'a Vec3s,
     mass: &'a [f32],
     pressure_term: &'a [f32],
@@ -484,7 +493,7 @@ fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
     let inv_h = f32x8::splat(k.inv_h);
     let eps_h2 = f32x8::splat(0.01 * k.h * k.h);
     let ach = f32x8::splat(fl.alpha_c_h);
-    let xi = [fl.pos.x[i], fl.pos.y[i], fl.pos.z[i]].map(f32x8::splat);
+    let (xi, ci) = (fl.pos.get(i), fl.carry.get(i));
     let vi = [fl.vel.x[i], fl.vel.y[i], fl.vel.z[i]].map(f32x8::splat);
     let (mi, pti, rhoi) = (
         f32x8::splat(fl.mass[i]),
@@ -493,7 +502,7 @@ fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
     );
     let mut acc = [z; 3];
     for chunk in list.chunks(LANES) {
-        // Gather: x y z, vx vy vz, m, p/ρ², ρ.
+        // Gather: x_j − x_i (with the carries), vx vy vz, m, p/ρ², ρ.
         let mut g = [[0.0f32; LANES]; 9];
         #[allow(clippy::needless_range_loop)] // lane l of nine gathered columns
         for l in 0..LANES {
@@ -503,18 +512,18 @@ fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
                     g[6][l] = fl.mass[j];
                     g[7][l] = fl.pressure_term[j];
                     g[8][l] = fl.density[j];
-                    (fl.pos.get(j), fl.vel.get(j))
+                    ((fl.pos.get(j) - xi) + (fl.carry.get(j) - ci), fl.vel.get(j))
                 }
                 None => {
                     g[8][l] = 1.0;
-                    (fl.pos.get(i), fl.vel.get(i))
+                    (Vec3::ZERO, fl.vel.get(i))
                 }
             };
             (g[0][l], g[1][l], g[2][l]) = (p.x, p.y, p.z);
             (g[3][l], g[4][l], g[5][l]) = (v.x, v.y, v.z);
         }
         let g = g.map(f32x8::from);
-        let d = [xi[0] - g[0], xi[1] - g[1], xi[2] - g[2]];
+        let d = [z - g[0], z - g[1], z - g[2]];
         let dv = [vi[0] - g[3], vi[1] - g[4], vi[2] - g[5]];
         let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
         let r = r2.sqrt();
