@@ -604,10 +604,7 @@ pub const MASS_WARNING: f64 = 0.25;
 /// The warning for `obj` built from `spec` if its mass is off by more than
 /// [`MASS_WARNING`] (moving objects of a shape with a volume only).
 fn mass_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
-    let analytic = spec.shape.volume() as f64;
-    if spec.is_static || analytic.is_nan() || analytic <= 0.0 {
-        return None;
-    }
+    let analytic = moving_volume(spec)?;
     let p = &obj.phyxels;
     let sampled: f64 = p.volume[..p.len()].iter().map(|&v| v as f64).sum();
     let off = sampled / analytic - 1.0;
@@ -622,6 +619,13 @@ fn mass_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
     })
 }
 
+/// The analytic volume (m³) of a moving object whose shape has one (not a plane, not an
+/// empty mesh): what the sampling warnings measure against.
+fn moving_volume(spec: &ObjectSpec) -> Option<f64> {
+    let v = spec.shape.volume() as f64;
+    (!spec.is_static && v > 0.0).then_some(v)
+}
+
 /// Largest mean surfel spacing `√(area / surfels)`, as a fraction of a moving body's
 /// thickness scale `3 V / A` (its radius for a sphere), above which `Scene::build` warns
 /// ([`World::warnings`]): the implicit surface cannot follow a body sampled so coarsely,
@@ -634,9 +638,9 @@ pub const SURFACE_WARNING: f64 = 0.5;
 /// The warning for `obj` built from `spec` if its surfels are too sparse for its
 /// size ([`SURFACE_WARNING`]; moving objects of a shape with a volume only).
 fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
-    let (volume, area) = (spec.shape.volume() as f64, spec.shape.area() as f64);
+    let (volume, area) = (moving_volume(spec)?, spec.shape.area() as f64);
     let n = obj.surfels.len();
-    if spec.is_static || volume.is_nan() || volume <= 0.0 || area.is_nan() || area <= 0.0 {
+    if area.is_nan() || area <= 0.0 {
         return None;
     }
     let thickness = 3.0 * volume / area;
