@@ -6,7 +6,7 @@
 //! displacement fields wherever `A_i` has full rank. The stencil is built once at rest.
 
 use crate::columns::Vec3s;
-use crate::kernel::poly6;
+use crate::kernel::poly6_shape;
 use crate::phyxels::Phyxels;
 use glam::{DMat3, DVec3, Mat3, Vec3};
 use rayon::prelude::*;
@@ -66,10 +66,14 @@ impl MlsStencil {
                     }
                 });
                 nb.sort_unstable_by_key(|e| e.0);
+                // The weights matter only up to a factor per row (`A⁻¹ x w` and the
+                // quadratic fit do not change when all of a row's weights scale), so the
+                // unnormalised poly6 shape: the normalised kernel's 1/h⁹ overflowed f32
+                // below about 15 µm spacing, and every weight came out infinite.
                 let mut a = DMat3::ZERO;
                 for &(j, d2) in &nb {
                     let x = (phyxels.rest.get(j as usize) - xi).as_dvec3();
-                    let w = poly6(d2, h) as f64;
+                    let w = poly6_shape(d2, h) as f64;
                     a += outer(x, x * w);
                 }
                 let (a_inv, ill) = pseudo_inverse(a);
@@ -78,7 +82,7 @@ impl MlsStencil {
                     .map(|&(j, d2)| {
                         (
                             (phyxels.rest.get(j as usize) - xi).as_dvec3(),
-                            poly6(d2, h) as f64,
+                            poly6_shape(d2, h) as f64,
                         )
                     })
                     .collect();

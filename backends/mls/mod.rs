@@ -15,7 +15,7 @@ use phyxel::columns::Vec3s;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
-use phyxel::kernel::poly6;
+use phyxel::kernel::poly6_shape;
 use phyxel::material::{Material, StrainForm};
 use phyxel::mls::{MlsStencil, cofactor};
 use phyxel::phyxels::Phyxels;
@@ -389,7 +389,8 @@ fn fracture_stencil(phyxels: &Phyxels, material: &Material) -> MlsStencil {
         let mut a = Mat3::ZERO;
         for k in st.row(i) {
             let x = phyxels.rest.get(st.neighbours[k] as usize) - xi;
-            let w = poly6(x.length_squared(), h);
+            // Unnormalised, as in the stencil: the isotropy is a ratio.
+            let w = poly6_shape(x.length_squared(), h);
             a += Mat3::from_cols(x * (x.x * w), x * (x.y * w), x * (x.z * w));
         }
         let tr = (a.x_axis.x + a.y_axis.y + a.z_axis.z) / 3.0;
