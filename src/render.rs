@@ -51,13 +51,15 @@ pub fn object_colour(id: i32) -> [f32; 3] {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Camera {
+    #[serde(deserialize_with = "crate::scene::exact_array")]
     pub position: [f32; 3],
+    #[serde(deserialize_with = "crate::scene::exact_array")]
     pub target: [f32; 3],
     /// Vertical field of view (degrees).
     #[serde(default = "default_fov")]
     pub fov: f32,
     /// World up direction.
-    #[serde(default = "default_up")]
+    #[serde(default = "default_up", deserialize_with = "crate::scene::exact_array")]
     pub up: [f32; 3],
 }
 

@@ -61,7 +61,7 @@ pub struct Scene {
     #[serde(default = "default_steps")]
     pub steps: u64,
     /// Gravitational acceleration (m/s²).
-    #[serde(default = "default_gravity")]
+    #[serde(default = "default_gravity", deserialize_with = "exact_array")]
     pub gravity: [f32; 3],
     #[serde(default)]
     pub output: Output,
@@ -121,13 +121,13 @@ pub struct ObjectSpec {
     #[serde(default, rename = "static")]
     pub is_static: bool,
     /// Centre position (m).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact_array")]
     pub position: [f32; 3],
     /// Rotation as Euler angles in degrees, applied about x, then y, then z.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact_array")]
     pub rotation: [f32; 3],
     /// Initial velocity (m/s).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact_array")]
     pub velocity: [f32; 3],
     #[serde(default)]
     pub material: Material,
@@ -136,7 +136,7 @@ pub struct ObjectSpec {
     pub fixed: Vec<Region>,
     /// Constant external force on the object (N), spread over its free phyxels in
     /// proportion to their mass (like gravity).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "exact_array")]
     pub load: [f32; 3],
     /// Seconds over which `load` ramps up linearly from zero (0: applied at once).
     #[serde(default)]
@@ -156,8 +156,23 @@ fn default_backend() -> String {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Region {
+    #[serde(deserialize_with = "exact_array")]
     pub min: [f32; 3],
+    #[serde(deserialize_with = "exact_array")]
     pub max: [f32; 3],
+}
+
+/// Reads an array of exactly `N` numbers: serde's arrays stop after `N` and ignore the
+/// rest, so `velocity = [1, 0, 0, 5]` would run as `[1, 0, 0]` without a word.
+pub(crate) fn exact_array<'de, D, const N: usize>(d: D) -> Result<[f32; N], D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    let v = Vec::<f32>::deserialize(d)?;
+    let len = v.len();
+    v.try_into().map_err(|_| {
+        serde::de::Error::invalid_length(len, &format!("an array of {N} numbers").as_str())
+    })
 }
 
 /// Command-line overrides applied when a scene is built.
@@ -1052,6 +1067,45 @@ mod tests {
         );
         assert!(warnings(Some(60)).is_empty(), "{:?}", warnings(Some(60)));
         assert!(warnings(None).is_empty(), "{:?}", warnings(None));
+    }
+
+    /// A three-vector key given four numbers (or a plane's size three) is refused with
+    /// the line and the count, not cut to its first numbers: serde's fixed arrays read
+    /// the first N and ignored the rest, so `velocity = [0, 0, 0, 5]` ran at rest.
+    #[test]
+    fn arrays_of_the_wrong_length_are_refused() {
+        let object = |line: &str| {
+            format!(
+                "name = \"x\"\n[[objects]]\nshape = {{ type = \"sphere\", radius = 0.1 }}\nspacing = 0.02\n{line}\n"
+            )
+        };
+        for line in [
+            "velocity = [0.0, 0.0, 0.0, 5.0]",
+            "position = [0.0, 0.0, 0.0, 1e9]",
+            "rotation = [0.0, 0.0]",
+            "load = [1.0, 0.0, 0.0, 0.0]",
+        ] {
+            let e = Scene::parse(&object(line), "x.toml").unwrap_err().0;
+            assert!(
+                e.contains("x.toml") && e.contains(line) && e.contains("array of 3 numbers"),
+                "{e}"
+            );
+        }
+        let top = "name = \"x\"\ngravity = [0.0, -9.81, 0.0, 1.0]\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0.02\n";
+        let e = Scene::parse(top, "x.toml").unwrap_err().0;
+        assert!(
+            e.contains("gravity") && e.contains("array of 3 numbers"),
+            "{e}"
+        );
+        let plane = "name = \"x\"\n[[objects]]\nstatic = true\nshape = { type = \"plane\", size = [1.0, 1.0, 1.0] }\nspacing = 0.02\n";
+        let e = Scene::parse(plane, "x.toml").unwrap_err().0;
+        assert!(e.contains("array of 2 numbers"), "{e}");
+        let fixed = object("fixed = [{ min = [0.0, 0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0] }]");
+        let e = Scene::parse(&fixed, "x.toml").unwrap_err().0;
+        assert!(e.contains("array of 3 numbers"), "{e}");
+        let camera = "name = \"x\"\n[camera]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0, 0.0]\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0.02\n";
+        let e = Scene::parse(camera, "x.toml").unwrap_err().0;
+        assert!(e.contains("array of 3 numbers"), "{e}");
     }
 
     /// Mean distance between consecutively stored points (m).
