@@ -294,14 +294,26 @@ impl Scene {
         for (k, o) in self.objects.iter().enumerate() {
             let at = format!("objects[{k}]");
             // Messages, summaries and fragments name objects: two of one name would be
-            // ambiguous in all three.
-            if !o.name.is_empty()
-                && let Some(first) = self.objects[..k].iter().position(|p| p.name == o.name)
-            {
-                return Err(err(
-                    &format!("{at}.name"),
-                    format!("name = \"{}\": objects[{first}] has it too", o.name),
-                ));
+            // ambiguous in all three. An unnamed object is called `object{k}` when built,
+            // which an explicit name may take.
+            let named = |j: usize| match self.objects[j].name.as_str() {
+                "" => format!("object{j}"),
+                name => name.to_string(),
+            };
+            let name = named(k);
+            if let Some(first) = (0..k).find(|&j| named(j) == name) {
+                let message = match (o.name.is_empty(), self.objects[first].name.is_empty()) {
+                    (false, false) => format!("name = \"{name}\": objects[{first}] has it too"),
+                    (false, true) => format!(
+                        "name = \"{name}\": the unnamed objects[{first}] is called so; \
+                         choose another name or name objects[{first}]"
+                    ),
+                    _ => format!(
+                        "unnamed, it would be called \"{name}\", as objects[{first}] is \
+                         named; give it a name"
+                    ),
+                };
+                return Err(err(&format!("{at}.name"), message));
             }
             o.shape
                 .validate()
@@ -1106,6 +1118,41 @@ mod tests {
         let camera = "name = \"x\"\n[camera]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0, 0.0]\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0.02\n";
         let e = Scene::parse(camera, "x.toml").unwrap_err().0;
         assert!(e.contains("array of 3 numbers"), "{e}");
+    }
+
+    /// Names must tell objects apart, the names given to unnamed objects (`object{k}`)
+    /// included: an explicit `object1` on objects[0] beside an unnamed objects[1] made
+    /// two bodies called 'object1'.
+    #[test]
+    fn generated_names_do_not_collide() {
+        let two = |a: &str, b: &str| {
+            let obj = |name: &str, x: f32| {
+                format!(
+                    "[[objects]]\n{name}\nshape = {{ type = \"sphere\", radius = 0.1 }}\nspacing = 0.02\nposition = [{x}, 0.0, 0.0]\n"
+                )
+            };
+            format!("name = \"x\"\n{}{}", obj(a, 0.0), obj(b, 1.0))
+        };
+        let e = Scene::parse(&two("name = \"object1\"", ""), "x.toml")
+            .unwrap_err()
+            .0;
+        assert!(
+            e.contains("objects[1].name") && e.contains("\"object1\""),
+            "{e}"
+        );
+        let e = Scene::parse(&two("", "name = \"object0\""), "x.toml")
+            .unwrap_err()
+            .0;
+        assert!(
+            e.contains("objects[1].name") && e.contains("unnamed objects[0]"),
+            "{e}"
+        );
+        let e = Scene::parse(&two("name = \"a\"", "name = \"a\""), "x.toml")
+            .unwrap_err()
+            .0;
+        assert!(e.contains("objects[0] has it too"), "{e}");
+        assert!(Scene::parse(&two("", ""), "x.toml").is_ok());
+        assert!(Scene::parse(&two("name = \"object0\"", ""), "x.toml").is_ok());
     }
 
     /// Mean distance between consecutively stored points (m).
