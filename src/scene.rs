@@ -928,6 +928,17 @@ impl ObjectSpec {
         shape.load_mesh(Path::new(""))?;
         let (spacing, surfel_spacing) = self.spacings(&shape)?;
         let vol = shape.sample_volume(spacing);
+        // Each phyxel's mass is its lattice cell's volume times the density: both in range
+        // can still overflow or underflow f32 together.
+        let mass = vol.cell_volume * self.material.density;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(format!(
+                "material.density = {:e} kg/m³ at spacing = {spacing} m gives each phyxel a \
+                 mass of {mass:e} kg ({:e} m³ × density), outside f32's range: change the \
+                 density or the spacing",
+                self.material.density, vol.cell_volume
+            ));
+        }
         let surf = shape.sample_surface(surfel_spacing);
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
         let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
@@ -1118,6 +1129,32 @@ mod tests {
         let camera = "name = \"x\"\n[camera]\nposition = [0.0, 0.0, 1.0]\ntarget = [0.0, 0.0, 0.0, 0.0]\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0.02\n";
         let e = Scene::parse(camera, "x.toml").unwrap_err().0;
         assert!(e.contains("array of 3 numbers"), "{e}");
+    }
+
+    /// A phyxel's mass is its cell volume times the density (kg): values each in range
+    /// whose product overflows (a 2 m lattice at 1e38 kg/m³) or underflows (1 mm at
+    /// 1e-37 kg/m³) f32 are refused naming the density and the spacing; `Object::new`
+    /// panicked on them.
+    #[test]
+    fn phyxel_masses_out_of_range_are_refused() {
+        for (radius, spacing, density, mass) in [
+            (2.0, 2.0, 1e38, "mass of inf kg"),
+            (0.005, 0.001, 1e-37, "mass of 0e0 kg"),
+        ] {
+            let text = format!(
+                "name = \"x\"\n[[objects]]\nshape = {{ type = \"sphere\", radius = {radius} }}\n\
+                 spacing = {spacing}\nmaterial = {{ density = {density:e} }}\n"
+            );
+            let scene = Scene::parse(&text, "x.toml").expect("each value in range");
+            let e = scene.build(&BuildOptions::default()).unwrap_err().0;
+            assert!(
+                e.contains("objects[0]")
+                    && e.contains(&format!("material.density = {density:e}"))
+                    && e.contains(&format!("spacing = {spacing}"))
+                    && e.contains(mass),
+                "{e}"
+            );
+        }
     }
 
     /// Names must tell objects apart, the names given to unnamed objects (`object{k}`)

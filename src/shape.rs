@@ -424,7 +424,16 @@ impl Shape {
         } = self
             && mesh.is_none()
         {
-            *mesh = Some(Arc::new(Surface::load(&base.join(&*path), *scale)?));
+            let m = Surface::load(&base.join(&*path), *scale)?;
+            // Finite vertices times a finite scale can still overflow f32.
+            let h = m.half_extents();
+            if !h.is_finite() || !m.signed_volume().is_finite() {
+                return Err(format!(
+                    "scale = {scale:e}: the scaled mesh's half extents {h} or its volume leave \
+                     f32's range: scale it down"
+                ));
+            }
+            *mesh = Some(Arc::new(m));
         }
         Ok(())
     }

@@ -389,6 +389,23 @@ fn bad_meshes_give_clear_errors() {
     .unwrap();
     let e = scene_error(d, "cloud.ply");
     assert!(e.contains("cloud.ply") && e.contains("no 'face'"), "{e}");
+
+    // Finite vertices and a finite scale whose product overflows f32: refused by the
+    // scale, not a panic when sampling (it was `capacity overflow`).
+    let scene = d.join("huge.toml");
+    std::fs::write(
+        &scene,
+        "[[objects]]\nshape = { type = \"mesh\", path = \"tet.obj\", scale = 3e38 }\n\
+         spacing = 0.025\n",
+    )
+    .unwrap();
+    let e = Scene::load(&scene)
+        .expect_err("overflowing scale")
+        .to_string();
+    assert!(
+        e.contains("objects[0].shape") && e.contains("scale = 3e38") && e.contains("f32"),
+        "{e}"
+    );
 }
 
 /// `n` points on a sphere of radius `r` (Fibonacci spiral) with outward normals, as a PLY
