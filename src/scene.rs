@@ -695,6 +695,21 @@ pub const MAX_PHYXELS: usize = 5_000_000;
 /// Most surfels one object may have (about 200 bytes each with binding and grids: some
 /// 4 GB; the `scale` scene runs 1M per object).
 pub const MAX_SURFELS: usize = 20_000_000;
+/// Most lattice points the volume sampler may test for one object
+/// ([`Shape::lattice_points`], about 2 ns each: some seconds). A thin torus 600 m
+/// across at 0.2 mm spacing would have tested 10¹³ (hours) to keep a few thousand.
+pub const MAX_LATTICE_POINTS: f64 = 2e9;
+
+/// About how many phyxels the lattice of `spacing` puts into `shape`: the volume's
+/// cells, the boundary layer's (area / spacing²), and one row along the longest extent,
+/// which a needle thinner than the spacing still gets (its volume and area alone
+/// counted 10⁵ phyxels of a 2 km needle that sampled 10⁷).
+fn phyxel_estimate(shape: &Shape, spacing: f32) -> f64 {
+    let (volume, area) = (shape.volume() as f64, shape.area() as f64);
+    let s = spacing as f64;
+    let longest = 2.0 * shape.half_extents().max_element() as f64;
+    volume / s.powi(3) + area / s.powi(2) + longest / s
+}
 
 /// Whether a finite, non-zero `x` keeps its magnitude as an f32: within the normal f32
 /// range, not rounded to infinity, to 0 or to a subnormal.
@@ -826,9 +841,21 @@ fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
 fn lattice_spacing_for(shape: &Shape, target: u32) -> f32 {
     let target = target as f32;
     let mut s = (shape.volume() / target).cbrt();
+    // A shape thinner than that spacing (a needle, a thin ring) gets far more phyxels
+    // than its volume says: widen the first guess until the estimate is within a factor
+    // the boundary layer of a compact body stays under (a sphere of 20 phyxels: 3), so
+    // the search never samples a lattice of billions.
+    for _ in 0..64 {
+        if !(s.is_finite() && s > 0.0) || phyxel_estimate(shape, s) <= 8.0 * target as f64 {
+            break;
+        }
+        s *= 1.25;
+    }
     let mut best = (f32::INFINITY, s);
     for _ in 0..8 {
-        if !(s.is_finite() && s > 0.0) {
+        let affordable = phyxel_estimate(shape, s) <= 2.0 * MAX_PHYXELS as f64
+            && shape.lattice_points(s) <= MAX_LATTICE_POINTS;
+        if !(s.is_finite() && s > 0.0 && affordable) {
             break;
         }
         let n = shape.sample_volume(s).positions.len() as f32;
@@ -885,14 +912,13 @@ impl ObjectSpec {
         // Counts a given spacing leads to (the lattice's boundary layer included), so that
         // a spacing orders of magnitude too small is refused before sampling exhausts
         // memory. (Target counts are checked against the limits as they are.)
-        let (volume, area) = (shape.volume() as f64, shape.area() as f64);
-        let (s, t) = (spacing as f64, surfel as f64);
+        let t = surfel as f64;
         let estimates = [
             (
                 self.phyxels.is_none(),
                 "spacing",
                 spacing,
-                volume / s.powi(3) + area / s.powi(2),
+                phyxel_estimate(shape, spacing),
                 MAX_PHYXELS,
                 "phyxels",
             ),
@@ -900,7 +926,7 @@ impl ObjectSpec {
                 self.surfels.is_none(),
                 "surfel_spacing",
                 surfel,
-                area / t.powi(2),
+                shape.area() as f64 / t.powi(2),
                 MAX_SURFELS,
                 "surfels",
             ),
@@ -917,6 +943,18 @@ impl ObjectSpec {
                 ));
             }
         }
+        let scan = shape.lattice_points(spacing);
+        if scan > MAX_LATTICE_POINTS {
+            let key = match self.phyxels {
+                Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
+                None => format!("spacing = {spacing}"),
+            };
+            return Err(format!(
+                "{key}: the shape's bounding box holds {scan:.2e} lattice points to test, more \
+                 than the limit of {MAX_LATTICE_POINTS:e} (the shape is thin for its extent): \
+                 a coarser spacing"
+            ));
+        }
         Ok((spacing, surfel))
     }
 
@@ -928,6 +966,18 @@ impl ObjectSpec {
         shape.load_mesh(Path::new(""))?;
         let (spacing, surfel_spacing) = self.spacings(&shape)?;
         let vol = shape.sample_volume(spacing);
+        // The estimates bound the sampling's cost; the count itself is known only now.
+        if vol.positions.len() > MAX_PHYXELS {
+            let key = match self.phyxels {
+                Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
+                None => format!("spacing = {spacing}"),
+            };
+            return Err(format!(
+                "{key}: gives {} phyxels, more than the limit of {MAX_PHYXELS} per object \
+                 (a coarser spacing, or a smaller count: `phyxels = N`)",
+                vol.positions.len()
+            ));
+        }
         // Each phyxel's mass is its lattice cell's volume times the density: both in range
         // can still overflow or underflow f32 together.
         let mass = vol.cell_volume * self.material.density;
@@ -1155,6 +1205,49 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    /// Shapes thin for their extent are refused before sampling, where their volume and
+    /// area alone underestimated the lattice: a needle 2 km long and 1 µm thick at 0.2
+    /// mm spacing has one row of 10⁷ phyxels (it exhausted memory), a 600 m torus of 1 µm
+    /// tube tests 9·10¹² lattice points (it ran for hours), and a plane 1 µm deep is one
+    /// row too.
+    #[test]
+    fn thin_shapes_are_refused_before_sampling() {
+        let one = |shape: &str, extra: &str| {
+            let text = format!(
+                "name = \"x\"\n[[objects]]\n{extra}\nshape = {shape}\nspacing = 2e-4\n\
+                 surfel_spacing = 0.01\n"
+            );
+            let scene = Scene::parse(&text, "x.toml").expect("parses");
+            scene.build(&BuildOptions::default()).unwrap_err().0
+        };
+        let e = one(r#"{ type = "box", size = [2000.0, 1e-6, 1e-6] }"#, "");
+        assert!(
+            e.contains("spacing = 0.0002") && e.contains("about 1.02e7 phyxels"),
+            "{e}"
+        );
+        let e = one(r#"{ type = "torus", major = 300.0, minor = 1e-6 }"#, "");
+        assert!(e.contains("9.00e12 lattice points"), "{e}");
+        let e = one(
+            r#"{ type = "plane", size = [2000.0, 1e-6] }"#,
+            "static = true",
+        );
+        assert!(e.contains("about 1.01e7 phyxels"), "{e}");
+    }
+
+    /// A phyxel count asked of a needle (2 m × 0.1 mm × 0.1 mm) is met within 10%: the
+    /// spacing search starts near the needle's own estimate, not from its volume alone
+    /// (whose spacing put 7,400 phyxels on it, and eight cube-root corrections of a count
+    /// that goes as 1/spacing left 1,124).
+    #[test]
+    fn a_needle_gets_its_phyxel_count() {
+        let text = "name = \"x\"\n[[objects]]\nshape = { type = \"box\", size = [2.0, 1e-4, 1e-4] }\n\
+                    phyxels = 1000\nsurfel_spacing = 0.01\n";
+        let scene = Scene::parse(text, "x.toml").expect("parses");
+        let world = scene.build(&BuildOptions::default()).expect("builds");
+        let n = world.objects[0].phyxels.len();
+        assert!((900..=1100).contains(&n), "{n} phyxels");
     }
 
     /// Names must tell objects apart, the names given to unnamed objects (`object{k}`)

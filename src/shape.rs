@@ -86,6 +86,21 @@ impl Shape {
     /// Checks parameters; `Err` names the offending field and its value, because shapes
     /// usually come from hand-written scene files.
     pub fn validate(&self) -> Result<(), String> {
+        self.validate_sizes()?;
+        // Sizes each in range can still give a volume or area past f32's range (a sphere
+        // of radius 1e19 m), which every count and mass derives from.
+        let (v, a) = (self.volume(), self.area());
+        if v.is_finite() && a.is_finite() {
+            Ok(())
+        } else {
+            Err(format!(
+                "the shape's volume ({v:e} m³) or area ({a:e} m²) leaves f32's range: \
+                 use smaller sizes (metres)"
+            ))
+        }
+    }
+
+    fn validate_sizes(&self) -> Result<(), String> {
         match *self {
             Shape::Sphere { radius } => positive("radius", radius),
             Shape::Box { size } => size
@@ -186,6 +201,20 @@ impl Shape {
                 .normalize_or(Vec3::Y)
             }
         }
+    }
+
+    /// Lattice points the volume sampler tests at `spacing`: those of the shape's
+    /// bounding box (one layer for a plane), as `f64` so that no count overflows. Sampling
+    /// costs this many sdf evaluations, however few points it keeps (a thin torus keeps
+    /// few of a large box).
+    pub fn lattice_points(&self, spacing: f32) -> f64 {
+        let axis = |half: f32| {
+            (2.0 * half as f64 / spacing as f64 - FIT_TOLERANCE as f64)
+                .ceil()
+                .max(1.0)
+        };
+        let h = self.half_extents();
+        axis(h.x) * axis(h.y) * axis(h.z)
     }
 
     /// Analytic volume; a plane is a surface, so 0.
