@@ -218,6 +218,15 @@ impl Material {
                 self.volume_stiffness
             ));
         }
+        // A stiffness like `young`, bounded for the same reason (at 1e37 Pa the stable
+        // bound overflowed to infinity and the run went NaN).
+        if self.volume_stiffness > MAX_YOUNG {
+            return Err(format!(
+                "volume_stiffness = {:e}: must be at most {MAX_YOUNG:e} Pa (as young; above it \
+                 the stiffness bound overflows f32)",
+                self.volume_stiffness
+            ));
+        }
         if self.plastic_yield.is_nan() || self.plastic_yield < 0.0 {
             return Err(format!(
                 "plastic_yield = {}: must be >= 0 (inf for elastic)",

@@ -542,13 +542,28 @@ impl Scene {
         let gravity = Vec3::from(self.gravity);
         let mut world = World::new(objects, gravity, 0.0);
         let (stable, limiter) = world.stable_dt();
-        let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
         if stable.is_nan() || stable <= 0.0 {
+            // Values each in range whose combination leaves f32's range: name them all.
+            let what = limiter.map_or(String::new(), |o| {
+                let m = &o.material;
+                format!(
+                    " (young = {:e} Pa, density = {:e} kg/m³, volume_stiffness = {:e} Pa, \
+                     damping = {:e}, contact_stiffness = {:e}, spacing = {:e} m)",
+                    m.young,
+                    m.density,
+                    m.k_volume(),
+                    m.damping,
+                    m.contact_stiffness,
+                    o.phyxel_spacing
+                )
+            });
+            let name = limiter.map(|o| o.name.clone()).unwrap_or_default();
             return Err(SceneError(format!(
-                "{origin}: object '{limiter}' has no stable time step (bound {stable} s): \
-                 check its material (stiffness, damping) and spacing"
+                "{origin}: object '{name}' has no stable time step (bound {stable} s): its \
+                 material and spacing{what} leave f32's range together; check them"
             )));
         }
+        let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
         let dt = match opts.dt.or(self.dt) {
             Some(dt) => {
                 if !(dt.is_finite() && dt > 0.0) {

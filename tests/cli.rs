@@ -678,6 +678,38 @@ fn error_young_above_the_limit() {
     );
 }
 
+/// `volume_stiffness` is bounded like `young` (at 1e37 Pa the bound overflowed to
+/// infinity: "no stable bound", dt 1 ms, NaN at step 3, naming neither file nor key).
+#[test]
+fn error_volume_stiffness_above_the_limit() {
+    expect_scene_error(
+        "volume-stiffness",
+        &format!("{SPHERE}material = {{ volume_stiffness = 1e37 }}\n"),
+        &[
+            "objects[0].material",
+            "volume_stiffness = 1e37",
+            "at most 1e15",
+        ],
+    );
+}
+
+/// Material values each in range whose combination leaves f32's range (a density of
+/// 1.2e-38 kg/m³: the wave speed overflows, the stable bound is NaN) are refused naming
+/// the object and every value that enters the bound.
+#[test]
+fn error_material_out_of_range_together() {
+    expect_scene_error(
+        "tiny-density",
+        &format!("{SPHERE}material = {{ density = 1.2e-38 }}\n"),
+        &[
+            "no stable time step",
+            "density = 1.2e-38",
+            "young = 1e5",
+            "spacing = ",
+        ],
+    );
+}
+
 /// Keys that only act on moving objects (and materials that flow or break) are refused
 /// on a static one (naming the key) rather than ignored.
 #[test]
