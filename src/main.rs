@@ -34,7 +34,7 @@ enum Command {
         /// Number of steps (default: the scene's).
         #[arg(long)]
         steps: Option<u64>,
-        /// Time step in seconds (default: the scene's, else 90% of the stable bound).
+        /// Time step in seconds (default: the scene's, else 90% of the stable bound, at most 1 ms).
         #[arg(long, allow_hyphen_values = true)]
         dt: Option<f64>,
         /// Backend for every deformable object (overrides the scene).

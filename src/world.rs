@@ -144,6 +144,12 @@ pub const ENERGY_GAIN_WARNING: f64 = 0.1;
 /// default dt's margin (`Scene::build`).
 pub const DT_FRACTION: f32 = 0.9;
 
+/// Largest default `dt` (s): when no object has a stable bound, and when the bound is
+/// longer. Stability alone does not resolve motion: a material of 1e-38 Pa had a bound
+/// of 2·10¹⁸ s, and its first steps under gravity fell past f32's range. No built-in
+/// scene's bound reaches it (the softest, `soft-on-plane`, runs at 0.95 ms).
+pub const MAX_DEFAULT_DT: f32 = 1e-3;
+
 /// A summary: the objects (each as [`Object`]'s summary), the step, the pairs and
 /// contacts of the last step; not the caches and scratch.
 impl std::fmt::Debug for World {
