@@ -170,7 +170,8 @@ pub struct RenderOptions {
     pub height: u32,
     /// Camera; `None`: [`Camera::fit`] to the frame's bounds.
     pub camera: Option<Camera>,
-    /// Samples per pixel along each axis (2: 4 samples per pixel).
+    /// Samples per pixel along each axis (2: 4 samples per pixel), lowered for images
+    /// too large to hold them ([`samples_per_axis`]).
     pub supersample: u32,
     /// Disc radius scale over the surfel radius (closes gaps between neighbours).
     pub splat_scale: f32,
@@ -324,10 +325,26 @@ fn disc_radius(frame: &Frame, i: usize, fallback: f32) -> f32 {
 /// Disc radius of points without one in a frame whose points all coincide (m).
 pub const DEFAULT_RADIUS: f32 = 0.01;
 
+/// Most samples one render keeps (32 bytes each: colour and depth, objects and contact
+/// overlay): 2 GB. An 8192 × 8192 image at 2 × 2 samples per pixel took 8.6 GB; larger
+/// images get fewer samples per pixel, down to one.
+pub const MAX_SAMPLES: u64 = 1 << 26;
+
+/// Samples per pixel along each axis for a `width × height` image: `supersample`,
+/// lowered until the image fits [`MAX_SAMPLES`] (at least 1).
+pub fn samples_per_axis(width: u32, height: u32, supersample: u32) -> u32 {
+    let pixels = u64::from(width.max(1)) * u64::from(height.max(1));
+    let mut s = supersample.max(1);
+    while s > 1 && pixels * u64::from(s * s) > MAX_SAMPLES {
+        s -= 1;
+    }
+    s
+}
+
 /// Renders `frame` as splats.
 pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
     let cam = camera_for(frame, opts);
-    let s = opts.supersample.max(1);
+    let s = samples_per_axis(opts.width, opts.height, opts.supersample);
     let (w, h) = (opts.width.max(1) * s, opts.height.max(1) * s);
     let (eye, fwd, right, up) = cam.basis();
     let f = cam.focal(h);

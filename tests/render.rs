@@ -379,3 +379,22 @@ fn degenerate_frames_are_drawn() {
         }
     }
 }
+
+/// Samples per pixel drop for images too large to hold them: every size the CLI accepts
+/// (16 to 8192 per side) keeps at most `MAX_SAMPLES` samples (32 bytes each, 2 GB), and
+/// sizes that fit keep the asked 2 × 2 (an 8192² image at 2 × 2 took 8.6 GB).
+#[test]
+fn large_images_take_fewer_samples() {
+    use phyxel::render::{MAX_SAMPLES, samples_per_axis};
+    assert_eq!(samples_per_axis(800, 600, 2), 2);
+    assert_eq!(samples_per_axis(4096, 4096, 2), 2);
+    assert_eq!(samples_per_axis(8192, 8192, 2), 1);
+    assert_eq!(samples_per_axis(8192, 8192, 0), 1);
+    for w in [16u32, 1000, 4097, 6000, 8192] {
+        for h in [16u32, 3000, 8192] {
+            let s = samples_per_axis(w, h, 4);
+            let n = u64::from(w) * u64::from(h) * u64::from(s * s);
+            assert!(s >= 1 && (n <= MAX_SAMPLES || s == 1), "{w}x{h}: {s}");
+        }
+    }
+}
