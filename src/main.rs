@@ -24,9 +24,13 @@ struct Cli {
     command: Command,
 }
 
+/// Commands that take numbers allow negative ones, so that `--steps -1` or `--fov -10`
+/// reach the value checks (naming the flag and its range) instead of reading as an
+/// unknown flag `-1`.
 #[derive(Subcommand)]
 enum Command {
     /// Run a built-in scene or a scene file.
+    #[command(allow_negative_numbers = true)]
     Run {
         /// Built-in scene name or path to a .toml scene file.
         #[arg(default_value = DEFAULT_SCENE)]
@@ -53,7 +57,7 @@ enum Command {
         #[arg(long, requires = "out")]
         png: bool,
         /// Image size for --png, WIDTHxHEIGHT [default: 800x600].
-        #[arg(long)]
+        #[arg(long, allow_hyphen_values = true)]
         size: Option<String>,
         /// Print the run summary as one JSON object on stdout.
         #[arg(long)]
@@ -74,6 +78,7 @@ enum Command {
         flamegraph: Option<PathBuf>,
     },
     /// Run a scene once per backend and compare speed, contact and conservation.
+    #[command(allow_negative_numbers = true)]
     Compare {
         /// Built-in scene name or path to a .toml scene file.
         #[arg(default_value = DEFAULT_SCENE)]
@@ -96,6 +101,7 @@ enum Command {
         allow_unstable: bool,
     },
     /// Render a surfel frame (PLY) to a PNG image.
+    #[command(allow_negative_numbers = true)]
     Render {
         /// A surfel PLY frame (from `run --out`) or any PLY point cloud with x y z.
         frame: PathBuf,
@@ -103,7 +109,7 @@ enum Command {
         #[arg(short, long)]
         out: PathBuf,
         /// Image size, WIDTHxHEIGHT.
-        #[arg(long, default_value = "800x600")]
+        #[arg(long, default_value = "800x600", allow_hyphen_values = true)]
         size: String,
         /// Take the camera from this scene's [camera] (built-in name or .toml file).
         #[arg(long)]
@@ -120,6 +126,7 @@ enum Command {
     },
     /// Run the validation suite: every case against its reference at several resolutions,
     /// with seconds per step against relative error, then the hard (stability) cases.
+    #[command(allow_negative_numbers = true)]
     Validate {
         /// Coarse resolutions and short runs (under two minutes).
         #[arg(long)]
@@ -142,13 +149,16 @@ enum Command {
         /// Print this built-in scene as TOML (runnable with `phyxel run FILE.toml`).
         #[arg(long)]
         show: Option<String>,
+        /// The same as `--show NAME`.
+        #[arg(conflicts_with = "show")]
+        name: Option<String>,
     },
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
-        Command::Scenes { show } => scenes(show),
+        Command::Scenes { show, name } => scenes(show.or(name)),
         Command::Validate {
             quick,
             backend,
@@ -418,6 +428,15 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         );
         return ExitCode::FAILURE;
     }
+    if let Some(dir) = &opts.out
+        && let Err(e) = std::fs::create_dir_all(dir)
+    {
+        eprintln!(
+            "error: --out {}: cannot create the directory: {e}",
+            dir.display()
+        );
+        return ExitCode::FAILURE;
+    }
     let Some((scene, file_prefix)) = resolve_scene(arg) else {
         return ExitCode::FAILURE;
     };
@@ -605,7 +624,9 @@ fn compare(
     json: bool,
     (dt, allow_unstable): (Option<f32>, bool),
 ) -> ExitCode {
-    for b in names {
+    // "mls, sph" is meant as "mls,sph".
+    let names: Vec<String> = names.iter().map(|b| b.trim().to_string()).collect();
+    for (k, b) in names.iter().enumerate() {
         if !backends::NAMES.contains(&b.as_str()) {
             eprintln!(
                 "error: --backends: unknown backend '{b}' (available: {})",
@@ -613,7 +634,12 @@ fn compare(
             );
             return ExitCode::FAILURE;
         }
+        if names[..k].contains(b) {
+            eprintln!("error: --backends: '{b}' is listed twice");
+            return ExitCode::FAILURE;
+        }
     }
+    let names = &names[..];
     if names.is_empty() {
         eprintln!("error: --backends: give at least one backend");
         return ExitCode::FAILURE;

@@ -1402,3 +1402,66 @@ fn a_coarse_body_is_run_with_a_warning() {
         text(&out.stderr)
     );
 }
+
+/// Negative numbers reach the value checks, which name the flag, instead of reading as
+/// an unknown flag (`unexpected argument '-1' found`, quoting `-8` for `-800x600`).
+#[test]
+fn negative_numbers_name_their_flag() {
+    let out = phyxel(&["run", "--steps", "-1"]);
+    let e = text(&out.stderr);
+    assert!(
+        !out.status.success() && e.contains("'-1' for '--steps"),
+        "{e}"
+    );
+    expect_error(&["run", "--dt", "-1"], &["--dt -1", "> 0"]);
+    expect_error(
+        &["render", "f.ply", "-o", "x.png", "--size", "-800x600"],
+        &["--size -800x600", "16 to 8192"],
+    );
+}
+
+/// `scenes NAME` prints the scene as `scenes --show NAME` does.
+#[test]
+fn scenes_name_is_show() {
+    assert_eq!(
+        stdout_of(&["scenes", "two-spheres"]),
+        stdout_of(&["scenes", "--show", "two-spheres"])
+    );
+    expect_error(&["scenes", "nope"], &["unknown scene 'nope'"]);
+}
+
+/// `--backends` takes "mls, sph" as "mls,sph" and refuses a backend listed twice.
+#[test]
+fn compare_backends_are_trimmed_and_unique() {
+    let out = phyxel(&[
+        "compare",
+        "--backends",
+        "mls, sph",
+        "--steps",
+        "2",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let runs: Value = serde_json::from_slice(&out.stdout).expect("a JSON array");
+    let names: Vec<&str> = runs
+        .as_array()
+        .expect("an array")
+        .iter()
+        .map(|r| r["backend"].as_str().expect("a backend"))
+        .collect();
+    assert_eq!(names, ["mls", "sph"]);
+    expect_error(
+        &["compare", "--backends", "mls,mls", "--steps", "1"],
+        &["--backends", "'mls' is listed twice"],
+    );
+}
+
+/// An `--out` directory that cannot be made is reported by the flag before the run
+/// (it was "writing frame 0 to …", after the scene file's name).
+#[test]
+fn error_out_directory_names_the_flag() {
+    expect_error(
+        &["run", "--steps", "1", "--out", "/proc/phyxel-out"],
+        &["--out /proc/phyxel-out", "cannot create the directory"],
+    );
+}
