@@ -121,6 +121,13 @@ impl Camera {
             return Err(format!("fov = {}: must be in (1, 170) degrees", self.fov));
         }
         let fwd = target - eye;
+        // Finite points whose distance (or its square, in `length`) overflows f32.
+        if !fwd.length().is_finite() || !up.length().is_finite() {
+            return Err(format!(
+                "position = {p:?}, target = {t:?}, up = {u:?}: too large for f32 (their \
+                 distance overflows); use smaller coordinates (metres)"
+            ));
+        }
         if fwd.length() < 1e-9 {
             return Err(format!("position = {p:?}, target = {t:?}: they coincide"));
         }

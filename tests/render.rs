@@ -398,3 +398,27 @@ fn large_images_take_fewer_samples() {
         }
     }
 }
+
+/// A camera whose points are finite but whose distance overflows f32 (1e30 m: its
+/// square is past f32's range) is refused as too large, not as an `up` parallel to the
+/// view direction (the overflowed direction made every `up` look parallel).
+#[test]
+fn far_cameras_are_refused_as_too_large() {
+    let cam = |position: [f32; 3], target: [f32; 3]| Camera {
+        position,
+        target,
+        fov: 35.0,
+        up: [0.0, 1.0, 0.0],
+    };
+    for c in [
+        cam([0.0, 0.0, 1e30], [0.0; 3]),
+        cam([3e38; 3], [0.0, 1.0, 0.0]),
+    ] {
+        let e = c.validate().unwrap_err();
+        assert!(
+            e.contains("too large for f32") && !e.contains("parallel"),
+            "{e}"
+        );
+    }
+    assert!(cam([0.0, 0.0, 1e3], [0.0; 3]).validate().is_ok());
+}
