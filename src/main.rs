@@ -93,7 +93,7 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Time step (s) for every run (default: the scene's, else 90% of each backend's
-        /// stable bound).
+        /// stable bound, at most 1 ms).
         #[arg(long, allow_hyphen_values = true)]
         dt: Option<f64>,
         /// Run even when dt exceeds a backend's stable bound.
