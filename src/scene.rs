@@ -1305,24 +1305,14 @@ mod tests {
             };
             format!("name = \"x\"\n{}{}", obj(a, 0.0), obj(b, 1.0))
         };
-        let e = Scene::parse(&two("name = \"object1\"", ""), "x.toml")
-            .unwrap_err()
-            .0;
-        assert!(
-            e.contains("objects[1].name") && e.contains("\"object1\""),
-            "{e}"
-        );
-        let e = Scene::parse(&two("", "name = \"object0\""), "x.toml")
-            .unwrap_err()
-            .0;
-        assert!(
-            e.contains("objects[1].name") && e.contains("unnamed objects[0]"),
-            "{e}"
-        );
-        let e = Scene::parse(&two("name = \"a\"", "name = \"a\""), "x.toml")
-            .unwrap_err()
-            .0;
-        assert!(e.contains("objects[0] has it too"), "{e}");
+        for (a, b, needle) in [
+            ("name = \"object1\"", "", "\"object1\""),
+            ("", "name = \"object0\"", "unnamed objects[0]"),
+            ("name = \"a\"", "name = \"a\"", "objects[0] has it too"),
+        ] {
+            let e = Scene::parse(&two(a, b), "x.toml").unwrap_err().0;
+            assert!(e.contains("objects[1].name") && e.contains(needle), "{e}");
+        }
         assert!(Scene::parse(&two("", ""), "x.toml").is_ok());
         assert!(Scene::parse(&two("name = \"object0\"", ""), "x.toml").is_ok());
     }

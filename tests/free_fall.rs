@@ -87,6 +87,23 @@ fn well_above_stable_dt_blows_up() {
     );
 }
 
+/// A steel ball (E = 200 GPa, ρ = 7800 kg/m³, r = 5 cm, 12.5 mm phyxels) at y = 3 m, at
+/// its default dt (0.69 µs).
+fn steel_ball_at_3_m() -> World {
+    let text = r#"
+        name = "steel"
+        [[objects]]
+        shape = { type = "sphere", radius = 0.05 }
+        spacing = 0.0125
+        position = [0.0, 3.0, 0.0]
+        material = { young = 2.0e11, density = 7800.0 }
+    "#;
+    Scene::parse(text, "steel")
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap()
+}
+
 /// A stiff body far from the origin moves by less than its positions' resolution per
 /// step: a steel ball (E = 200 GPa, ρ = 7800 kg/m³, r = 5 cm, 12.5 mm phyxels, stable dt
 /// 0.69 µs) at y = 3 m (f32 ulp 2.4·10⁻⁷ m) falling for 20,000 steps moves at most
@@ -97,18 +114,7 @@ fn well_above_stable_dt_blows_up() {
 /// ball did not move.
 #[test]
 fn slow_motion_far_from_the_origin_is_not_rounded_away() {
-    let text = r#"
-        name = "steel"
-        [[objects]]
-        shape = { type = "sphere", radius = 0.05 }
-        spacing = 0.0125
-        position = [0.0, 3.0, 0.0]
-        material = { young = 2.0e11, density = 7800.0 }
-    "#;
-    let mut world = Scene::parse(text, "steel")
-        .unwrap()
-        .build(&BuildOptions::default())
-        .unwrap();
+    let mut world = steel_ball_at_3_m();
     let y0 = world.objects[0].phyxels.centre_of_mass()[1];
     let n = 20_000u64;
     for _ in 0..n {
@@ -133,18 +139,7 @@ fn slow_motion_far_from_the_origin_is_not_rounded_away() {
 /// warned of an energy gain.
 #[test]
 fn free_fall_energy_balances_before_the_positions_move() {
-    let text = r#"
-        name = "steel"
-        [[objects]]
-        shape = { type = "sphere", radius = 0.05 }
-        spacing = 0.0125
-        position = [0.0, 3.0, 0.0]
-        material = { young = 2.0e11, density = 7800.0 }
-    "#;
-    let mut world = Scene::parse(text, "steel")
-        .unwrap()
-        .build(&BuildOptions::default())
-        .unwrap();
+    let mut world = steel_ball_at_3_m();
     let e0 = world.energy();
     let n = 100;
     for _ in 0..n {
