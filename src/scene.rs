@@ -541,10 +541,11 @@ impl Scene {
         );
         let gravity = Vec3::from(self.gravity);
         let mut world = World::new(objects, gravity, 0.0);
-        let (stable, limiter) = world.stable_dt();
+        let (stable, limiter_object) = world.stable_dt();
+        let limiter = limiter_object.map(|o| o.name.clone()).unwrap_or_default();
         if stable.is_nan() || stable <= 0.0 {
             // Values each in range whose combination leaves f32's range: name them all.
-            let what = limiter.map_or(String::new(), |o| {
+            let what = limiter_object.map_or(String::new(), |o| {
                 let m = &o.material;
                 format!(
                     " (young = {:e} Pa, density = {:e} kg/m³, volume_stiffness = {:e} Pa, \
@@ -557,13 +558,11 @@ impl Scene {
                     o.phyxel_spacing
                 )
             });
-            let name = limiter.map(|o| o.name.clone()).unwrap_or_default();
             return Err(SceneError(format!(
-                "{origin}: object '{name}' has no stable time step (bound {stable} s): its \
+                "{origin}: object '{limiter}' has no stable time step (bound {stable} s): its \
                  material and spacing{what} leave f32's range together; check them"
             )));
         }
-        let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
         let dt = match opts.dt.or(self.dt) {
             Some(dt) => {
                 if !(dt.is_finite() && dt > 0.0) {
@@ -959,10 +958,7 @@ impl ObjectSpec {
         }
         let scan = shape.lattice_points(spacing);
         if scan > MAX_LATTICE_POINTS {
-            let key = match self.phyxels {
-                Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
-                None => format!("spacing = {spacing}"),
-            };
+            let key = self.spacing_key(spacing);
             return Err(format!(
                 "{key}: the shape's bounding box holds {scan:.2e} lattice points to test, more \
                  than the limit of {MAX_LATTICE_POINTS:e} (the shape is thin for its extent): \
@@ -970,6 +966,14 @@ impl ObjectSpec {
             ));
         }
         Ok((spacing, surfel))
+    }
+
+    /// What set the phyxel spacing, for errors: the count asked for, or the spacing.
+    fn spacing_key(&self, spacing: f32) -> String {
+        match self.phyxels {
+            Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
+            None => format!("spacing = {spacing}"),
+        }
     }
 
     /// Samples the shape and creates the object with backend `backend`.
@@ -982,10 +986,7 @@ impl ObjectSpec {
         let vol = shape.sample_volume(spacing);
         // The estimates bound the sampling's cost; the count itself is known only now.
         if vol.positions.len() > MAX_PHYXELS {
-            let key = match self.phyxels {
-                Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
-                None => format!("spacing = {spacing}"),
-            };
+            let key = self.spacing_key(spacing);
             return Err(format!(
                 "{key}: gives {} phyxels, more than the limit of {MAX_PHYXELS} per object \
                  (a coarser spacing, or a smaller count: `phyxels = N`)",
