@@ -148,6 +148,11 @@ pub fn damped_euler_limit(omega: f32, zeta: f32) -> f32 {
 /// `phyxels.pos_carry` and added to the next step's increment, so motions far below a
 /// position's f32 resolution add up (a steel ball at y = 3 m falling at 0.1 m/s moved
 /// 7·10⁻⁸ m per stable step, under half the 2.4·10⁻⁷ m ulp: it stood still).
+///
+/// # Panics
+///
+/// If `internal` has fewer (padded) rows than `phyxels` (a backend's force buffer must
+/// match its phyxels).
 pub fn integrate_symplectic(phyxels: &mut Phyxels, internal: &Vec3s, ctx: &StepContext<'_>) {
     let dt = f32x8::splat(ctx.dt);
     let g = [ctx.gravity.x, ctx.gravity.y, ctx.gravity.z].map(f32x8::splat);

@@ -109,7 +109,8 @@ impl Object {
     ///
     /// Without phyxels (surfels follow phyxels, and contact forces act on them), with a
     /// material that [`Material::validate`] refuses, with a non-finite phyxel or surfel
-    /// position or surfel normal, with columns of the wrong length, or with a mass,
+    /// position or surfel normal, with a surfel normal or rest normal that is not a unit
+    /// vector (within 1e-3), with columns of the wrong length, or with a mass,
     /// volume, spacing, influence radius or disk radius that is not finite and > 0
     /// ([`Phyxels::check`], [`Surfels::check`]), or with phyxel masses that are not
     /// `material.density` × volume (within [`MASS_DENSITY_TOLERANCE`]): each would turn
@@ -153,6 +154,22 @@ impl Object {
             phyxels.pos.all_finite() && surfels.pos.all_finite() && surfels.normal.all_finite(),
             "Object::new '{name}': a phyxel or surfel position or a surfel normal is not finite"
         );
+        // Detection and contact read the normals as directions: a zero normal hid its
+        // surfel (two balls with zero normals passed through each other).
+        for (column, what) in [
+            (&surfels.normal, "normal"),
+            (&surfels.rest_normal, "rest normal"),
+        ] {
+            if let Some(i) =
+                (0..surfels.len()).find(|&i| (column.get(i).length() - 1.0).abs() > 1e-3)
+            {
+                panic!(
+                    "Object::new '{name}': surfel {i} has a {what} of length {}: normals must \
+                     be unit vectors",
+                    column.get(i).length()
+                );
+            }
+        }
         let binding = SurfelBinding::build(&surfels, &phyxels);
         let mean = |v: &[f32]| {
             if v.is_empty() {
@@ -237,7 +254,9 @@ impl Object {
     /// with (its binding, force carriers and backend state are sized by them) and the
     /// padded lengths the SIMD loops read: the columns are public, and replacing them
     /// with another count must be an error that names the object, not an index panic
-    /// deep in a phase or a column silently skipped.
+    /// deep in a phase or a column silently skipped. Also the phyxels' mass, volume,
+    /// spacing and radius, finite and > 0, which a caller or a backend may overwrite (a
+    /// NaN mass made the momentum NaN with every position finite; O(phyxels)).
     pub fn check_counts(&self) -> Result<(), String> {
         let (surfels, phyxels) = self.binding.counts();
         let now = (self.surfels.len(), self.phyxels.len());
@@ -245,7 +264,7 @@ impl Object {
             let named = |e: String, what: &str| {
                 format!("object '{}' (id {}): {what}.{e}", self.name, self.id)
             };
-            self.phyxels.check(false).map_err(|e| named(e, "phyxels"))?;
+            self.phyxels.check(true).map_err(|e| named(e, "phyxels"))?;
             return self.surfels.check(false).map_err(|e| named(e, "surfels"));
         }
         Err(format!(

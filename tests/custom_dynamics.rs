@@ -637,3 +637,77 @@ fn a_user_backend_fractures_through_fragment() {
         }
     }
 }
+
+/// A phyxel mass overwritten with NaN after `Object::new` (the column is public) is
+/// refused by the next step, naming the object and the phyxel: it made the momentum and
+/// energy NaN while every position stayed finite, and no check saw it.
+#[test]
+#[should_panic(expected = "object 'ball0' (id 0): phyxels.mass[3] = NaN")]
+fn a_mass_made_nan_later_is_named() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    world.objects[0].phyxels.mass[3] = f32::NAN;
+    world.step();
+}
+
+/// A zero surfel normal is refused by `Object::new`: detection reads normals as
+/// directions, and two balls with zero normals passed through each other silently.
+#[test]
+#[should_panic(expected = "Object::new 'ball': surfel 7 has a normal of length 0")]
+fn a_zero_surfel_normal_is_refused() {
+    let b = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    let mut s = b.surfels.clone();
+    s.normal.set(7, Vec3::ZERO);
+    Object::new(
+        0,
+        "ball",
+        s,
+        b.phyxels.clone(),
+        Material::default(),
+        Box::new(NoBound),
+    );
+}
+
+/// A backend that drops a phyxel inside its step.
+struct Shrinking;
+
+impl Dynamics for Shrinking {
+    fn name(&self) -> &str {
+        "shrinking"
+    }
+
+    fn step(&mut self, p: &mut Phyxels, _ctx: &StepContext<'_>) {
+        let keep: Vec<usize> = (0..p.len() - 1).collect();
+        *p = p.gather(&keep);
+    }
+
+    fn stable_dt(&self, _p: &Phyxels, _m: &Material) -> f32 {
+        f32::INFINITY
+    }
+}
+
+/// A backend that changes the phyxel count in its step is named right after it, not by
+/// an index panic in the surfel advection ("the len is 279 but the index is 279").
+#[test]
+#[should_panic(expected = "after backend 'shrinking': object 'ball0' (id 0) has 1257 surfels \
+                           and 279 phyxels but was built with 1257 and 280")]
+fn a_backend_that_changes_the_count_is_named() {
+    let mut ball = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    ball.dynamics = Box::new(Shrinking);
+    let mut world = World::new(vec![ball], Vec3::ZERO, 1e-4);
+    world.step();
+}
+
+/// Gravity must be finite: `World::new` refuses NaN, as it is refused in scene files.
+#[test]
+#[should_panic(expected = "World::new: gravity = [NaN, -9.81, 0]: must be finite")]
+fn a_nan_gravity_is_refused() {
+    World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::new(f32::NAN, -9.81, 0.0),
+        1e-4,
+    );
+}

@@ -527,3 +527,32 @@ fn bad_topology_keys_are_refused() {
     // Elastic with fracture is valid: it splits only when pulled apart.
     assert!(Scene::parse(&base("fracture = true", ""), "ok.toml").is_ok());
 }
+
+/// A body that may break and goes non-finite is reported, not split: an `lj` ball (its
+/// bonds can always break) given one NaN phyxel velocity falls apart in the component
+/// count, and building its pieces panicked (`Object::new`: "a phyxel or surfel position
+/// ... is not finite"). Now the step ends with `World::non_finite` naming it.
+#[test]
+fn a_breakable_body_gone_non_finite_is_reported_not_split() {
+    let text = r#"
+        name = "nan"
+        gravity = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "ball"
+        backend = "lj"
+        shape = { type = "sphere", radius = 0.1 }
+        spacing = 0.025
+    "#;
+    let mut w = Scene::parse(text, "nan")
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap();
+    w.objects[0]
+        .phyxels
+        .vel
+        .set(5, Vec3::new(f32::NAN, 0.0, 0.0));
+    w.step();
+    let bad = w.non_finite.as_ref().expect("the NaN is reported");
+    assert_eq!((bad.object.as_str(), w.objects.len()), ("ball", 1));
+    assert!(w.splits.is_empty());
+}
