@@ -47,7 +47,14 @@ pub struct Object {
     /// The fracture check's state (empty unless the object may break: see
     /// [`crate::topology::may_fracture`]).
     pub connectivity: Connectivity,
+    /// Unique per `Object::new` in the process: the world keeps a static object's box
+    /// and grids for the object it computed them for, and an object replaced by another
+    /// of the same id must not inherit them.
+    serial: u64,
 }
+
+/// The next [`Object::serial`].
+static NEXT_SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
 
 /// Spacing of the surfels that carry contact forces, in phyxel spacings. Contact
 /// forces reach the phyxels through a kernel of about two phyxel spacings, so sampling
@@ -203,7 +210,13 @@ impl Object {
             parent: None,
             self_collision: None,
             connectivity: Connectivity::default(),
+            serial: NEXT_SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         }
+    }
+
+    /// Unique per [`Object::new`] call in the process (see the field).
+    pub fn serial(&self) -> u64 {
+        self.serial
     }
 
     /// Makes the current shape the rest shape: rest positions of phyxels and surfels

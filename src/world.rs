@@ -18,9 +18,11 @@ use rayon::prelude::*;
 
 /// All objects of a scene and the state of the run.
 pub struct World {
-    /// The objects. They may be reordered, added or removed between steps (ids must stay
-    /// distinct: [`World::step`] checks); an object's columns keep the counts it was
-    /// built with ([`Object::check_counts`]).
+    /// The objects. They may be reordered, added, removed or replaced between steps (ids
+    /// must stay distinct: [`World::step`] checks); an object's columns keep the counts
+    /// it was built with ([`Object::check_counts`]). A static object's box and grids are
+    /// computed once for it: to move one, replace it by a new [`Object`] rather than
+    /// writing its positions.
     pub objects: Vec<Object>,
     /// Gravitational acceleration (m/s²).
     pub gravity: Vec3,
@@ -38,10 +40,11 @@ pub struct World {
     pub pairs: Vec<Pair>,
     /// Surfel grid per object; rebuilt only for moving objects that are in a pair.
     grids: Vec<Option<Grid>>,
-    /// Per index, the id of the object whose box and grids are cached there: static
-    /// objects' are kept from step to step, so an object list that changed under them
-    /// (reordered, replaced) must not inherit them.
-    cache_owner: Vec<u32>,
+    /// Per index, the [`Object::serial`] of the object whose box and grids are cached
+    /// there: static objects' are kept from step to step, so an object list that changed
+    /// under them (reordered, replaced, even by an object of the same id) must not
+    /// inherit them.
+    cache_owner: Vec<u64>,
     /// Colliding surfels of every overlapping pair of this step.
     pub detections: Vec<PairDetection>,
     /// Contact surfaces and forces of this step.
@@ -732,12 +735,12 @@ impl World {
         let n = self.objects.len();
         self.boxes.resize(n, Aabb::EMPTY);
         self.grids.resize_with(n, || None);
-        self.cache_owner.resize(n, u32::MAX);
+        self.cache_owner.resize(n, u64::MAX);
         for (k, o) in self.objects.iter().enumerate() {
             // A static object's box and grids are computed once, for the object at k.
-            let fresh = self.cache_owner[k] != o.id;
+            let fresh = self.cache_owner[k] != o.serial();
             if fresh {
-                self.cache_owner[k] = o.id;
+                self.cache_owner[k] = o.serial();
                 self.grids[k] = None;
             }
             if fresh || !o.is_static() {

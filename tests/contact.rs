@@ -607,3 +607,35 @@ fn a_ball_smaller_than_the_grounds_surfels_is_caught() {
     let y = w.objects[1].phyxels.centre_of_mass()[1];
     assert!(y > 0.0, "the ball ended at y = {y} m");
 }
+
+/// A static object replaced by another of the same id (the object list is public) does
+/// not inherit the first one's cached box and grids: a static sphere touching a ball is
+/// replaced by a static sphere 5 m away, and the next step finds no pair. (Keyed by id,
+/// the cache kept the old box: the ball was pushed by a body 5 m away.)
+#[test]
+fn a_replaced_static_object_gets_its_own_box() {
+    let text = r#"
+        name = "replace"
+        gravity = [0.0, 0.0, 0.0]
+        [[objects]]
+        name = "post"
+        static = true
+        shape = { type = "sphere", radius = 0.1 }
+        spacing = 0.025
+        [[objects]]
+        name = "ball"
+        shape = { type = "sphere", radius = 0.1 }
+        spacing = 0.025
+        position = [0.19, 0.0, 0.0]
+    "#;
+    let scene = Scene::parse(text, "replace").unwrap();
+    let mut w = scene.build(&BuildOptions::default()).unwrap();
+    w.step();
+    w.step();
+    assert_eq!(w.pairs.len(), 1, "the ball touches the post");
+    let mut far = scene.objects[0].clone();
+    far.position = [5.0, 0.0, 0.0];
+    w.objects[0] = far.build(w.objects[0].id, "static").unwrap();
+    w.step();
+    assert!(w.pairs.is_empty(), "{} pairs", w.pairs.len());
+}

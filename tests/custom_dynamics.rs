@@ -692,8 +692,10 @@ impl Dynamics for Shrinking {
 /// A backend that changes the phyxel count in its step is named right after it, not by
 /// an index panic in the surfel advection ("the len is 279 but the index is 279").
 #[test]
-#[should_panic(expected = "after backend 'shrinking': object 'ball0' (id 0) has 1257 surfels \
-                           and 279 phyxels but was built with 1257 and 280")]
+#[should_panic(
+    expected = "after backend 'shrinking': object 'ball0' (id 0) has 1257 surfels \
+                           and 279 phyxels but was built with 1257 and 280"
+)]
 fn a_backend_that_changes_the_count_is_named() {
     let mut ball = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
     ball.dynamics = Box::new(Shrinking);
