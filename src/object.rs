@@ -268,8 +268,9 @@ impl Object {
     /// padded lengths the SIMD loops read: the columns are public, and replacing them
     /// with another count must be an error that names the object, not an index panic
     /// deep in a phase or a column silently skipped. Also the phyxels' mass, volume,
-    /// spacing and radius, finite and > 0, which a caller or a backend may overwrite (a
-    /// NaN mass made the momentum NaN with every position finite; O(phyxels)).
+    /// spacing and radius, and the object's phyxel and carrier spacings and largest
+    /// influence radius, finite and > 0, which a caller or a backend may overwrite (a NaN mass made the
+    /// momentum NaN with every position finite; O(phyxels)).
     pub fn check_counts(&self) -> Result<(), String> {
         let (surfels, phyxels) = self.binding.counts();
         let now = (self.surfels.len(), self.phyxels.len());
@@ -278,6 +279,22 @@ impl Object {
                 format!("object '{}' (id {}): {what}.{e}", self.name, self.id)
             };
             self.phyxels.check(true).map_err(|e| named(e, "phyxels"))?;
+            // The grids' cells and the contact's spacings derive from these (public)
+            // fields: 0 made a grid panic, and a phyxel spacing of 0 NaN forces. (The
+            // surfel spacing is 0 for a fragment without surfels, and only read with
+            // surfels.)
+            for (field, v) in [
+                ("phyxel_spacing", self.phyxel_spacing),
+                ("carrier_spacing", self.carrier_spacing),
+                ("max_influence", self.max_influence),
+            ] {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(format!(
+                        "object '{}' (id {}): {field} = {v}: must be finite and > 0",
+                        self.name, self.id
+                    ));
+                }
+            }
             return self.surfels.check(false).map_err(|e| named(e, "surfels"));
         }
         Err(format!(

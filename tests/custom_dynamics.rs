@@ -713,3 +713,18 @@ fn a_nan_gravity_is_refused() {
         1e-4,
     );
 }
+
+/// The object's spacings are public fields that the grids and the contact read: a
+/// carrier spacing of 0 is named by the next step (it was a grid's "cell size must be
+/// > 0" panic inside the contact phases).
+#[test]
+#[should_panic(expected = "object 'ball0' (id 0): carrier_spacing = 0: must be finite and > 0")]
+fn a_zero_carrier_spacing_is_named() {
+    let mut world = World::new(
+        vec![spring_ball(0, Vec3::ZERO, Vec3::ZERO)],
+        Vec3::ZERO,
+        1e-4,
+    );
+    world.objects[0].carrier_spacing = 0.0;
+    world.step();
+}
