@@ -693,17 +693,35 @@ fn error_volume_stiffness_above_the_limit() {
     );
 }
 
-/// Material values each in range whose combination leaves f32's range (a density of
-/// 1.2e-38 kg/m³: the wave speed overflows, the stable bound is NaN) are refused naming
-/// the object and every value that enters the bound.
+/// A density outside `material::DENSITY_RANGE` is refused with the range: `sph` went
+/// NaN at step 1 at 1e25 kg/m³, and at 1.2e-38 the wave speed overflowed (the stable
+/// bound came out NaN).
+#[test]
+fn error_density_out_of_range() {
+    for (label, density) in [("huge-density", "1e25"), ("tiny-density", "1.2e-38")] {
+        expect_scene_error(
+            label,
+            &format!("{SPHERE}material = {{ density = {density} }}\n"),
+            &[
+                "objects[0].material",
+                &format!("density = {density}"),
+                "between 1e-6 and 1e10",
+            ],
+        );
+    }
+}
+
+/// Material values each in range whose combination leaves f32's range (a damping of
+/// 3e38: the stable bound is 0) are refused naming the object and every value that
+/// enters the bound.
 #[test]
 fn error_material_out_of_range_together() {
     expect_scene_error(
-        "tiny-density",
-        &format!("{SPHERE}material = {{ density = 1.2e-38 }}\n"),
+        "huge-damping",
+        &format!("{SPHERE}material = {{ damping = 3e38 }}\n"),
         &[
             "no stable time step",
-            "density = 1.2e-38",
+            "damping = 3e38",
             "young = 1e5",
             "spacing = ",
         ],
