@@ -849,8 +849,10 @@ fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
 }
 
 /// The lattice spacing whose phyxel count is closest to `target`: starts from
-/// `(volume/target)^(1/3)` and corrects a few times by the cube root of the count
-/// ratio, since a small lattice's count jumps with the rounding at the boundary.
+/// `(volume/target)^(1/3)` (widened for thin shapes) and corrects a few times by the
+/// cube root of the count ratio, since a small lattice's count jumps with the rounding
+/// at the boundary. Never samples a lattice past the limits (it then returns the best
+/// spacing so far, which `ObjectSpec::spacings` and the build check).
 fn lattice_spacing_for(shape: &Shape, target: u32) -> f32 {
     let target = target as f32;
     let mut s = (shape.volume() / target).cbrt();
