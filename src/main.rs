@@ -474,7 +474,7 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
             }
         }
     }
-    let (_, summary) = match result {
+    let (world, summary) = match result {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {file_prefix}{e}");
@@ -494,6 +494,13 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         ExitCode::SUCCESS
     } else {
         match &summary.non_finite {
+            // A blow-up in the very first step is rarely the time step: a scene whose
+            // sizes and material leave f32's range fails at once, at any dt.
+            Some(e) if world.non_finite.as_ref().is_some_and(|n| n.step <= 1) => eprintln!(
+                "error: {e}; the run stopped there, in its first step: check the scene's \
+                 sizes and material for values far outside everyday ones (f32 range), or \
+                 try a smaller --dt"
+            ),
             Some(e) => eprintln!("error: {e}; the run stopped there (try a smaller --dt)"),
             None => eprintln!(
                 "error: the state became non-finite (NaN or infinity); try a smaller --dt"

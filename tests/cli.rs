@@ -1483,3 +1483,19 @@ fn error_out_directory_names_the_flag() {
         &["--out /proc/phyxel-out", "cannot create the directory"],
     );
 }
+
+/// A run that goes non-finite in its very first step (an Earth-sized `sph` sphere: radius
+/// 1e7 m at 2.5e6 m spacing, at its default dt) is told to look at the scene's sizes and
+/// material, not only at dt: at the first step the time step is rarely the cause.
+#[test]
+fn a_first_step_blow_up_points_at_the_scene() {
+    let scene = TempPath::scene(
+        "giant",
+        "[[objects]]\nbackend = \"sph\"\nshape = { type = \"sphere\", radius = 1e7 }\n\
+         spacing = 2.5e6\n",
+    );
+    expect_error(
+        &["run", scene.arg(), "--steps", "5"],
+        &["step 1:", "in its first step", "sizes and material"],
+    );
+}
