@@ -651,8 +651,34 @@ impl World {
     /// run it (per-phase benches and profiles). The phases after it see its output;
     /// out of order, a phase works on whatever the last step left (e.g. `detect` on the
     /// last step's grids), and `dynamics` advances the phyxels.
+    ///
+    /// # Panics
+    ///
+    /// As [`World::step`]; and for a contact phase (`SurfelGrid` to `Distribute`) when
+    /// the object list changed since the last broad phase, whose pairs it would read
+    /// (run `Phase::BroadPhase` or a step first).
     pub fn run_phase(&mut self, phase: Phase) {
         self.check_inputs();
+        let contact = matches!(
+            phase,
+            Phase::SurfelGrid
+                | Phase::Detect
+                | Phase::ContactSurface
+                | Phase::Resample
+                | Phase::Forces
+                | Phase::Distribute
+        );
+        let unchanged = self.cache_owner.len() == self.objects.len()
+            && self
+                .objects
+                .iter()
+                .zip(&self.cache_owner)
+                .all(|(o, &s)| o.serial() == s);
+        assert!(
+            !contact || unchanged,
+            "World::run_phase({phase:?}): the objects changed since the last broad phase, \
+             whose pairs this phase reads: run Phase::BroadPhase (or a step) first"
+        );
         self.arena.reset();
         match phase {
             Phase::Dynamics => self.dynamics(),

@@ -728,3 +728,25 @@ fn a_zero_carrier_spacing_is_named() {
     world.objects[0].carrier_spacing = 0.0;
     world.step();
 }
+
+/// A contact phase run alone after the object list changed would read the last broad
+/// phase's pairs, which name objects by index: it is refused with what to run first (it
+/// was an index panic inside `detect`).
+#[test]
+#[should_panic(
+    expected = "World::run_phase(Detect): the objects changed since the last broad phase"
+)]
+fn a_contact_phase_after_removing_an_object_is_refused() {
+    let mut world = World::new(
+        vec![
+            spring_ball(0, Vec3::new(-0.099, 0.0, 0.0), Vec3::ZERO),
+            spring_ball(1, Vec3::new(0.099, 0.0, 0.0), Vec3::ZERO),
+        ],
+        Vec3::ZERO,
+        1e-4,
+    );
+    world.step();
+    assert_eq!(world.pairs.len(), 1);
+    world.objects.remove(0);
+    world.run_phase(phyxel::timing::Phase::Detect);
+}
