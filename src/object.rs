@@ -269,8 +269,8 @@ impl Object {
     /// with another count must be an error that names the object, not an index panic
     /// deep in a phase or a column silently skipped. Also the phyxels' mass, volume,
     /// spacing and radius, and the object's phyxel and carrier spacings and largest
-    /// influence radius, finite and > 0, which a caller or a backend may overwrite (a NaN mass made the
-    /// momentum NaN with every position finite; O(phyxels)).
+    /// influence radius, finite and > 0, which a caller or a backend may overwrite (a
+    /// NaN mass made the momentum NaN with every position finite; O(phyxels)).
     pub fn check_counts(&self) -> Result<(), String> {
         let (surfels, phyxels) = self.binding.counts();
         let now = (self.surfels.len(), self.phyxels.len());
