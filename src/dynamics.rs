@@ -57,7 +57,10 @@ pub trait Dynamics: Send + Sync {
     /// `phyxels.force`. Must not move phyxels with `fixed` set.
     fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>);
 
-    /// Largest time step (s) for which the explicit step is stable.
+    /// Largest time step (s) for which the explicit step is stable: a number > 0,
+    /// `f32::INFINITY` when nothing bounds it. Any other value (0, negative, NaN) is
+    /// passed on by `World::stable_dt` with this object as the limiter (the caller who
+    /// picks `World::dt` from it sees it there).
     fn stable_dt(&self, phyxels: &Phyxels, material: &Material) -> f32;
 
     /// Displacement gradient `∇u` per phyxel (column b = ∂u/∂x_b), if the backend

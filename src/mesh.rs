@@ -119,6 +119,17 @@ impl PointCloud {
                 points[i]
             ));
         }
+        // A cloud flat in one axis (one point, a line, a plane) encloses nothing; said here,
+        // since its area estimates come out zero and every later check would misreport it.
+        let (lo, hi) = bounds(&points);
+        let extent = hi - lo;
+        if extent.min_element() <= 0.0 {
+            return Err(format!(
+                "the points span no volume: their bounding box is {} × {} × {} \
+                 (all on one plane, line or point)",
+                extent.x, extent.y, extent.z
+            ));
+        }
         let mut unit = Vec::with_capacity(normals.len());
         for (i, n) in normals.iter().enumerate() {
             let u = n.normalize_or_zero();

@@ -455,7 +455,9 @@ impl World {
 
     /// Largest stable time step over all objects (s) and the object that limits it:
     /// each object's own dynamics, and, where two objects may touch, its contact spring
-    /// ([`contact_stable_dt`]).
+    /// ([`contact_stable_dt`]). A backend's bound that is not a number > 0 (a broken
+    /// [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is returned with
+    /// its object, not hidden.
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
         // The stiffest partner any object could meet: the pair's E* and mean
         // `contact_stiffness` are largest against it, and the spring `κE*/h` takes the

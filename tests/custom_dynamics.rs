@@ -163,8 +163,8 @@ fn user_backend_runs_the_two_spheres_scene() {
     assert!(world.objects.iter().all(|o| o.dynamics.name() == "springs"));
 }
 
-/// A backend that reports no usable bound.
-struct NoBound;
+/// A backend that reports the given bound, which is not usable (NaN, 0 or negative).
+struct NoBound(f32);
 
 impl Dynamics for NoBound {
     fn name(&self) -> &str {
@@ -177,27 +177,33 @@ impl Dynamics for NoBound {
     }
 
     fn stable_dt(&self, _p: &Phyxels, _m: &Material) -> f32 {
-        f32::NAN
+        self.0
     }
 }
 
-/// A NaN stable bound from a user backend is reported by `World::stable_dt`, not
-/// skipped (`f32::min` drops NaN: the world then reported the other object's bound).
+/// A NaN, zero or negative stable bound from a user backend is reported by
+/// `World::stable_dt` with its object, not skipped (`f32::min` drops NaN: the world then
+/// reported the other object's bound).
 #[test]
-fn a_nan_bound_is_reported() {
-    let mut broken = spring_ball(1, Vec3::new(0.3, 0.0, 0.0), Vec3::ZERO);
-    broken.dynamics = Box::new(NoBound);
-    let world = World::new(
-        vec![
-            spring_ball(0, Vec3::new(-0.3, 0.0, 0.0), Vec3::ZERO),
-            broken,
-        ],
-        Vec3::ZERO,
-        1e-4,
-    );
-    let (dt, limiter) = world.stable_dt();
-    assert!(dt.is_nan(), "bound {dt}");
-    assert_eq!(limiter.map(|o| o.id), Some(1));
+fn an_unusable_bound_is_reported() {
+    for bad in [f32::NAN, 0.0, -1.0] {
+        let mut broken = spring_ball(1, Vec3::new(0.3, 0.0, 0.0), Vec3::ZERO);
+        broken.dynamics = Box::new(NoBound(bad));
+        let world = World::new(
+            vec![
+                spring_ball(0, Vec3::new(-0.3, 0.0, 0.0), Vec3::ZERO),
+                broken,
+            ],
+            Vec3::ZERO,
+            1e-4,
+        );
+        let (dt, limiter) = world.stable_dt();
+        assert!(
+            dt.is_nan() == bad.is_nan() && (bad.is_nan() || dt == bad),
+            "{bad}: {dt}"
+        );
+        assert_eq!(limiter.map(|o| o.id), Some(1), "{bad}");
+    }
 }
 
 /// `World::step` refuses a time step that is not a finite number > 0 (`World::new`
@@ -249,7 +255,7 @@ fn an_unpadded_column_is_named() {
         b.surfels.clone(),
         p,
         Material::default(),
-        Box::new(NoBound),
+        Box::new(NoBound(f32::NAN)),
     );
 }
 
@@ -267,7 +273,7 @@ fn a_zero_surfel_radius_is_refused() {
         s,
         b.phyxels.clone(),
         Material::default(),
-        Box::new(NoBound),
+        Box::new(NoBound(f32::NAN)),
     );
 }
 
@@ -338,7 +344,7 @@ fn a_mass_that_is_not_density_times_volume_is_refused() {
         b.surfels.clone(),
         light,
         Material::default(),
-        Box::new(NoBound),
+        Box::new(NoBound(f32::NAN)),
     );
 }
 
@@ -397,7 +403,7 @@ fn object_with_an_invalid_material_panics() {
         ball.surfels,
         ball.phyxels,
         material,
-        Box::new(NoBound),
+        Box::new(NoBound(f32::NAN)),
     );
 }
 
@@ -667,7 +673,7 @@ fn a_zero_surfel_normal_is_refused() {
         s,
         b.phyxels.clone(),
         Material::default(),
-        Box::new(NoBound),
+        Box::new(NoBound(f32::NAN)),
     );
 }
 

@@ -499,8 +499,8 @@ fn oriented_point_cloud_samples_a_sphere() {
             );
         }
     }
-    // The same sphere with inward normals, and its upper half alone (an open surface),
-    // are refused: they would become a body of a phyxel or none.
+    // The same sphere with inward normals, its upper half alone (an open surface) and
+    // flat clouds are refused: they would become a body of a phyxel or none.
     let sphere: Vec<(Vec3, Vec3)> = (0..2000)
         .map(|i| {
             let golden = std::f32::consts::PI * (3.0 - 5f32.sqrt());
@@ -513,9 +513,17 @@ fn oriented_point_cloud_samples_a_sphere() {
         .collect();
     let inward: Vec<_> = sphere.iter().map(|&(p, n)| (p, -n)).collect();
     let upper: Vec<_> = sphere.iter().copied().filter(|(p, _)| p.y > 0.0).collect();
+    // Flat clouds (one point repeated, the sphere pressed into a plane) span no volume.
+    let same = vec![(Vec3::splat(0.1), Vec3::Y); 50];
+    let flat: Vec<_> = sphere
+        .iter()
+        .map(|&(p, n)| (p * Vec3::new(1.0, 0.0, 1.0), n))
+        .collect();
     for (file, points, needle) in [
         ("inward.ply", inward, "normals point inward"),
         ("open.ply", upper, "closed surface"),
+        ("same.ply", same, "span no volume"),
+        ("flat.ply", flat, "span no volume"),
     ] {
         write_ascii_cloud(&dir.0.join(file), &points);
         let e = scene_error(&dir.0, file);
