@@ -505,20 +505,24 @@ fn pca_normals(surfels: &mut [ContactSurfel], r: f32) {
 /// Area each contact surfel stands for: `1 / Σ_j W(|x_i − x_j|)` with the normalised
 /// 2-D poly6 kernel of support 2 spacings (a kernel density estimate of surfels per m²,
 /// exact for any uniform sampling, unlike a k-nearest radius).
+///
+/// The kernel is evaluated as `4/(π h²) · (1 − r²/h²)³`: written as `4/(π h⁸) · (h² −
+/// r²)³` its `h⁸` left f32's range for spacings below about 8 µm (every area 0, so no
+/// contact force) or above about 30 km (areas infinite, forces NaN).
 pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScratch) {
     let hh = 2.0 * spacing;
-    let norm = 4.0 / (std::f32::consts::PI * hh.powi(8));
+    let norm = 4.0 / (std::f32::consts::PI * (hh * hh));
     let PatchScratch { grid, density, .. } = scratch;
     grid.rebuild(surfels.iter().map(|c| c.pos), hh);
     density.clear();
     density.resize(surfels.len(), 0.0);
     let grid = &*grid;
-    let hh2 = f32x8::splat(hh * hh);
+    let inv_hh2 = f32x8::splat(1.0 / (hh * hh));
     // Eight neighbours at a time over the grid's lane groups (lanes off the mask weigh 0).
     density.par_iter_mut().enumerate().for_each(|(i, rho)| {
         let mut sum = f32x8::ZERO;
         grid.for_each_lanes_within(surfels[i].pos, hh, |_, mask, d2| {
-            let q = hh2 - d2;
+            let q = f32x8::ONE - d2 * inv_hh2;
             sum += lane_mask(mask).select(q * q * q, f32x8::ZERO);
         });
         *rho = norm * sum.reduce_add();

@@ -1484,18 +1484,31 @@ fn error_out_directory_names_the_flag() {
     );
 }
 
-/// A run that goes non-finite in its very first step (an Earth-sized `sph` sphere: radius
-/// 1e7 m at 2.5e6 m spacing, at its default dt) is told to look at the scene's sizes and
-/// material, not only at dt: at the first step the time step is rarely the cause.
+/// A run that goes non-finite in its very first step (here a falling sphere at `--dt
+/// 1e30 --allow-unstable`: the first step's fall leaves f32's range) is told to look at
+/// the scene's sizes and material as well as dt: at the first step a scene whose values
+/// leave f32's range together is as likely a cause as the time step.
 #[test]
 fn a_first_step_blow_up_points_at_the_scene() {
     let scene = TempPath::scene(
         "giant",
-        "[[objects]]\nbackend = \"sph\"\nshape = { type = \"sphere\", radius = 1e7 }\n\
-         spacing = 2.5e6\n",
+        "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0.025\n",
     );
     expect_error(
-        &["run", scene.arg(), "--steps", "5"],
-        &["step 1:", "in its first step", "sizes and material"],
+        &[
+            "run",
+            scene.arg(),
+            "--steps",
+            "5",
+            "--dt",
+            "1e30",
+            "--allow-unstable",
+        ],
+        &[
+            "step 1:",
+            "in its first step",
+            "sizes and material",
+            "smaller --dt",
+        ],
     );
 }

@@ -639,3 +639,76 @@ fn a_replaced_static_object_gets_its_own_box() {
     w.step();
     assert!(w.pairs.is_empty(), "{} pairs", w.pairs.len());
 }
+
+/// The `two-spheres` collision scaled by L = 2⁻¹⁰ (a 98 µm ball) and L = 2²⁴ (a 1,700 km
+/// one), same material, speeds and step count, dt scaled by L: with lengths and times
+/// scaled alike (dimensional analysis: t ∝ L/c, the penalty force ∝ κE*/h · depth ·
+/// area ∝ L², the mass ∝ L³) each sphere's velocity after the collision must be the
+/// 0.1 m run's within 1e-4 of the impact speed (m/s), for every backend. Powers of two
+/// keep most of f32's rounding scale-free. Before the contact areas' kernel was
+/// evaluated in normalised form its `h⁸` left f32's range: at the small scale every
+/// area was 0 and the balls passed through each other; at the large scale the forces
+/// were NaN. (`sph` also multiplied two phyxel masses first, which overflows for
+/// planet-sized phyxels.)
+#[test]
+fn a_collision_is_the_same_from_micrometres_to_megametres() {
+    let run = |l: f32, backend: &str| -> [Vec3; 2] {
+        let text = format!(
+            r#"
+            name = "scaled"
+            gravity = [0.0, 0.0, 0.0]
+            dt = {dt:e}
+            [[objects]]
+            shape = {{ type = "sphere", radius = {r:e} }}
+            spacing = {s:e}
+            surfel_spacing = {t:e}
+            position = [{x:e}, 0.0, 0.0]
+            velocity = [1.0, 0.0, 0.0]
+            [[objects]]
+            shape = {{ type = "sphere", radius = {r:e} }}
+            spacing = {s:e}
+            surfel_spacing = {t:e}
+            position = [{mx:e}, 0.0, 0.0]
+            velocity = [-1.0, 0.0, 0.0]
+            "#,
+            dt = l / 4096.0,
+            r = 0.1 * l,
+            s = 0.025 * l,
+            t = 0.005 * l,
+            x = -0.125 * l,
+            mx = 0.125 * l,
+        );
+        let opts = BuildOptions {
+            backend: Some(backend.to_string()),
+            ..BuildOptions::default()
+        };
+        let mut w = Scene::parse(&text, "scaled").unwrap().build(&opts).unwrap();
+        for _ in 0..900 {
+            w.step();
+        }
+        assert!(
+            w.non_finite.is_none(),
+            "{backend} at L = {l:e}: {:?}",
+            w.non_finite
+        );
+        [velocity(&w, 0), velocity(&w, 1)]
+    };
+    for backend in ["mls", "sph", "lj"] {
+        let unit = run(1.0, backend);
+        assert!(
+            unit[0].x < 0.0 && unit[1].x > 0.0,
+            "{backend}: the unit-scale balls did not bounce: {unit:?}"
+        );
+        for l in [2f32.powi(-10), 2f32.powi(24)] {
+            let v = run(l, backend);
+            for k in 0..2 {
+                assert!(
+                    (v[k] - unit[k]).length() < 1e-4,
+                    "{backend} at L = {l:e}: ball {k} leaves at {} m/s, at L = 1 at {} m/s",
+                    v[k],
+                    unit[k]
+                );
+            }
+        }
+    }
+}

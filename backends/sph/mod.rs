@@ -153,9 +153,12 @@ pub struct SphDynamics {
     /// row i so the force gather reads memory in order.
     d_in: Vec<Vec3>,
     d_self: Vec<Vec3>,
-    /// `I − Σ_j x⁰_ji d_ijᵀ` (zero where the correction is exact), so that
-    /// `F_i = I + ∇u_i = rest_offset_i + Σ_j x_ji d_ijᵀ` needs no rest positions.
-    rest_offset: Vec<Mat3>,
+    /// `Σ_j x⁰_ji d_ijᵀ` (the identity where the correction is exact), so that
+    /// `∇u_i = Σ_j x_ji d_ijᵀ − rest_sum_i` needs no rest positions. Summed in the
+    /// step's order, so a body at rest has `∇u = 0` exactly: `F = rest_offset + Σ`
+    /// with `rest_offset = I − Σ⁰` left a strain of an ulp, which the stiffest
+    /// materials turned into forces on a body at rest.
+    rest_sum: Vec<Mat3>,
     /// Current neighbours from the density pass, `MAX_STORED` slots per phyxel, and
     /// their number ([`OVERFLOW`]: search again).
     current: Vec<u32>,
@@ -207,23 +210,37 @@ impl SphDynamics {
             nbr.extend_from_slice(&row);
             off.push(nbr.len() as u32);
         }
-        let mut rest_density = vec![0.0f32; n];
+        // The rest density by the step's own sum (same grid, order and distances), so
+        // that a body at rest has a density ratio of exactly 1 and no pressure: summed
+        // in stencil order it came out a few ulps off, which the Tait law's stiffness
+        // turned into forces on a body at rest.
+        let zero = Vec3s::zeros(n);
+        let rest_density: Vec<f32> = (0..n)
+            .map(|i| {
+                density_sum(
+                    &grid,
+                    kernel,
+                    &phyxels.rest,
+                    &zero,
+                    &phyxels.mass,
+                    i,
+                    |_| {},
+                )
+            })
+            .collect();
         let mut d = vec![Vec3::ZERO; nbr.len()];
         let mut d_self = vec![Vec3::ZERO; n];
         for i in 0..n {
             let (a, b) = (off[i] as usize, off[i + 1] as usize);
-            let mut rho = phyxels.mass[i] * kernel.w(0.0);
             let mut m = Mat3::ZERO;
             for k in a..b {
                 let j = nbr[k] as usize;
                 let xij = rest[i] - rest[j];
                 let r2 = xij.length_squared();
-                rho += phyxels.mass[j] * kernel.w(r2);
                 let g = xij * (kernel.grad_over_r(r2) * phyxels.volume[j]);
                 d[k] = g;
                 m += outer(-xij, g);
             }
-            rest_density[i] = rho;
             // Bonet–Lok correction where the neighbourhood spans 3D; else a scale only.
             let tr = m.x_axis.x + m.y_axis.y + m.z_axis.z;
             let l = if tr > 0.0 && m.determinant() > 1e-3 * (tr / 3.0).powi(3) {
@@ -240,11 +257,11 @@ impl SphDynamics {
             }
             d_self[i] = -sum;
         }
-        let rest_offset: Vec<Mat3> = (0..n)
+        let rest_sum: Vec<Mat3> = (0..n)
             .map(|i| {
-                let mut m = Mat3::IDENTITY;
+                let mut m = Mat3::ZERO;
                 for k in off[i] as usize..off[i + 1] as usize {
-                    m -= outer(rest[nbr[k] as usize] - rest[i], d[k]);
+                    m += outer(rest[nbr[k] as usize] - rest[i], d[k]);
                 }
                 m
             })
@@ -271,7 +288,7 @@ impl SphDynamics {
             d_in: rev.iter().map(|&r| d[r as usize]).collect(),
             d,
             d_self,
-            rest_offset,
+            rest_sum,
             current: vec![0; n * MAX_STORED],
             current_len: vec![0; n],
             rotation: vec![Quat::IDENTITY; n],
@@ -334,7 +351,7 @@ impl SphDynamics {
         let grid = &self.grid;
         let rest_density = &self.rest_density;
         let (off, nbr, d) = (&self.off, &self.nbr, &self.d);
-        let rest_offset = &self.rest_offset;
+        let rest_sum = &self.rest_sum;
         // Pass 1: density, pressure, and the elastic stress of each phyxel.
         let (energy, max_strain) = self
             .density
@@ -347,15 +364,9 @@ impl SphDynamics {
             .zip(self.current_len.par_iter_mut())
             .enumerate()
             .map(|(i, ((((((rho_out, pt), pf), gr), q), slots), len))| {
-                let (xi, ci) = (pos.get(i), carry.get(i));
-                let mut rho = 0.0f32;
+                let xi = pos.get(i);
                 let mut count = 0usize;
-                grid.for_each_within(xi, support, |j, _| {
-                    // With the position sums' carries (`Phyxels::pos_carry`): the grid's
-                    // distance of the rounded positions would make a stiff body far
-                    // from the origin breathe with their rounding.
-                    let r2 = ((pos.get(j) - xi) + (carry.get(j) - ci)).length_squared();
-                    rho += mass[j] * kernel.w(r2);
+                let rho = density_sum(grid, kernel, pos, carry, mass, i, |j| {
                     if j != i {
                         if count < MAX_STORED {
                             slots[count] = j as u32;
@@ -376,23 +387,26 @@ impl SphDynamics {
                 let mut e = 0.5 * k_bulk * dv * dv * volume[i] as f64;
                 let mut strain_norm = (ratio - 1.0).abs();
                 if elastic {
-                    let (vi, mut f, mut fd) = (vel.get(i), rest_offset[i], Mat3::ZERO);
+                    let (vi, mut sum, mut fd) = (vel.get(i), Mat3::ZERO, Mat3::ZERO);
                     let ci = carry.get(i);
                     for k in off[i] as usize..off[i + 1] as usize {
                         let j = nbr[k] as usize;
                         // With the position sums' carries (`Phyxels::pos_carry`), so that
                         // rounding far from the origin does not strain a stiff body.
-                        f += outer((pos.get(j) - xi) + (carry.get(j) - ci), d[k]);
+                        sum += outer((pos.get(j) - xi) + (carry.get(j) - ci), d[k]);
                         fd += outer(vel.get(j) - vi, d[k]);
                     }
-                    *q = polar_rotation(f, *q);
+                    // ∇u as a difference of like sums (0 at rest), and the strain from
+                    // it and the rotation's own part, not as `sym(Rᵀ F) − I`.
+                    let g = sum - rest_sum[i];
+                    *q = polar_rotation(Mat3::IDENTITY + g, *q);
                     let r = Mat3::from_quat(*q);
                     let rt = r.transpose();
-                    let eps = sym(rt * f) - Mat3::IDENTITY;
+                    let eps = (sym(rt) - Mat3::IDENTITY) + sym(rt * g);
                     let eps_rate = sym(rt * fd);
                     let sigma = (dev(eps) + dev(eps_rate) * tau) * (2.0 * mu);
                     *pf = r * sigma * (-volume[i]);
-                    *gr = f - Mat3::IDENTITY;
+                    *gr = g;
                     let de = dev(eps);
                     e += (mu * frob2(de)) as f64 * volume[i] as f64;
                     strain_norm = strain_norm.max(frob2(eps).sqrt());
@@ -443,7 +457,9 @@ impl SphDynamics {
                         let mu_ij = h * vx / (r2 + 0.01 * h * h);
                         s += -alpha * c * mu_ij / (0.5 * (rhoi + density[j]));
                     }
-                    f -= xij * (mi * mass[j] * s * kernel.grad_over_r(r2));
+                    // Paired as `pair_forces_x8`: `mi · mj` overflows f32 for phyxels
+                    // above about 2e19 kg (a planet's), `s · ∇W` for micrometre ones.
+                    f -= xij * ((mi * s) * (mass[j] * kernel.grad_over_r(r2)));
                 };
                 match current_len[i] {
                     OVERFLOW => grid.for_each_within(xi, support, &mut pair),
@@ -538,7 +554,9 @@ fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
         let vx = dv[0] * d[0] + dv[1] * d[1] + dv[2] * d[2];
         let visc = -ach * vx / ((r2 + eps_h2) * f32x8::splat(0.5) * (rhoi + g[8]));
         let s = pti + g[7] + vx.simd_lt(z).select(visc, z);
-        let coef = mi * g[6] * s * grad_over_r;
+        // `(mi s)(mj ∇W/r)`: each factor stays in range from micrometre to planet-sized
+        // phyxels, where `mi mj` alone overflowed (inf · 0 = NaN at rest).
+        let coef = (mi * s) * (g[6] * grad_over_r);
         for c in 0..3 {
             acc[c] -= d[c] * coef;
         }
@@ -548,6 +566,31 @@ fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
         acc[1].reduce_add(),
         acc[2].reduce_add(),
     )
+}
+
+/// SPH density `ρ_i = Σ_j m_j W(|x_j − x_i|)` (kg/m³) over the phyxels `grid` finds
+/// within the kernel's support of `pos[i]`, in the grid's order, calling `visit(j)` for
+/// each (i included). Distances include the position sums' carries
+/// (`Phyxels::pos_carry`): the grid's distance of the rounded positions would make a
+/// stiff body far from the origin breathe with their rounding. The step and the rest
+/// density both use this sum, so a body at rest has a density ratio of exactly 1.
+fn density_sum(
+    grid: &Grid,
+    kernel: CubicSpline,
+    pos: &Vec3s,
+    carry: &Vec3s,
+    mass: &[f32],
+    i: usize,
+    mut visit: impl FnMut(usize),
+) -> f32 {
+    let (xi, ci) = (pos.get(i), carry.get(i));
+    let mut rho = 0.0f32;
+    grid.for_each_within(xi, kernel.support(), |j, _| {
+        let r2 = ((pos.get(j) - xi) + (carry.get(j) - ci)).length_squared();
+        rho += mass[j] * kernel.w(r2);
+        visit(j);
+    });
+    rho
 }
 
 /// Bulk modulus `K = E / (3(1 − 2ν))` (Pa).
