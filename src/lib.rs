@@ -97,6 +97,12 @@ pub mod backends {
     }
 }
 
+/// The README's code blocks as doctests (its library example is compiled and run), so
+/// that the README stays true.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 /// The vector types of the API (`Vec3`, `Mat3`, `Quat`), at the version phyxel uses.
 pub use glam;
 

@@ -114,9 +114,10 @@ pub struct ObjectSpec {
     pub phyxels: Option<u32>,
     /// Target surfel count: sets the surfel spacing to `(area / surfels)^(1/2)`.
     pub surfels: Option<u32>,
-    /// Dynamics backend (`"mls"`); ignored for static objects.
-    #[serde(default = "default_backend")]
-    pub backend: String,
+    /// Dynamics backend (omitted: `"mls"`, [`ObjectSpec::backend_name`]); refused on a
+    /// static object (kept as written, so that even `"mls"` there is seen).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub backend: Option<String>,
     /// A static object never moves (ground planes, fixed obstacles).
     #[serde(default, rename = "static")]
     pub is_static: bool,
@@ -148,9 +149,8 @@ pub struct ObjectSpec {
     pub self_collision: bool,
 }
 
-fn default_backend() -> String {
-    "mls".into()
-}
+/// The backend of an object that names none.
+pub const DEFAULT_BACKEND: &str = "mls";
 
 /// An axis-aligned box in object-local coordinates.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -434,12 +434,12 @@ impl Scene {
                     ),
                 ));
             }
-            if !o.is_static && !backends::NAMES.contains(&o.backend.as_str()) {
+            if !o.is_static && !backends::NAMES.contains(&o.backend_name()) {
                 return Err(err(
                     &format!("{at}.backend"),
                     format!(
                         "backend = \"{}\": unknown (available: {})",
-                        o.backend,
+                        o.backend_name(),
                         backends::NAMES.join(", ")
                     ),
                 ));
@@ -520,7 +520,7 @@ impl Scene {
             let backend = match (&opts.backend, spec.is_static) {
                 (_, true) => "static".to_string(),
                 (Some(b), false) => b.clone(),
-                (None, false) => spec.backend.clone(),
+                (None, false) => spec.backend_name().to_string(),
             };
             let obj = spec
                 .build(k as u32, &backend)
@@ -818,8 +818,8 @@ fn sample_count(name: &str, n: Option<u32>, limit: usize) -> Result<(), String> 
 /// `Err((key, message))`, rather than ignored.
 fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
     let idle = "has no effect on a static object";
-    if o.backend != default_backend() {
-        return Err(("backend", format!("backend = \"{}\": {idle}", o.backend)));
+    if let Some(b) = &o.backend {
+        return Err(("backend", format!("backend = \"{b}\": {idle}")));
     }
     for (key, v) in [("velocity", o.velocity), ("load", o.load)] {
         if v != [0.0; 3] {
@@ -976,6 +976,11 @@ impl ObjectSpec {
             Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
             None => format!("spacing = {spacing}"),
         }
+    }
+
+    /// The backend this object asks for: `backend`, else [`DEFAULT_BACKEND`].
+    pub fn backend_name(&self) -> &str {
+        self.backend.as_deref().unwrap_or(DEFAULT_BACKEND)
     }
 
     /// Samples the shape and creates the object with backend `backend`.

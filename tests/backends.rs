@@ -591,8 +591,13 @@ fn backends_handle_tiny_fragments() {
         for pts in sets {
             let mut p = Phyxels::at_rest(pts, 0.025f32.powi(3), m.density);
             let mut d = phyxel::backends::create(b, &p, &m).unwrap();
-            let dt = d.stable_dt(&p, &m).min(1e-3);
-            assert!(dt > 0.0, "{b} on {} phyxels: stable dt {dt}", pts.len());
+            let bound = d.stable_dt(&p, &m);
+            assert!(
+                bound > 0.0,
+                "{b} on {} phyxels: stable dt {bound}",
+                pts.len()
+            );
+            let dt = bound.min(1e-3);
             let ctx = StepContext::new(dt, g, &m);
             for _ in 0..10 {
                 d.step(&mut p, &ctx);

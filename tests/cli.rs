@@ -729,7 +729,8 @@ fn error_material_out_of_range_together() {
 }
 
 /// Keys that only act on moving objects (and materials that flow or break) are refused
-/// on a static one (naming the key) rather than ignored.
+/// on a static one (naming the key) rather than ignored; `backend` even when it names
+/// the default backend.
 #[test]
 fn error_moving_keys_on_static_object() {
     let plane = "[[objects]]\nshape = { type = \"plane\", size = [1.0, 1.0] }\n\
@@ -737,6 +738,7 @@ fn error_moving_keys_on_static_object() {
     for (key, line) in [
         ("velocity", "velocity = [1.0, 0.0, 0.0]"),
         ("backend", "backend = \"sph\""),
+        ("backend", "backend = \"mls\""),
         ("load", "load = [0.0, -1.0, 0.0]"),
         ("self_collision", "self_collision = true"),
         ("material", "material = { fracture = true }"),
