@@ -78,6 +78,10 @@ pub mod backends {
     /// Names accepted by `backend = "..."` in scenes and `--backend`.
     pub const NAMES: &[&str] = &["mls", "sph", "lj"];
 
+    /// The backends that model plastic flow (`plastic_yield`, `plastic_creep`,
+    /// `plastic_max`); the others treat a plastic material as elastic.
+    pub const PLASTIC: &[&str] = &["mls"];
+
     /// Creates backend `name` for `phyxels`, or explains which names exist.
     pub fn create(
         name: &str,

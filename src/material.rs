@@ -106,6 +106,11 @@ pub const DENSITY_RANGE: (f32, f32) = (1e-6, 1e10);
 /// below it (rubber on rough surfaces about 1–2).
 pub const MAX_FRICTION: f32 = 10.0;
 
+/// Smallest `plastic_max` of a plastic material: the plastic strain is capped there, so
+/// 0 would mean no flow at all, and strains below about 10⁻⁶ are round-off in f32 (the
+/// cap's norm of squares underflowed below 10⁻¹⁹ and flow went unbounded).
+pub const MIN_PLASTIC_MAX: f32 = 1e-6;
+
 impl Material {
     /// Kelvin–Voigt time τ (s) for a body of smallest phyxel spacing `r` (m) and wave
     /// speed `c` (m/s): the scene's value, or the resolution-scaled default.
@@ -215,8 +220,15 @@ impl Material {
             ));
         }
         if !(self.poisson > -1.0 && self.poisson < 0.5) {
+            // A value written just inside the range can round onto its end in f32.
+            let rounded = if self.poisson == 0.5 || self.poisson == -1.0 {
+                " (as an f32: a value written within about 3e-8 of the range's end rounds \
+                 onto it; e.g. 0.4999999 stays below 0.5)"
+            } else {
+                ""
+            };
             return Err(format!(
-                "poisson = {}: must lie strictly between -1 and 0.5",
+                "poisson = {}{rounded}: must lie strictly between -1 and 0.5",
                 self.poisson
             ));
         }
@@ -253,6 +265,14 @@ impl Material {
             return Err(format!(
                 "fracture = true with plastic flow needs plastic_max > 0 (the plastic strain \
                  at which the rest configuration is renewed), got plastic_max = {}",
+                self.plastic_max
+            ));
+        }
+        if self.is_plastic() && self.plastic_max < MIN_PLASTIC_MAX {
+            return Err(format!(
+                "plastic_max = {:e}: plastic flow needs plastic_max >= {MIN_PLASTIC_MAX:e} (the \
+                 largest plastic strain; at 0 nothing flows, and strains this small are below \
+                 what f32 resolves)",
                 self.plastic_max
             ));
         }

@@ -434,6 +434,18 @@ impl Scene {
                     ),
                 ));
             }
+            if let Some(b) = o.backend.as_deref().filter(|_| o.material.is_plastic())
+                && !backends::PLASTIC.contains(&b)
+            {
+                return Err(err(
+                    &format!("{at}.backend"),
+                    format!(
+                        "backend = \"{b}\" models no plastic flow, so the material's \
+                         plastic_yield and plastic_creep would do nothing (plastic flow: {})",
+                        backends::PLASTIC.join(", ")
+                    ),
+                ));
+            }
             if !o.is_static && !backends::NAMES.contains(&o.backend_name()) {
                 return Err(err(
                     &format!("{at}.backend"),
@@ -525,9 +537,25 @@ impl Scene {
             let obj = spec
                 .build(k as u32, &backend)
                 .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
-            for w in [mass_warning(&spec, &obj), surface_warning(&spec, &obj)]
-                .into_iter()
-                .flatten()
+            // Only an override can get here with a plastic material on such a backend
+            // (the scene's own `backend` is checked above): compared backends run it.
+            let inelastic = (spec.material.is_plastic()
+                && !spec.is_static
+                && !backends::PLASTIC.contains(&backend.as_str()))
+            .then(|| {
+                format!(
+                    "backend {backend} models no plastic flow: plastic_yield and \
+                     plastic_creep are ignored, the body is elastic (plastic flow: {})",
+                    backends::PLASTIC.join(", ")
+                )
+            });
+            for w in [
+                mass_warning(&spec, &obj),
+                surface_warning(&spec, &obj),
+                inelastic,
+            ]
+            .into_iter()
+            .flatten()
             {
                 warnings.push(format!("{origin}: objects[{k}] '{}': {w}", obj.name));
             }
@@ -549,7 +577,7 @@ impl Scene {
                 let m = &o.material;
                 format!(
                     " (young = {:e} Pa, density = {:e} kg/m³, volume_stiffness = {:e} Pa, \
-                     damping = {:e}, contact_stiffness = {:e}, spacing = {:e} m)",
+                     damping = {:e}, contact_stiffness = {:e}, phyxel spacing r_i = {:e} m)",
                     m.young,
                     m.density,
                     m.k_volume(),
@@ -793,7 +821,7 @@ fn start_overlap(objects: &[Object], placed: &[(Shape, (Quat, Vec3))]) -> Result
                 let b = &objects[j];
                 return Err(format!(
                     "objects[{i}] ('{}') starts inside objects[{j}] ('{}'): {inside} of its \
-                     phyxels lie more than a spacing ({slack} m) within it, up to {deepest:.3e} m \
+                     phyxels lie more than a phyxel spacing r_i (their mean neighbour distance, {slack} m) within it, up to {deepest:.3e} m \
                      deep; place them apart (contact resolves touching surfaces, not bodies \
                      inside one another)",
                     a.name, b.name
@@ -1077,6 +1105,56 @@ mod tests {
                 .expect("builds");
             assert!(world.warnings.is_empty(), "{name}: {:?}", world.warnings);
         }
+    }
+
+    /// A plastic material on a backend without plastic flow would silently run elastic:
+    /// named in the scene it is refused (naming the object's `backend`), given by
+    /// `--backend` (as `compare` does) it warns once per plastic object; on `mls` it
+    /// neither warns nor fails.
+    #[test]
+    fn plastic_flow_on_an_elastic_backend_is_refused_or_warned() {
+        let scene = Scene::builtin("plastic-pile").expect("builtin");
+        let plastic = scene
+            .objects
+            .iter()
+            .filter(|o| o.material.is_plastic())
+            .count();
+        assert!(plastic > 0);
+        for backend in ["sph", "lj"] {
+            let opts = BuildOptions {
+                backend: Some(backend.into()),
+                ..BuildOptions::default()
+            };
+            let world = scene.build(&opts).expect("builds");
+            let warned = world
+                .warnings
+                .iter()
+                .filter(|w| w.contains("no plastic flow"));
+            assert_eq!(warned.count(), plastic, "{backend}: {:?}", world.warnings);
+            let mut named = scene.clone();
+            let k = named
+                .objects
+                .iter()
+                .position(|o| o.material.is_plastic())
+                .unwrap();
+            named.objects[k].backend = Some(backend.into());
+            let e = named
+                .build(&BuildOptions::default())
+                .expect_err("refused")
+                .0;
+            assert!(
+                e.contains(&format!("objects[{k}].backend")) && e.contains("no plastic flow"),
+                "{e}"
+            );
+        }
+        let mut on_mls = scene.clone();
+        on_mls.objects.iter_mut().for_each(|o| {
+            if !o.is_static {
+                o.backend = Some("mls".into())
+            }
+        });
+        let world = on_mls.build(&BuildOptions::default()).expect("builds");
+        assert!(world.warnings.is_empty(), "{:?}", world.warnings);
     }
 
     /// A sphere (r = 0.1 m) sampled by 20 phyxels holds 52% more lattice volume than

@@ -484,6 +484,12 @@ fn error_poisson_out_of_range() {
         &format!("{SPHERE}material = {{ poisson = 0.7 }}\n"),
         &["objects[0]", "poisson", "0.7"],
     );
+    // Just inside the range as written, but 0.5 as an f32: the message says why.
+    expect_scene_error(
+        "poisson-rounded",
+        &format!("{SPHERE}material = {{ poisson = 0.49999999 }}\n"),
+        &["objects[0]", "poisson = 0.5 (as an f32", "rounds onto it"],
+    );
 }
 
 /// A zero phyxel spacing names the object, the field and the value; a missing one
@@ -599,7 +605,8 @@ fn error_position_too_far_for_f32() {
 }
 
 /// Settings that would silently do nothing are errors: a fixed box that holds no phyxel
-/// (the body would be free), plastic flow parameters without a yield stress.
+/// (the body would be free), plastic flow parameters without a yield stress, plastic flow
+/// capped at a `plastic_max` of 0 (no flow) or below f32's strain resolution.
 #[test]
 fn error_settings_without_effect() {
     expect_scene_error(
@@ -621,6 +628,16 @@ fn error_settings_without_effect() {
             "plastic_creep = 0",
         ],
     );
+    for max in ["0.0", "1e-20"] {
+        expect_scene_error(
+            "flow-capped",
+            &format!(
+                "{SPHERE}material = {{ plastic_yield = 0.1, plastic_creep = 5.0, \
+                 plastic_max = {max} }}\n"
+            ),
+            &["objects[0].material", "plastic_max", "plastic flow needs"],
+        );
+    }
     expect_scene_error(
         "ramp-no-load",
         &format!("{SPHERE}load_ramp = 1.0\n"),
@@ -723,7 +740,7 @@ fn error_material_out_of_range_together() {
             "no stable time step",
             "damping = 3e38",
             "young = 1e5",
-            "spacing = ",
+            "phyxel spacing r_i = ",
         ],
     );
 }
@@ -744,7 +761,7 @@ fn error_moving_keys_on_static_object() {
         ("material", "material = { fracture = true }"),
         (
             "material",
-            "material = { plastic_yield = 0.1, plastic_creep = 1.0 }",
+            "material = { plastic_yield = 0.1, plastic_creep = 1.0, plastic_max = 0.2 }",
         ),
     ] {
         expect_scene_error(
