@@ -43,6 +43,10 @@ pub struct Diagnostics {
     /// Largest Frobenius norm of the plastic strain, where the backend keeps plastic
     /// state (`None`: it keeps none, as for elastic materials: no plasticity work).
     pub max_plastic_strain: Option<f32>,
+    /// Phyxels whose neighbourhood does not span 3D (a rank-deficient or ill-conditioned
+    /// moment matrix), where the backend fits one (`None`: it does not). Such a phyxel
+    /// has no stiffness along the missing direction: a body one phyxel layer thick.
+    pub flat_phyxels: Option<usize>,
 }
 
 /// A dynamics backend for the phyxels of one object.

@@ -552,6 +552,7 @@ impl Scene {
             for w in [
                 mass_warning(&spec, &obj),
                 surface_warning(&spec, &obj),
+                flat_warning(&obj),
                 inelastic,
             ]
             .into_iter()
@@ -719,6 +720,32 @@ fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
              scale 3V/A = {thickness:.3e} m (more than {SURFACE_WARNING}): contacts may be \
              missed or sink deep; refine the surfel spacing (docs/SCENES.md, \"Limits\")",
             spacing / thickness
+        )
+    })
+}
+
+/// Share of an object's phyxels with a flat neighbourhood
+/// ([`crate::dynamics::Diagnostics::flat_phyxels`]) above which the build warns. The
+/// built-in scenes have none; a plate one phyxel layer thick has all of them, and on
+/// `mls` (no stiffness across the layer) a ball dropped on one crumpled it until it went
+/// NaN, at any dt.
+pub const FLAT_WARNING: f64 = 0.01;
+
+/// The warning for `obj` if many of its phyxels have flat neighbourhoods
+/// ([`FLAT_WARNING`]; backends that fit no moment matrix report none).
+fn flat_warning(obj: &Object) -> Option<String> {
+    let flat = obj
+        .dynamics
+        .diagnostics(&obj.phyxels, &obj.material)
+        .flat_phyxels?;
+    let n = obj.phyxels.len();
+    (flat as f64 > FLAT_WARNING * n as f64).then(|| {
+        format!(
+            "{flat} of its {n} phyxels have neighbourhoods that do not span 3D (the body is \
+             about one phyxel layer thick at this spacing): the {} backend has no stiffness \
+             across them, so the body may crumple or blow up under load; refine the spacing \
+             (at least two layers) or use sph",
+            obj.dynamics.name()
         )
     })
 }
@@ -1105,6 +1132,40 @@ mod tests {
                 .expect("builds");
             assert!(world.warnings.is_empty(), "{name}: {:?}", world.warnings);
         }
+    }
+
+    /// A plate one phyxel layer thick (0.3 × 0.005 × 0.3 m at 5 mm spacing: 3600 phyxels,
+    /// every MLS moment matrix rank 2) warns on `mls`, naming the object and the count;
+    /// two layers (10 mm thick) do not, and neither does `sph` (no moment matrix).
+    #[test]
+    fn a_plate_one_layer_thick_warns_on_mls() {
+        let plate = |thick: f32| {
+            Scene::parse(
+                &format!(
+                    "name = \"plate\"\n[[objects]]\nname = \"plate\"\n\
+                     shape = {{ type = \"box\", size = [0.3, {thick}, 0.3] }}\nspacing = 0.005\n"
+                ),
+                "plate",
+            )
+            .expect("parses")
+        };
+        let warnings = |scene: &Scene, backend: &str| {
+            let opts = BuildOptions {
+                backend: Some(backend.into()),
+                ..BuildOptions::default()
+            };
+            scene.build(&opts).expect("builds").warnings
+        };
+        let thin = warnings(&plate(0.005), "mls");
+        let [w] = thin.as_slice() else {
+            panic!("{thin:?}")
+        };
+        assert!(
+            w.contains("objects[0] 'plate'") && w.contains("3600 of its 3600 phyxels"),
+            "{w}"
+        );
+        assert!(warnings(&plate(0.01), "mls").is_empty());
+        assert!(warnings(&plate(0.005), "sph").is_empty());
     }
 
     /// A plastic material on a backend without plastic flow would silently run elastic:

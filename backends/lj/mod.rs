@@ -277,6 +277,7 @@ impl Dynamics for LjDynamics {
             elastic_energy: Some(self.energy),
             max_strain: Some(self.max_strain),
             max_plastic_strain: None,
+            flat_phyxels: None,
         }
     }
 

@@ -618,6 +618,7 @@ impl Dynamics for MlsDynamics {
                     .map(|&ep| frobenius(ep))
                     .fold(0.0, f32::max)
             }),
+            flat_phyxels: Some(self.ill_conditioned()),
         }
     }
 }
