@@ -563,12 +563,19 @@ impl Scene {
             objects.push(obj);
         }
         start_overlap(&objects, &placed).map_err(|m| SceneError(format!("{origin}: {m}")))?;
+        let gravity = Vec3::from(self.gravity);
+        let grounded = objects.iter().any(|o| o.is_static());
+        for (k, o) in objects.iter().enumerate() {
+            let supported = grounded || o.phyxels.fixed.iter().any(|&f| f != 0);
+            if let Some(w) = weight_warning(o, gravity, supported) {
+                warnings.push(format!("{origin}: objects[{k}] '{}': {w}", o.name));
+            }
+        }
         warnings.extend(
             self.fast_approaches()
                 .into_iter()
                 .map(|w| format!("{origin}: {w}")),
         );
-        let gravity = Vec3::from(self.gravity);
         let mut world = World::new(objects, gravity, 0.0);
         let (stable, limiter_object) = world.stable_dt();
         let limiter = limiter_object.map(|o| o.name.clone()).unwrap_or_default();
@@ -720,6 +727,44 @@ fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
              scale 3V/A = {thickness:.3e} m (more than {SURFACE_WARNING}): contacts may be \
              missed or sink deep; refine the surfel spacing (docs/SCENES.md, \"Limits\")",
             spacing / thickness
+        )
+    })
+}
+
+/// Strain `ρ |g| H / E` under a body's own weight (H: its height along gravity) above
+/// which the build warns that it may collapse. `sphere-on-plane` with the ball at
+/// E = 3 kPa (0.67 by this H: the phyxels' height plus a spacing) held, squashed to a
+/// third of its height; at 2 kPa (1.01) and below it sank through the plane on `mls`.
+/// The `self-contact` ring, meant to buckle onto itself, is at 0.62; the other
+/// built-in scenes stay below 0.1.
+pub const WEIGHT_WARNING: f32 = 0.8;
+
+/// The warning for a moving `obj` resting on something (a static object or its own
+/// fixed phyxels) under `gravity` if its own weight strains it past [`WEIGHT_WARNING`].
+fn weight_warning(obj: &Object, gravity: Vec3, supported: bool) -> Option<String> {
+    let g = gravity.length();
+    if obj.is_static() || !supported || g == 0.0 {
+        return None;
+    }
+    let down = gravity / g;
+    let (lo, hi) = obj
+        .phyxels
+        .pos
+        .iter()
+        .map(|p| p.dot(down))
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), h| {
+            (a.min(h), b.max(h))
+        });
+    let height = hi - lo + obj.phyxel_spacing;
+    let m = &obj.material;
+    let strain = m.density * g * height / m.young;
+    (strain > WEIGHT_WARNING).then(|| {
+        format!(
+            "its own weight strains it by about ρ|g|H/E = {strain:.2} (H = {height:.3e} m along \
+             gravity, E = {:e} Pa): too soft to keep its shape; it may collapse and sink \
+             through what holds it (young >= {:.3e} Pa keeps it below {WEIGHT_WARNING})",
+            m.young,
+            m.density * g * height / WEIGHT_WARNING
         )
     })
 }
@@ -1132,6 +1177,31 @@ mod tests {
                 .expect("builds");
             assert!(world.warnings.is_empty(), "{name}: {:?}", world.warnings);
         }
+    }
+
+    /// `sphere-on-plane` with the ball at E = 1 kPa: its weight strains it by
+    /// ρ|g|H/E = 1000 · 9.81 · 0.206 / 1000 = 2.02 (H: the phyxels' height plus a
+    /// spacing), so the build warns, naming the ball; at the scene's 100 kPa (0.02), in
+    /// zero gravity, or with nothing to rest on (the plane removed) it does not.
+    #[test]
+    fn a_body_too_soft_for_its_weight_warns() {
+        let scene = Scene::builtin("sphere-on-plane").expect("builtin");
+        let mut soft = scene.clone();
+        soft.objects[1].material.young = 1e3;
+        let warnings = |s: &Scene| s.build(&BuildOptions::default()).expect("builds").warnings;
+        let w = warnings(&soft);
+        let [w] = w.as_slice() else { panic!("{w:?}") };
+        assert!(
+            w.contains("objects[1] 'ball'") && w.contains("= 2.02"),
+            "{w}"
+        );
+        assert!(warnings(&scene).is_empty());
+        let mut weightless = soft.clone();
+        weightless.gravity = [0.0; 3];
+        assert!(warnings(&weightless).is_empty());
+        let mut falling = soft.clone();
+        falling.objects.remove(0);
+        assert!(warnings(&falling).is_empty());
     }
 
     /// A plate one phyxel layer thick (0.3 × 0.005 × 0.3 m at 5 mm spacing: 3600 phyxels,
