@@ -1,7 +1,7 @@
 //! Contact response against independent references: conservation of momentum, resting
 //! contact, Hertz's law, Coulomb friction on an incline, Newton's cradle and a pile.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::validate;
@@ -711,4 +711,264 @@ fn a_collision_is_the_same_from_micrometres_to_megametres() {
             }
         }
     }
+}
+
+/// Scene placement (contacts such as the `incline` depend on it): `rotation = [a, b, c]`
+/// is `R = Rx(a) · Ry(b) · Rz(c)` (docs/SCENES.md: about the object's x axis first, then
+/// its turned y, then its z; a point p goes to `R p + position`). Reference: R multiplied
+/// out here from the explicit cos/sin matrices in f64. A box with three different sides
+/// (0.3 × 0.2 × 0.1 m) rotated by [30°, 40°, 50°]: every built phyxel and surfel must lie
+/// within 1e-5 m (f32 rounding of 0.3 m coordinates; measured 5e-8 m) of `R p + position`
+/// for a distinct point p of the shape's own sample, and every surfel normal within 1e-5
+/// of `R n` (measured 1.2e-7). The reverse order `Rz(c) · Ry(b) · Rx(a)` puts points
+/// 3 cm off.
+#[test]
+fn scene_rotation_is_x_then_y_then_z_about_the_turned_axes() {
+    use glam::DMat3;
+    use phyxel::shape::Shape;
+    let text = r#"
+        name = "rotated"
+        gravity = [0.0, 0.0, 0.0]
+        [[objects]]
+        shape = { type = "box", size = [0.3, 0.2, 0.1] }
+        spacing = 0.05
+        surfel_spacing = 0.025
+        position = [0.1, -0.2, 0.3]
+        rotation = [30.0, 40.0, 50.0]
+    "#;
+    let w = build(&Scene::parse(text, "rotated").unwrap());
+    let (a, b, c) = (30f64.to_radians(), 40f64.to_radians(), 50f64.to_radians());
+    let rx = DMat3::from_cols(
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, a.cos(), a.sin()),
+        DVec3::new(0.0, -a.sin(), a.cos()),
+    );
+    let ry = DMat3::from_cols(
+        DVec3::new(b.cos(), 0.0, -b.sin()),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(b.sin(), 0.0, b.cos()),
+    );
+    let rz = DMat3::from_cols(
+        DVec3::new(c.cos(), c.sin(), 0.0),
+        DVec3::new(-c.sin(), c.cos(), 0.0),
+        DVec3::new(0.0, 0.0, 1.0),
+    );
+    let r = rx * ry * rz;
+    let position = DVec3::new(0.1, -0.2, 0.3);
+    let shape = Shape::Box {
+        size: [0.3, 0.2, 0.1],
+    };
+    let o = &w.objects[0];
+    // Each built point matched to a distinct point of the local sample, brute force.
+    let check = |label: &str, built: Vec<Vec3>, local: Vec<Vec3>| -> Vec<usize> {
+        assert_eq!(built.len(), local.len(), "{label}: count");
+        let want: Vec<DVec3> = local.iter().map(|p| r * p.as_dvec3() + position).collect();
+        let mut used = vec![false; want.len()];
+        let mut matched = Vec::with_capacity(built.len());
+        let mut worst = 0.0f64;
+        for (i, x) in built.iter().enumerate() {
+            let (k, d) = want
+                .iter()
+                .map(|q| (q - x.as_dvec3()).length())
+                .enumerate()
+                .fold(
+                    (0, f64::INFINITY),
+                    |m, (k, d)| if d < m.1 { (k, d) } else { m },
+                );
+            assert!(
+                d < 1e-5 && !used[k],
+                "{label} {i} at {x}: nearest rotated sample point {d:e} m away"
+            );
+            used[k] = true;
+            matched.push(k);
+            worst = worst.max(d);
+        }
+        println!("{label}s: largest distance to the rotated sample {worst:e} m");
+        matched
+    };
+    check(
+        "phyxel",
+        o.phyxels.rest.iter().collect(),
+        shape.sample_volume(0.05).positions,
+    );
+    let surf = shape.sample_surface(0.025);
+    let matched = check(
+        "surfel",
+        o.surfels.rest.iter().collect(),
+        surf.positions.clone(),
+    );
+    let mut worst = 0.0f64;
+    for (i, &k) in matched.iter().enumerate() {
+        let want = r * surf.normals[k].as_dvec3();
+        let err = (o.surfels.rest_normal.get(i).as_dvec3() - want).length();
+        worst = worst.max(err);
+        assert!(err < 1e-5, "surfel {i}: normal error {err:e}");
+    }
+    println!("surfel normals: largest error {worst:e}");
+}
+
+/// The contact constants of a pair (`world::contact_params`) against the documented
+/// formulas (docs/SCENES.md, Material; docs/ARCHITECTURE.md, Contact response), for two
+/// unequal materials: `E* = 1/((1−ν_a²)/E_a + (1−ν_b²)/E_b)` (Pa), stiffness
+/// `k = ½(s_a + s_b) E*/h` (N/m³), damping `min(2 ζ √(k ρ h), 1.6 ρ h/dt)` with
+/// `ζ = ½(ζ_a + ζ_b)` (N·s/m³), friction `√(μ_a μ_b)`, surface weights `λ = E/(E_a + E_b)`,
+/// where h and ρ are the finer spacing and lower density of the moving objects (of both
+/// when both move). Checked with both moving and with the finer, lighter one static, and
+/// with a dt at which the damping cap binds and one at which it does not. Tolerance 1e-5
+/// relative (f32; measured at most 1e-7).
+#[test]
+fn pair_contact_constants_follow_the_documented_formulas() {
+    let text = |b_static: bool| {
+        format!(
+            r#"
+            name = "pair"
+            gravity = [0.0, 0.0, 0.0]
+            [[objects]]
+            name = "a"
+            shape = {{ type = "sphere", radius = 0.1 }}
+            spacing = 0.04
+            position = [-0.5, 0.0, 0.0]
+            material = {{ young = 1e5, poisson = 0.3, density = 1000.0, friction = 0.2,
+                         contact_stiffness = 4.0, contact_damping = 0.2 }}
+            [[objects]]
+            name = "b"
+            shape = {{ type = "box", size = [0.2, 0.2, 0.2] }}
+            spacing = 0.025
+            position = [0.5, 0.0, 0.0]
+            static = {b_static}
+            material = {{ young = 4e5, poisson = 0.45, density = 500.0, friction = 0.8,
+                         contact_stiffness = 10.0, contact_damping = 1.0 }}
+            "#
+        )
+    };
+    let close = |got: f32, want: f64, what: &str| {
+        assert!(
+            (got as f64 - want).abs() <= 1e-5 * want.abs(),
+            "{what}: {got} vs {want}"
+        );
+    };
+    for b_static in [false, true] {
+        let w = build(&Scene::parse(&text(b_static), "pair").unwrap());
+        let (a, b) = (&w.objects[0], &w.objects[1]);
+        assert_eq!((a.name.as_str(), b.name.as_str()), ("a", "b"));
+        assert_eq!(b.is_static(), b_static);
+        let (ea, eb) = (1e5f64, 4e5f64);
+        let e_star = 1.0 / ((1.0 - 0.3 * 0.3) / ea + (1.0 - 0.45 * 0.45) / eb);
+        let (h, rho) = if b_static {
+            (a.phyxel_spacing as f64, 1000.0)
+        } else {
+            (a.phyxel_spacing.min(b.phyxel_spacing) as f64, 500.0)
+        };
+        let k = 0.5 * (4.0 + 10.0) * e_star / h;
+        let zeta = 0.5 * (0.2 + 1.0);
+        let critical = 2.0 * zeta * (k * rho * h).sqrt();
+        for dt in [1e-6f64, 1e-2] {
+            let p = phyxel::world::contact_params(a, b, dt as f32);
+            let cap = 1.6 * rho * h / dt;
+            assert_eq!(
+                critical < cap,
+                dt < 1e-3,
+                "the cap must bind at the larger dt only"
+            );
+            close(p.stiffness, k, "stiffness");
+            close(p.damping, critical.min(cap), "damping");
+            close(p.friction, (0.2f64 * 0.8).sqrt(), "friction");
+            close(p.lambda_a, ea / (ea + eb), "lambda_a");
+            close(p.lambda_b, eb / (ea + eb), "lambda_b");
+        }
+    }
+}
+
+/// Penalty and friction forces on hand-built contact surfels (`contact::forces`, Keiser
+/// et al. 2004 eqs. 3–7), against forces worked out by hand. Surfels 1 m apart, so each
+/// stands alone and its area is that of the normalised 2-D poly6 kernel of support
+/// 2 s at its own centre, `A = π s²` (s = 1 cm). With Φ's normal n (a into b), the
+/// original surfaces `d₁` into b and `d₂` into a along n (a tangential offset of the
+/// anchor is ignored), approach speed `v_n = v·n` and slip `v_t` (v: a relative to b):
+/// per side `p = max(k d + c v_n, 0)` (push only), and the force on a is
+/// `−½ A (p₁ + p₂) (n + μ v_t/max(|v_t|, 0.1 mm/s))`, its friction opposing the slip.
+/// Cases: approaching while sliding; separating fast (no force, in particular no pull);
+/// separating slowly (only the deeper side pushes); sticking slip below 0.1 mm/s
+/// (viscous friction). Tolerance: 1e-5 of the largest force (0.27 N; f32, measured
+/// 1.3e-7).
+#[test]
+fn contact_forces_match_hand_computed_penalty_and_friction() {
+    use phyxel::contact::{ContactParams, ContactPatch, ContactSurfel, PatchScratch, forces};
+    use std::f64::consts::PI;
+    let s = 0.01f32;
+    let (k, c_damp, mu) = (1.0e6f64, 2.0e3f64, 0.5f64);
+    let params = ContactParams {
+        lambda_a: 0.5,
+        lambda_b: 0.5,
+        stiffness: k as f32,
+        damping: c_damp as f32,
+        friction: mu as f32,
+        spacing: s,
+        force_spacing: s,
+    };
+    let n = Vec3::new(1.0, 2.0, 2.0) / 3.0;
+    let t = Vec3::new(2.0, 1.0, -2.0) / 3.0;
+    let (d1, d2) = (1.0e-3f32, 5.0e-4f32);
+    // (approach speed v_n, slip speed along t) in m/s.
+    let cases = [
+        (0.01f32, 0.05f32),
+        (-10.0, 0.05),
+        (-0.4, 0.05),
+        (0.0, 5.0e-5),
+    ];
+    let surfel = |k: usize, vn: f32, vt: f32| {
+        let pos = Vec3::new(k as f32, 0.5, -0.25);
+        ContactSurfel {
+            pos,
+            normal: n,
+            object: 0,
+            area: 0.0,
+            force: Vec3::ZERO,
+            anchor_a: pos + n * d1 + t * 3.0e-4,
+            anchor_b: pos - n * d2,
+            velocity: n * vn + t * vt,
+        }
+    };
+    let mut patch = ContactPatch {
+        a: 0,
+        b: 1,
+        surfels: (0..cases.len())
+            .map(|k| surfel(k, cases[k].0, cases[k].1))
+            .collect(),
+        ..Default::default()
+    };
+    forces(&mut patch, &params, &mut PatchScratch::default());
+    let area = PI * (s as f64) * (s as f64);
+    // Depths and speeds from the stored f32 values (so their rounding is not an error).
+    let nd = n.as_dvec3().normalize();
+    let want: Vec<DVec3> = patch
+        .surfels
+        .iter()
+        .map(|c| {
+            let d1 = (c.anchor_a - c.pos).as_dvec3().dot(nd);
+            let d2 = -(c.anchor_b - c.pos).as_dvec3().dot(nd);
+            let v = c.velocity.as_dvec3();
+            let vn = v.dot(nd);
+            let vt = v - nd * vn;
+            let push = (k * d1 + c_damp * vn).max(0.0) + (k * d2 + c_damp * vn).max(0.0);
+            let slip = vt * (mu / vt.length().max(1.0e-4));
+            -(nd + slip) * (0.5 * area * push)
+        })
+        .collect();
+    let scale = want.iter().map(|f| f.length()).fold(0.0, f64::max);
+    let mut worst = 0.0f64;
+    for (i, (c, f)) in patch.surfels.iter().zip(&want).enumerate() {
+        let a_err = (c.area as f64 - area).abs() / area;
+        assert!(a_err < 1e-5, "surfel {i}: area {} vs {area}", c.area);
+        let err = (c.force.as_dvec3() - *f).length() / scale;
+        worst = worst.max(err);
+        assert!(err < 1e-5, "case {i}: force {} vs {f} ({err:e})", c.force);
+    }
+    println!("contact forces: largest error {worst:e} of {scale:e} N");
+    assert_eq!(
+        patch.surfels[1].force,
+        Vec3::ZERO,
+        "a fast separating contact must not pull"
+    );
+    assert!(want[2].length() > 0.0 && want[3].length() > 0.0);
 }

@@ -413,3 +413,185 @@ fn lane_kernel_matches_scalar_reference() {
         }
     }
 }
+
+/// A quadratic displacement field with every second-order term, a different Hessian per
+/// component, plus an affine part: `u_k(x) = ½ (x − x₀)ᵀ H_k (x − x₀) + (B x)_k` (m, with
+/// x in m and H_k in 1/m). Returns the field and its analytic gradient
+/// (column b = ∂u/∂x_b, as `MlsStencil::gradient_of`), both in f64.
+fn quadratic_field() -> (impl Fn(DVec3) -> DVec3, impl Fn(DVec3) -> DMat3) {
+    // Symmetric, all six entries non-zero and distinct between components.
+    let sym = |xx: f64, yy: f64, zz: f64, xy: f64, yz: f64, zx: f64| {
+        DMat3::from_cols(
+            DVec3::new(xx, xy, zx),
+            DVec3::new(xy, yy, yz),
+            DVec3::new(zx, yz, zz),
+        )
+    };
+    let h = [
+        sym(0.8, -0.5, 0.3, 0.6, -0.4, 0.9),
+        sym(-0.3, 0.7, -0.6, -0.8, 0.5, 0.4),
+        sym(0.5, 0.2, 0.9, 0.3, 0.7, -0.7),
+    ];
+    let b = DMat3::from_cols_array(&[0.01, -0.02, 0.015, 0.005, 0.01, -0.01, 0.02, 0.0, -0.015]);
+    let x0 = DVec3::new(0.03, -0.02, 0.01);
+    let u = move |x: DVec3| {
+        let y = x - x0;
+        DVec3::new(
+            0.5 * y.dot(h[0] * y),
+            0.5 * y.dot(h[1] * y),
+            0.5 * y.dot(h[2] * y),
+        ) + b * x
+    };
+    // Row k of the gradient is (H_k (x − x₀))ᵀ.
+    let grad = move |x: DVec3| {
+        let y = x - x0;
+        DMat3::from_cols(h[0] * y, h[1] * y, h[2] * y).transpose() + b
+    };
+    (u, grad)
+}
+
+/// MLS gradients of `u` (evaluated in f64 at the f32 rest positions, passed as f32) on
+/// the stencil of `basis`, and their largest error against the analytic gradient
+/// relative to the largest analytic gradient, per phyxel.
+fn gradient_errors(
+    p: &Phyxels,
+    basis: phyxel::mls::GradientBasis,
+    u: &impl Fn(DVec3) -> DVec3,
+    grad: &impl Fn(DVec3) -> DMat3,
+) -> Vec<f64> {
+    let st = phyxel::mls::MlsStencil::build_with(p, basis);
+    let field: Vec<Vec3> = p.rest.iter().map(|x| u(x.as_dvec3()).as_vec3()).collect();
+    let mut g = vec![Mat3::ZERO; p.len()];
+    st.gradients(&field, &mut g);
+    let abs_max = |m: DMat3| m.to_cols_array().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let scale = p
+        .rest
+        .iter()
+        .map(|x| abs_max(grad(x.as_dvec3())))
+        .fold(0.0, f64::max);
+    (0..p.len())
+        .map(|i| abs_max(g[i].as_dmat3() - grad(p.rest.get(i).as_dvec3())) / scale)
+        .collect()
+}
+
+/// The default quadratic MLS basis (`GradientBasis::Quadratic`) is second-order
+/// consistent: for a quadratic displacement with all six second-order terms and a different
+/// Hessian per component (`quadratic_field`, |∇u| up to about 0.15), the gradient equals
+/// the analytic one at every phyxel of a box and a ball — boundary phyxels included, whose
+/// one-sided neighbourhoods the linear basis gets wrong (see the next test). Every phyxel
+/// must have taken the quadratic fit (its weights differ from the linear basis's: no
+/// fallback). Tolerance: 1e-5 relative to the largest gradient (f32 field values and
+/// weights; measured 4e-7).
+#[test]
+fn quadratic_basis_is_exact_for_quadratic_fields() {
+    use phyxel::mls::{GradientBasis, MlsStencil};
+    let mat = Material::default();
+    let (u, grad) = quadratic_field();
+    for (name, (p, _)) in [("box", block(&mat)), ("ball", ball(&mat))] {
+        let quad = MlsStencil::build_with(&p, GradientBasis::Quadratic);
+        let lin = MlsStencil::build_with(&p, GradientBasis::Linear);
+        let fitted = (0..p.len())
+            .filter(|&i| quad.d[quad.row(i)] != lin.d[lin.row(i)])
+            .count();
+        assert_eq!(fitted, p.len(), "{name}: phyxels without the quadratic fit");
+        let err = gradient_errors(&p, GradientBasis::Quadratic, &u, &grad);
+        let worst = err.iter().copied().fold(0.0, f64::max);
+        println!("{name}: quadratic basis, worst relative gradient error {worst:e}");
+        for (i, e) in err.iter().enumerate() {
+            assert!(
+                *e < 1e-5,
+                "{name}, phyxel {i}: relative gradient error {e:e}"
+            );
+        }
+    }
+}
+
+/// The linear basis (`GradientBasis::Linear`, Müller et al. 2004) is exact for affine
+/// fields (random `u = B x + c`, every phyxel, 1e-4 relative to |B|) but not for the
+/// quadratic field of the previous test: where the neighbourhood is one-sided (the
+/// boundary) its largest error must exceed 1e-2 of the largest gradient (measured 0.12),
+/// a thousand times the quadratic basis's tolerance, so the two bases differ.
+#[test]
+fn linear_basis_is_exact_only_for_affine_fields() {
+    use phyxel::mls::GradientBasis;
+    let mat = Material::default();
+    let (u, grad) = quadratic_field();
+    let mut rng = Rng(0xD1B5_4A32_D192_ED03);
+    for (name, (p, _)) in [("box", block(&mat)), ("ball", ball(&mat))] {
+        for _ in 0..3 {
+            let b = rng.mat(0.05).as_dmat3();
+            let c = DVec3::new(rng.next() as f64, rng.next() as f64, rng.next() as f64) * 0.01;
+            let err = gradient_errors(&p, GradientBasis::Linear, &|x| b * x + c, &|_| b);
+            for (i, e) in err.iter().enumerate() {
+                assert!(*e < 1e-4, "{name}, phyxel {i}: affine gradient error {e:e}");
+            }
+        }
+        let err = gradient_errors(&p, GradientBasis::Linear, &u, &grad);
+        let worst = err.iter().copied().fold(0.0, f64::max);
+        println!("{name}: linear basis, worst relative quadratic-field error {worst:e}");
+        assert!(
+            worst > 1e-2,
+            "{name}: the linear basis reproduced a quadratic field ({worst:e})"
+        );
+    }
+}
+
+/// The paper's strain form (`strain = "paper"`, as Müller et al. 2004 write it: strain
+/// `ε = JᵀJ − I`, stress `σ = λ tr(ε) I + 2μ ε`, force `f = −2 v J σ d`, i.e. the energy
+/// density `½ ε:σ` differentiated with respect to J) under a homogeneous deformation
+/// `x = F x₀` of a block (strains of 1–3%), against that law computed here in f64:
+/// - the stress at every phyxel is `σ` (Pa) of the paper's strain, twice the
+///   Green–Saint-Venant stress at small strain; tolerance 1e-4 relative to |σ|, as the
+///   calibrated form's test (f32 strain of a 1e-6-accurate gradient; measured 5e-5);
+/// - the virial of the internal forces, `Σ_j f_j x₀_jᵀ` (N·m), equals
+///   `−V (2 F σ + k_v (det F − 1) cof F)` (V: total volume; the volume term of eq. 11
+///   with `k_v = 0.1 E`), exactly for any stencil that reproduces affine fields, since
+///   `Σ_j d_ij x₀_ijᵀ = I`: four times the calibrated form's first Piola stress at small
+///   strain. Tolerance 1e-4 relative to the largest entry (measured 6e-6).
+#[test]
+fn paper_strain_form_gives_its_hooke_law() {
+    use phyxel::material::StrainForm;
+    let mat = Material {
+        young: 2.0e6,
+        poisson: 0.35,
+        damping: 0.0,
+        strain: StrainForm::Paper,
+        ..Default::default()
+    };
+    let (mut p, mut m) = block(&mat);
+    assert_eq!(m.ill_conditioned(), 0);
+    let f = Mat3::from_cols_array(&[1.02, 0.005, -0.01, 0.0, 0.97, 0.015, 0.01, 0.0, 1.01]);
+    deform(&mut p, |x| f * x);
+    m.compute_forces(&p, &mat, 1e-4);
+    let fd = f.as_dmat3();
+    let eps = fd.transpose() * fd - DMat3::IDENTITY;
+    let (e, nu) = (mat.young as f64, mat.poisson as f64);
+    let lambda = e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu));
+    let mu = e / (2.0 * (1.0 + nu));
+    let tr = eps.x_axis.x + eps.y_axis.y + eps.z_axis.z;
+    let sigma = DMat3::from_diagonal(DVec3::splat(lambda * tr)) + eps * (2.0 * mu);
+    let abs_max = |m: DMat3| m.to_cols_array().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let mut stress_err = 0.0f64;
+    for i in 0..p.len() {
+        let err = abs_max(m.stress(&mat, i).as_dmat3() - sigma) / abs_max(sigma);
+        stress_err = stress_err.max(err);
+        assert!(err < 1e-4, "phyxel {i}: relative stress error {err:e}");
+    }
+    let kv = 0.1 * e;
+    let det = fd.determinant();
+    let cof = fd.inverse().transpose() * det;
+    let volume: f64 = (0..p.len()).map(|i| p.volume[i] as f64).sum();
+    let want = -(fd * sigma * 2.0 + cof * (kv * (det - 1.0))) * volume;
+    let mut virial = DMat3::ZERO;
+    let forces = m.internal_forces();
+    for j in 0..p.len() {
+        let (fj, xj) = (forces.get(j).as_dvec3(), p.rest.get(j).as_dvec3());
+        virial += DMat3::from_cols(fj * xj.x, fj * xj.y, fj * xj.z);
+    }
+    let err = abs_max(virial - want) / abs_max(want);
+    println!("paper form: stress error {stress_err:e}, virial error {err:e}");
+    assert!(
+        err < 1e-4,
+        "virial {virial} vs {want}: relative error {err:e}"
+    );
+}

@@ -190,3 +190,62 @@ fn plastic_flow_that_stiffens_lowers_dt() {
         "dt above the bound at the end"
     );
 }
+
+/// The creep law at a held strain (docs/BACKENDS.md: `ε̇_p = c (ε − ε_p)` while
+/// `‖ε − ε_p‖ > yield`). A block held at a homogeneous deformation `x = F x₀` (Green strain
+/// ε, ‖ε‖ ≈ 0.03) has the exact solution `ε_p(t) = ε (1 − e^{−c t})` until
+/// `‖ε‖ e^{−c t}` falls to the yield, then no more flow. With c = 50/s, dt = 1 ms and the
+/// yield set to cross half-way through step 40, the plastic strain of every phyxel after
+/// each of 60 force evaluations must match `ε (1 − e^{−c k dt})`, k = min(step, 40).
+/// Tolerance: 1e-4 of ‖ε‖ per entry (dimensionless; f32 strain and accumulation,
+/// measured 8e-6).
+#[test]
+fn plastic_strain_follows_the_creep_law() {
+    use glam::{DMat3, Mat3};
+    use phyxel::backends::mls::MlsDynamics;
+    use phyxel::material::Material;
+    use phyxel::phyxels::Phyxels;
+    use phyxel::shape::Shape;
+    let f = Mat3::from_cols_array(&[1.03, 0.01, -0.005, 0.0, 0.98, 0.012, 0.008, 0.0, 1.015]);
+    let fd = f.as_dmat3();
+    let eps = (fd.transpose() * fd - DMat3::IDENTITY) * 0.5;
+    let norm = |m: DMat3| m.to_cols_array().iter().map(|v| v * v).sum::<f64>().sqrt();
+    let (c, dt, last_flow) = (50.0f64, 1e-3f64, 40u32);
+    let yield_ = norm(eps) * (-c * dt * (last_flow as f64 - 0.5)).exp();
+    let mat = Material {
+        plastic_yield: yield_ as f32,
+        plastic_creep: c as f32,
+        plastic_max: 1.0,
+        damping: 0.0,
+        ..Default::default()
+    };
+    let v = Shape::Box {
+        size: [0.2, 0.1, 0.15],
+    }
+    .sample_volume(0.02);
+    let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
+    let mut m = MlsDynamics::new(&p, &mat);
+    for i in 0..p.len() {
+        let x = p.rest.get(i);
+        p.pos.set(i, f * x);
+    }
+    let mut worst = 0.0f64;
+    for step in 1..=60u32 {
+        m.compute_forces(&p, &mat, dt as f32);
+        let k = step.min(last_flow) as f64;
+        let want = eps * (1.0 - (-c * k * dt).exp());
+        for (i, ep) in m.plastic_strain().iter().enumerate() {
+            let err = (ep.as_dmat3() - want)
+                .to_cols_array()
+                .iter()
+                .fold(0.0f64, |a, v| a.max(v.abs()))
+                / norm(eps);
+            worst = worst.max(err);
+            assert!(
+                err < 1e-4,
+                "step {step}, phyxel {i}: plastic strain {ep} vs {want}: error {err:e} of ‖ε‖"
+            );
+        }
+    }
+    println!("creep: worst plastic strain error {worst:e} of ‖ε‖");
+}
