@@ -119,7 +119,7 @@ pub fn run(
     world.render_contacts = opts.out.is_some();
     let steps = opts.steps.unwrap_or(scene.steps);
     let momentum_initial = world.momentum();
-    let energy_initial = world.energy();
+    let mut energy_initial = world.energy();
     let write_frames = opts.out.clone();
     let every = scene.output.every;
     let phyxels = opts.phyxels || scene.output.phyxels;
@@ -155,6 +155,12 @@ pub fn run(
         for s in 1..=steps {
             world.step();
             ran = s;
+            if s == 1 {
+                // Contact energy exists only once a contact phase has run: bodies that
+                // start pressed together hold it from the start (one step's motion
+                // changes it little), and release it as kinetic energy.
+                energy_initial.contact = world.contact_energy();
+            }
             if world.non_finite.is_some() {
                 // Nothing after a blow-up is a result: stop, and say where it began.
                 break;
@@ -174,7 +180,8 @@ pub fn run(
 }
 
 /// The warning of [`RunSummary::energy_warning`]: the gain `E₁ − E₀` against the scale
-/// `max(K₀ + U₀, K₁ + U₁, |P₁ − P₀|)` (kinetic, elastic, potential).
+/// `max(K₀ + U₀ + C₀, K₁ + U₁ + C₁, |P₁ − P₀|)` (kinetic, elastic, contact,
+/// potential).
 fn energy_warning(
     world: &World,
     e0: crate::world::Energy,
@@ -183,8 +190,8 @@ fn energy_warning(
     if world.objects.iter().any(|o| o.load != glam::Vec3::ZERO) {
         return None;
     }
-    let scale = (e0.kinetic + e0.elastic)
-        .max(e1.kinetic + e1.elastic)
+    let scale = (e0.kinetic + e0.elastic + e0.contact)
+        .max(e1.kinetic + e1.elastic + e1.contact)
         .max((e1.potential - e0.potential).abs());
     let gain = e1.total() - e0.total();
     (gain > crate::world::ENERGY_GAIN_WARNING * scale).then(|| {

@@ -2,7 +2,7 @@
 
 use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_box};
 use crate::contact::{
-    self, ContactParams, ContactPatch, DistributeScratch, PairSurfaces, PatchScratch,
+    self, ContactParams, ContactPatch, ContactSurfel, DistributeScratch, PairSurfaces, PatchScratch,
 };
 use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::{StepContext, damped_euler_limit};
@@ -128,12 +128,15 @@ pub struct Energy {
     pub elastic: f64,
     /// Gravitational, `−Σ m g·x` (zero at the origin).
     pub potential: f64,
+    /// Stored in the contact penalty springs at the last contact phase
+    /// ([`World::contact_energy`]; 0 before the first step).
+    pub contact: f64,
 }
 
 impl Energy {
-    /// Kinetic plus elastic plus potential.
+    /// Kinetic plus elastic plus potential plus contact.
     pub fn total(&self) -> f64 {
-        self.kinetic + self.elastic + self.potential
+        self.kinetic + self.elastic + self.potential + self.contact
     }
 }
 
@@ -670,14 +673,8 @@ impl World {
                 | Phase::Forces
                 | Phase::Distribute
         );
-        let unchanged = self.cache_owner.len() == self.objects.len()
-            && self
-                .objects
-                .iter()
-                .zip(&self.cache_owner)
-                .all(|(o, &s)| o.serial() == s);
         assert!(
-            !contact || unchanged,
+            !contact || self.objects_unchanged(),
             "World::run_phase({phase:?}): the objects changed since the last broad phase, \
              whose pairs this phase reads: run Phase::BroadPhase (or a step) first"
         );
@@ -1137,9 +1134,10 @@ impl World {
     }
 
     /// Mechanical energy of the moving objects (J, f64 sums): kinetic, the elastic
-    /// energy their backends report, and the gravitational potential `−Σ m g·x` (zero at
-    /// the origin). Without loads, contact and damping only take energy away, so a gain
-    /// of their sum is a numerical failure (`run` warns of one).
+    /// energy their backends report, the gravitational potential `−Σ m g·x` (zero at
+    /// the origin) and the contact springs' ([`World::contact_energy`]). Without loads,
+    /// the dashpots, friction and damping only take energy away, so a gain of their sum
+    /// is a numerical failure (`run` warns of one).
     pub fn energy(&self) -> Energy {
         let g = self.gravity.as_dvec3();
         let mut e = Energy::default();
@@ -1158,7 +1156,46 @@ impl World {
                 })
                 .sum::<f64>();
         }
+        e.contact = self.contact_energy();
         e
+    }
+
+    /// Energy stored in the penalty springs at the last contact phase (J): over the
+    /// contact surfels `Σ ¼ k A (|d₁| + |d₂|)²`, the spring force `½ A k (|d₁| + |d₂|)`
+    /// integrated over the closure of the two surfaces (`contact::forces`; the dashpot
+    /// and friction only dissipate). Bodies that start overlapping release it as kinetic
+    /// energy. 0 before the first step, and when the objects changed since.
+    pub fn contact_energy(&self) -> f64 {
+        if !self.objects_unchanged() {
+            return 0.0;
+        }
+        self.patches
+            .iter()
+            .map(|patch| {
+                let (a, b) = (&self.objects[patch.a], &self.objects[patch.b]);
+                let k = contact_params(a, b, self.dt).stiffness as f64;
+                let closure = |c: &ContactSurfel| {
+                    let n = c.normal;
+                    ((c.anchor_a - c.pos).dot(n).abs() + (c.anchor_b - c.pos).dot(n).abs()) as f64
+                };
+                patch
+                    .surfels
+                    .iter()
+                    .map(|c| 0.25 * k * c.area as f64 * closure(c).powi(2))
+                    .sum::<f64>()
+            })
+            .sum()
+    }
+
+    /// Whether the object list is the one the last broad phase saw (its pairs and
+    /// patches name objects by index).
+    fn objects_unchanged(&self) -> bool {
+        self.cache_owner.len() == self.objects.len()
+            && self
+                .objects
+                .iter()
+                .zip(&self.cache_owner)
+                .all(|(o, &s)| o.serial() == s)
     }
 
     /// True when every phyxel and surfel is finite.

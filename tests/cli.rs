@@ -1381,7 +1381,7 @@ fn a_stiffer_rest_shape_lowers_dt_and_says_so() {
     // energy check is what tells (below, and `energy_warning` stays null above).
     let stderr = text(&out.stderr);
     let total = |e: &Value| {
-        ["kinetic", "elastic", "potential"]
+        ["kinetic", "elastic", "potential", "contact"]
             .iter()
             .map(|k| field(e, k).as_f64().unwrap())
             .sum::<f64>()

@@ -972,3 +972,49 @@ fn contact_forces_match_hand_computed_penalty_and_friction() {
     );
     assert!(want[2].length() > 0.0 && want[3].length() > 0.0);
 }
+
+/// Two spheres (r = 0.1 m, E = 100 kPa) placed 2.3 cm into each other, without any
+/// damping (`damping = 0`, `contact_damping = 0`), fly apart: the energy stored in the
+/// penalty springs after the first step, `World::contact_energy` (`Σ ¼ k A (|d₁| +
+/// |d₂|)²`, J), must reappear as kinetic plus elastic energy once they have separated
+/// (conservation of energy), within 15% (explicit integration of a stiff release;
+/// measured 2.10 J stored, 1.94 J after 1000 steps: 8%). The contact energy is 0 before
+/// the first step and again after separation. (Before it was counted, `run` warned of
+/// a numerical failure for every scene starting pressed together.)
+#[test]
+fn pressed_spheres_release_the_contact_energy() {
+    let scene = Scene::parse(
+        r#"
+        name = "pressed"
+        gravity = [0.0, 0.0, 0.0]
+        [[objects]]
+        shape = { type = "sphere", radius = 0.1 }
+        spacing = 0.025
+        position = [-0.0885, 0.0, 0.0]
+        material = { damping = 0.0, contact_damping = 0.0 }
+        [[objects]]
+        shape = { type = "sphere", radius = 0.1 }
+        spacing = 0.025
+        position = [0.0885, 0.0, 0.0]
+        material = { damping = 0.0, contact_damping = 0.0 }
+        "#,
+        "pressed",
+    )
+    .unwrap();
+    let mut w = build(&scene);
+    assert_eq!(w.energy().total(), 0.0);
+    w.step();
+    let stored = w.contact_energy();
+    assert!(stored > 0.0);
+    for _ in 1..1000 {
+        w.step();
+    }
+    let e = w.energy();
+    println!("stored {stored:.4} J, after: {e:?}");
+    assert_eq!(e.contact, 0.0, "still in contact");
+    let released = e.kinetic + e.elastic;
+    assert!(
+        (released / stored - 1.0).abs() < 0.15,
+        "stored {stored} J, released {released} J"
+    );
+}
