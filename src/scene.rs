@@ -644,35 +644,14 @@ impl Scene {
     /// one). A 5 cm ball at 100 m/s needs 2.6 cm, and passed through a 1 cm static wall
     /// with every value finite and no other warning. Planes (no volume) count as thick.
     fn deep_impacts(&self, objects: &[Object]) -> Vec<String> {
-        let label = |i: usize| match self.objects[i].name.as_str() {
-            "" => format!("objects[{i}]"),
-            name => format!("objects[{i}] '{name}'"),
-        };
-        let thickness = |i: usize| {
-            let shape = &self.objects[i].shape;
-            let (v, a) = (shape.volume() as f64, shape.area() as f64);
-            if v > 0.0 && a > 0.0 {
-                3.0 * v / a
-            } else {
-                f64::INFINITY
-            }
-        };
+        let thickness = |i: usize| thickness_scale(&self.objects[i].shape).unwrap_or(f64::INFINITY);
         let mut out = Vec::new();
         for (k, a) in objects.iter().enumerate() {
             for (l, b) in objects.iter().enumerate().skip(k + 1) {
                 if a.is_static() && b.is_static() {
                     continue;
                 }
-                let (sa, sb) = (&self.objects[k], &self.objects[l]);
-                let d = Vec3::from(sb.position) - Vec3::from(sa.position);
-                let v = |o: &Object, spec: &ObjectSpec| {
-                    if o.is_static() {
-                        Vec3::ZERO
-                    } else {
-                        Vec3::from(spec.velocity)
-                    }
-                };
-                let closing = -(v(b, sb) - v(a, sa)).dot(d.normalize_or_zero()) as f64;
+                let closing = self.closing_speed(k, l) as f64;
                 if closing <= 0.0 {
                     continue;
                 }
@@ -700,8 +679,8 @@ impl Scene {
                          {thinnest:.2e} m: they may pass through each other; raise \
                          contact_stiffness, thicken the body or lower the speed \
                          (docs/SCENES.md, \"Limits\")",
-                        label(k),
-                        label(l)
+                        self.label(k),
+                        self.label(l)
                     ));
                 }
             }
@@ -709,23 +688,34 @@ impl Scene {
         out
     }
 
-    fn fast_approaches(&self) -> Vec<String> {
+    /// How fast objects k and l close along the line between their positions at the
+    /// start (m/s; negative when they fly apart, static objects at rest).
+    fn closing_speed(&self, k: usize, l: usize) -> f32 {
+        let (a, b) = (&self.objects[k], &self.objects[l]);
         let velocity = |o: &ObjectSpec| {
             if o.is_static {
-                glam::Vec3::ZERO
+                Vec3::ZERO
             } else {
-                glam::Vec3::from(o.velocity)
+                Vec3::from(o.velocity)
             }
         };
-        let label = |i: usize| match self.objects[i].name.as_str() {
+        let d = Vec3::from(b.position) - Vec3::from(a.position);
+        -(velocity(b) - velocity(a)).dot(d.normalize_or_zero())
+    }
+
+    /// `objects[i] 'name'` (without the name if it has none), for messages.
+    fn label(&self, i: usize) -> String {
+        match self.objects[i].name.as_str() {
             "" => format!("objects[{i}]"),
             name => format!("objects[{i}] '{name}'"),
-        };
+        }
+    }
+
+    fn fast_approaches(&self) -> Vec<String> {
         let mut out = Vec::new();
         for (k, a) in self.objects.iter().enumerate() {
             for (l, b) in self.objects.iter().enumerate().skip(k + 1) {
-                let d = glam::Vec3::from(b.position) - glam::Vec3::from(a.position);
-                let closing = -(velocity(b) - velocity(a)).dot(d.normalize_or_zero());
+                let closing = self.closing_speed(k, l);
                 let (slow, c) = [(a, k), (b, l)]
                     .into_iter()
                     .map(|(o, i)| (i, o.material.wave_speed()))
@@ -736,9 +726,9 @@ impl Scene {
                          {c:.3} m/s of {}: penalty contact may let them pass through each \
                          other; raise contact_stiffness or lower the speed (docs/SCENES.md, \
                          \"Limits\")",
-                        label(k),
-                        label(l),
-                        label(slow)
+                        self.label(k),
+                        self.label(l),
+                        self.label(slow)
                     ));
                 }
             }
@@ -798,12 +788,9 @@ pub const SURFACE_WARNING: f64 = 0.5;
 /// The warning for `obj` built from `spec` if its surfels are too sparse for its
 /// size ([`SURFACE_WARNING`]; moving objects of a shape with a volume only).
 fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
-    let (volume, area) = (moving_volume(spec)?, spec.shape.area() as f64);
+    moving_volume(spec)?;
+    let (thickness, area) = (thickness_scale(&spec.shape)?, spec.shape.area() as f64);
     let n = obj.surfels.len();
-    if area.is_nan() || area <= 0.0 {
-        return None;
-    }
-    let thickness = 3.0 * volume / area;
     let spacing = (area / n.max(1) as f64).sqrt();
     (spacing > SURFACE_WARNING * thickness).then(|| {
         format!(
@@ -877,6 +864,14 @@ fn flat_warning(obj: &Object) -> Option<String> {
             obj.dynamics.name()
         )
     })
+}
+
+/// The thickness scale `3V/A` of a shape (m): its radius for a sphere, half the side of a
+/// cube, about 1.5 times a plate's thickness; `None` for shapes without a volume
+/// (planes).
+fn thickness_scale(shape: &Shape) -> Option<f64> {
+    let (volume, area) = (shape.volume() as f64, shape.area() as f64);
+    (volume > 0.0 && area > 0.0).then(|| 3.0 * volume / area)
 }
 
 /// Finest f32 resolution allowed at an object's position, as a fraction of its finest
