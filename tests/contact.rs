@@ -218,23 +218,34 @@ fn incline_sticks_below_friction_angle() {
 }
 
 /// Coulomb friction, slide: with tan θ > μ (30°, μ = 0.3) the block slides with
-/// acceleration `g (sin θ − μ cos θ)` to 10% (fitted over 0.5 s of sliding, well inside
-/// the 2.4 m slope).
+/// acceleration `g (sin θ − μ cos θ)` = 2.356 m/s² (fitted over 0.5 s of sliding, well
+/// inside the 2.4 m slope), to 2e-4 relative: measured 2.3e-5 (the same on an AVX2+FMA
+/// and a baseline x86-64 build), and a friction force off by 0.05% would be off by 5e-4
+/// here (the friction term is 1.08 times the acceleration).
 #[test]
 fn incline_slides_by_coulomb() {
     let (angle, mu) = (30.0f32, 0.3f32);
     let (disp, acc) = incline(angle, mu, 0.5);
     let th = angle.to_radians();
     let want = 9.81 * (th.sin() - mu * th.cos());
-    println!("incline 30°, μ 0.3: slid {disp:.3} m, acceleration {acc:.3} m/s² vs {want:.3}");
+    println!(
+        "incline 30°, μ 0.3: slid {disp:.3} m, acceleration {acc:.5} m/s² vs {want:.5} ({:.2e} relative)",
+        (acc / want - 1.0).abs()
+    );
     assert!(
-        (acc / want - 1.0).abs() < 0.1,
+        (acc / want - 1.0).abs() < 2e-4,
         "acceleration {acc} vs Coulomb {want}"
     );
 }
 
-/// Newton's cradle: momentum passes down the row; the last sphere leaves with more than
-/// half of the first sphere's incoming momentum, and the total is conserved to 1e-4.
+/// Newton's cradle (the built-in scene: five spheres R = 0.05 m, E = 1 MPa, spacing
+/// 12.5 mm, 1500 steps): momentum passes down the row. Reference: the ideal cradle, in
+/// which the last sphere leaves with all of the first sphere's incoming momentum
+/// (kg·m/s); elastic spheres keep some in the row. Within 15% (measured 5.7%: 94.3% of
+/// the incoming momentum, the same on an AVX2+FMA and a baseline x86-64 build); the
+/// total momentum is conserved to 1e-4. Mutation check: the contact's penalty damping
+/// multiplied by 8 fails (77.5%; the earlier bound, 50%, passed it); by 4 it passes
+/// (86.3%).
 #[test]
 fn newtons_cradle_passes_momentum() {
     let scene = Scene::builtin("newtons-cradle").unwrap();
@@ -249,7 +260,10 @@ fn newtons_cradle_passes_momentum() {
         "newtons-cradle: last sphere leaves with {:.1}% of the incoming momentum",
         100.0 * p_last / p_in
     );
-    assert!(p_last > 0.5 * p_in, "last sphere got {p_last} of {p_in}");
+    assert!(
+        (p_last / p_in - 1.0).abs() < 0.15,
+        "last sphere got {p_last} of {p_in}"
+    );
     assert!(
         (total - p_in).abs() < 1e-4 * p_in,
         "momentum {total} vs {p_in}"

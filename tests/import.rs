@@ -20,6 +20,9 @@ fn colliding_frame() -> Frame {
     surface_frame(&world)
 }
 
+/// PLY round trip: the render surface of `two-spheres` after 150 steps (more than 1000
+/// points, contact surfels and both objects present) written as PLY and read back equals
+/// the frame exactly (every position, normal, radius, object id and contact flag).
 #[test]
 fn ply_round_trip_is_exact() {
     let dir = TempDir::new("import", "ply");
@@ -36,6 +39,9 @@ fn ply_round_trip_is_exact() {
     assert_eq!(back, frame);
 }
 
+/// `phyxel run falling-sphere --steps 10 --out DIR`: the frame `surfels_00001.ply` read
+/// back equals exactly the render surface of the same scene stepped 10 times through the
+/// library (contact surfels rendered).
 #[test]
 fn run_out_frames_read_back() {
     let dir = TempDir::new("import", "run");
@@ -66,6 +72,11 @@ fn vtp_array(text: &str, name: &str) -> Vec<f64> {
         .collect()
 }
 
+/// VTK export of the colliding `two-spheres` frame: an XML `.vtp` file declaring the
+/// frame's point count, whose `radius`, `object`, `contact` arrays and the z components of
+/// its `Normals` equal the frame's values exactly once parsed (f32 radii and normals,
+/// integer ids and flags), with 3 normal components per point, and whose first point line
+/// is the frame's first position as printed by Rust (shortest round-trip decimals).
 #[test]
 fn vtk_export_has_the_same_point_data() {
     let dir = TempDir::new("import", "vtk");
@@ -95,6 +106,9 @@ fn vtk_export_has_the_same_point_data() {
     assert_eq!(first, format!("{} {} {}", p.x, p.y, p.z));
 }
 
+/// `phyxel run falling-sphere --steps 10 --format vtk --out DIR` writes the first two
+/// frames as complete `.vtp` files (a `PolyData` VTKFile, closed by `</VTKFile>`) and no
+/// `surfels_00000.ply`; `--format obj` is refused.
 #[test]
 fn run_format_vtk_writes_vtp_frames() {
     let dir = TempDir::new("import", "runvtk");
@@ -126,6 +140,9 @@ fn run_format_vtk_writes_vtp_frames() {
     assert!(!o.status.success());
 }
 
+/// A binary PLY frame cut after 10 whole vertices (33 bytes each) and 5 bytes of the 11th
+/// is an error naming the file, the element (`element 'vertex' 10 of` …) and that the
+/// data is cut short.
 #[test]
 fn truncated_binary_ply_names_file_and_element() {
     let dir = TempDir::new("import", "trunc");
@@ -146,6 +163,10 @@ fn truncated_binary_ply_names_file_and_element() {
     assert!(err.contains("cut short"), "{err}");
 }
 
+/// Reading bad frames gives errors naming the file: a missing file (`cannot open`), a
+/// text file that is not PLY (`header`), a NaN coordinate in a binary frame (`'vertex' 1`
+/// … `not finite`), a `nan` in an ASCII frame (the parser's `Line 9`), and an ASCII frame
+/// with fewer values than its header declares (`vertex`).
 #[test]
 fn missing_and_malformed_frames_are_errors() {
     let dir = TempDir::new("import", "bad");

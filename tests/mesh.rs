@@ -268,6 +268,15 @@ fn torus_mesh_samples_a_torus() {
     }
 }
 
+/// `scale` multiplies the coordinates, and an inward-wound mesh is turned outward on
+/// load. The mesh: an icosphere of radius 1 (two subdivisions, 320 triangles, a vertex
+/// at x = ±1, every face within 1.8% of the radius) with each triangle's winding
+/// reversed, loaded at scale 0.05. Reference: the sphere of radius 0.05 m. Checked: the
+/// half extent along x is 0.05 m to 1e-4 m; the enclosed volume is positive (outward
+/// orientation); the origin is inside and (0.05, 0.05, 0.05) m (0.087 m out) is not.
+/// Loaded as `Shape::Mesh` (path relative to the scene directory), the signed distance
+/// is below −0.04 m at the centre and above +0.04 m at (0.1, 0, 0) m: the sphere's −0.05
+/// and +0.05 m within 0.01 m (the facets lie at most 0.9 mm inside the sphere).
 #[test]
 fn scale_and_inside_out_meshes() {
     let (v, mut f) = icosphere(1.0, 2);

@@ -83,8 +83,15 @@ fn below_yield_returns_to_rest() {
     );
 }
 
-/// Past yield (5% strain against yield 0.01) the plastic strain flows, and after
-/// release more than 30% of the loaded elongation remains.
+/// Past yield: the bar of `pull` under 50 N (nominal stress F/A = 5 kPa, a Hooke strain
+/// of 5% against the yield strain 0.01) flows plastically (creep 20/s, capped at 0.3).
+/// Reference: an elastic bar returns to rest after release (`below_yield_returns_to_rest`:
+/// residual −2.5e-8 m); here the right end's mean elongation after release (m) must stay
+/// above 30% of the loaded one (averaged over 0.4–0.5 s), and the loaded one be positive.
+/// Measured: loaded 8.60e-2 m (4.9 × the Hooke elongation F L/(E A) = 1.75e-2 m of the
+/// 0.35 m free length: the bar creeps under the held load), after release 8.40e-2 m
+/// (97.6%). The 30% bound tells plastic from elastic behaviour; it does not check the
+/// amount of flow.
 #[test]
 fn past_yield_keeps_residual_deformation() {
     let (loaded, after) = pull(50.0, 0.01);

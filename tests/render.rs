@@ -37,6 +37,11 @@ fn check_object_at_centre(img: &Image, frame: &Frame, cam: &Camera) {
     }
 }
 
+/// `phyxel run falling-sphere --steps 10 --out DIR --png --size 320x240`: the first two
+/// frames each get a PNG of 320 × 240 pixels, in which the centre of that frame's surfels
+/// (their mean position, read back from the frame's PLY), projected with the camera
+/// fitted to the first frame's bounds (the run's camera), is drawn (not the background
+/// colour), and three of the image's corners are background.
 #[test]
 fn run_png_writes_one_image_per_frame() {
     let dir = TempDir::new("render", "run");
@@ -66,6 +71,10 @@ fn run_png_writes_one_image_per_frame() {
     }
 }
 
+/// `phyxel render FRAME.ply -o image.png --size 200x150` on the first frame of a
+/// `falling-sphere` run writes a 200 × 150 PNG in which the centre of the frame's surfels,
+/// projected with the camera fitted to the frame's bounds, is drawn and three of the
+/// image's corners are background.
 #[test]
 fn render_command_draws_a_frame() {
     let dir = TempDir::new("render", "cmd");
@@ -90,6 +99,9 @@ fn render_command_draws_a_frame() {
     check_object_at_centre(&img, &frame, &Camera::fit(lo, hi, 200, 150));
 }
 
+/// Refusals, each a failing exit status: `render` of a missing frame names its path;
+/// `render --size big` names the bad value (`--size big`); `run --png` without `--out`
+/// (no directory for the images) is refused.
 #[test]
 fn render_command_errors_name_the_file() {
     let o = phyxel(&["render", "/nonexistent/frame.ply", "-o", "/tmp/x.png"]);
@@ -135,6 +147,11 @@ fn patch(frame: &mut Frame, x0: f32, z: f32, id: i32, c: u8) {
     }
 }
 
+/// Colours: two 20 × 20 patches of surfels (0.95 m squares side by side, facing a camera
+/// 4 m away), both of object 0, the right one flagged as contact. At the left patch's
+/// centre the pixel is more blue than red (object 0's colour); at the right one's the red
+/// channel is more than twice the blue (the contact highlight); a point 0.9 m up, between
+/// and above the patches, is exactly the background colour.
 #[test]
 fn objects_get_their_colours_and_contact_is_highlighted() {
     let mut frame = Frame::default();
@@ -165,6 +182,8 @@ fn objects_get_their_colours_and_contact_is_highlighted() {
     assert_eq!(at(Vec3::new(0.0, 0.9, 0.0)), BACKGROUND);
 }
 
+/// Depth: a blue patch (object 0) 0.5 m in front of a green one (object 1) covering the
+/// same area; the pixel at their common centre is more blue than green.
 #[test]
 fn nearer_splats_hide_farther_ones() {
     let mut frame = Frame::default();
@@ -188,6 +207,8 @@ fn nearer_splats_hide_farther_ones() {
     assert!(c[2] > c[1], "front (blue) object visible: {c:?}");
 }
 
+/// `Image::write_png` then `Image::read_png` gives back the same 3 × 2 image, every byte
+/// equal.
 #[test]
 fn png_round_trip() {
     let dir = TempDir::new("render", "png");
@@ -201,6 +222,9 @@ fn png_round_trip() {
     assert_eq!(Image::read_png(p).unwrap(), img);
 }
 
+/// The contact highlight is drawn over nearer surfaces: a contact-flagged patch
+/// (object 0) 0.5 m behind a green patch (object 1) covering the same area; the pixel at
+/// their common centre is more red than green.
 #[test]
 fn contact_shows_through_the_object_in_front() {
     let mut frame = Frame::default();
@@ -227,6 +251,14 @@ fn contact_shows_through_the_object_in_front() {
     );
 }
 
+/// A scene's `[camera]` (at (0, 0, 2) m looking at the origin, fov 40°) with a sphere
+/// (R = 0.1 m) at x = 0.5 m. `run --png --size 200x100`: the pixel where that camera
+/// projects the sphere's centre is drawn and the image centre is background (a fitted
+/// camera would centre the sphere). `render --scene` of the same frame gives the same
+/// image, byte for byte; `render --scene --fov 20` gives exactly the library's
+/// `render` with that camera at fov 20° (and an image different from the 40° one). A
+/// scene camera with `fov = 500` is refused by `run`, the message naming `camera` and
+/// `fov = 500`.
 #[test]
 fn scene_camera_is_used_and_checked() {
     let dir = TempDir::new("render", "cam");

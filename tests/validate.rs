@@ -18,7 +18,8 @@ fn failures(rows: &[Row]) -> Vec<Row> {
 /// the free body's energy departure (symplectic Euler, falls with dt). The others are
 /// not: MLS consistency is exact up to f32 round-off, the Hertz approach includes the
 /// bulk compression of body-loaded spheres, momentum is conserved to round-off at
-/// every resolution, and the cradle hands on momentum at every resolution. The
+/// every resolution, the free body's initial energy is one state against its closed
+/// form, and the cradle hands on momentum at every resolution. The
 /// `dt-above-bound` case must be refused with the `--dt` remedy and, forced with
 /// `--allow-unstable`, go non-finite (its note says so; docs/ACCURACY.md).
 #[test]
