@@ -518,6 +518,8 @@ impl Scene {
         let mut objects = Vec::with_capacity(self.objects.len());
         let mut placed = Vec::with_capacity(self.objects.len());
         let mut warnings = Vec::new();
+        let gravity = Vec3::from(self.gravity);
+        let grounded = self.objects.iter().any(|o| o.is_static);
         for (k, spec) in self.objects.iter().enumerate() {
             let mut spec = spec.clone();
             // Loaded here once (a no-op if `Scene::load` did), for the overlap check too.
@@ -549,10 +551,12 @@ impl Scene {
                     backends::PLASTIC.join(", ")
                 )
             });
+            let supported = grounded || obj.phyxels.fixed.iter().any(|&f| f != 0);
             for w in [
                 mass_warning(&spec, &obj),
                 surface_warning(&spec, &obj),
                 flat_warning(&obj),
+                weight_warning(&obj, gravity, supported),
                 inelastic,
             ]
             .into_iter()
@@ -563,14 +567,6 @@ impl Scene {
             objects.push(obj);
         }
         start_overlap(&objects, &placed).map_err(|m| SceneError(format!("{origin}: {m}")))?;
-        let gravity = Vec3::from(self.gravity);
-        let grounded = objects.iter().any(|o| o.is_static());
-        for (k, o) in objects.iter().enumerate() {
-            let supported = grounded || o.phyxels.fixed.iter().any(|&f| f != 0);
-            if let Some(w) = weight_warning(o, gravity, supported) {
-                warnings.push(format!("{origin}: objects[{k}] '{}': {w}", o.name));
-            }
-        }
         warnings.extend(
             self.fast_approaches()
                 .into_iter()
@@ -648,9 +644,6 @@ impl Scene {
         let mut out = Vec::new();
         for (k, a) in objects.iter().enumerate() {
             for (l, b) in objects.iter().enumerate().skip(k + 1) {
-                if a.is_static() && b.is_static() {
-                    continue;
-                }
                 let closing = self.closing_speed(k, l) as f64;
                 if closing <= 0.0 {
                     continue;
