@@ -139,8 +139,11 @@ impl Shape {
 
     /// Exact signed distance, negative inside.
     ///
-    /// The plane returns the height `p.y` above the infinite plane y = 0: a ground patch acts
-    /// as ground everywhere, so its x-z bounds are deliberately ignored.
+    /// The plane returns the height `p.y` above the infinite plane y = 0, ignoring its
+    /// x-z bounds; as a collider it acts only over its patch, where its surfels are (a
+    /// body beside the patch falls past it), so a caller asking whether a point is under
+    /// the patch bounds `p.x` and `p.z` by `size` too (as the scene's start-overlap check
+    /// does).
     pub fn sdf(&self, p: Vec3) -> f32 {
         match *self {
             Shape::Sphere { radius } => p.length() - radius,

@@ -670,6 +670,29 @@ fn error_objects_starting_inside_each_other() {
     stdout_of(&["run", touching.arg(), "--steps", "2"]);
 }
 
+/// A plane is solid below its patch only: a ball beside a 0.6 m ground patch, level
+/// with it, runs (it was refused as "starts inside" 9 cm deep, though the plane's contact
+/// never reaches it: it falls past the patch freely), while the same ball above the
+/// patch but sunk 5 cm into it is still refused.
+#[test]
+fn plane_overlap_is_bounded_by_its_patch() {
+    let scene = |x: f32, y: f32| {
+        format!(
+            "[[objects]]\nname = \"ground\"\nshape = {{ type = \"plane\", size = [0.6, 0.6] }}\n\
+             spacing = 0.025\nstatic = true\n\
+             [[objects]]\nname = \"ball\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\n\
+             spacing = 0.025\nposition = [{x}, {y}, 0.0]\n"
+        )
+    };
+    let beside = TempPath::scene("beside-plane", &scene(1.0, 0.0));
+    stdout_of(&["run", beside.arg(), "--steps", "2"]);
+    expect_scene_error(
+        "sunk-in-plane",
+        &scene(0.0, 0.05),
+        &["objects[1] ('ball') starts inside objects[0] ('ground')"],
+    );
+}
+
 /// A friction coefficient above `material::MAX_FRICTION` is refused with the limit.
 #[test]
 fn error_friction_above_the_limit() {
