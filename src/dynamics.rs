@@ -158,9 +158,22 @@ pub fn damped_euler_limit(omega: f32, zeta: f32) -> f32 {
 ///
 /// # Panics
 ///
-/// If `internal` has fewer (padded) rows than `phyxels` (a backend's force buffer must
-/// match its phyxels).
+/// If `internal` holds fewer points than `phyxels` (a backend's force buffer must
+/// match its phyxels: `Vec3s::zeros(phyxels.len())`); the message gives both counts.
 pub fn integrate_symplectic(phyxels: &mut Phyxels, internal: &Vec3s, ctx: &StepContext<'_>) {
+    // Checked here rather than left to the lane loads: a force buffer built empty or for
+    // another object failed with "range end index 8 out of range for slice of length 0".
+    let padded = phyxels.mass.len();
+    assert!(
+        internal.len() >= phyxels.len()
+            && [&internal.x, &internal.y, &internal.z]
+                .iter()
+                .all(|c| c.len() >= padded),
+        "integrate_symplectic: the internal forces hold {} points, the phyxels {}: size \
+         the backend's force column by its phyxels (Vec3s::zeros(phyxels.len()))",
+        internal.len(),
+        phyxels.len()
+    );
     let dt = f32x8::splat(ctx.dt);
     let g = [ctx.gravity.x, ctx.gravity.y, ctx.gravity.z].map(f32x8::splat);
     let Phyxels {

@@ -304,6 +304,32 @@ fn an_unpadded_column_is_named() {
     );
 }
 
+/// A backend whose force buffer was built for no phyxels (or for another object):
+/// `integrate_symplectic` says so with both counts, not "range end index 8 out of range
+/// for slice of length 0" from a SIMD lane load.
+#[test]
+#[should_panic(
+    expected = "integrate_symplectic: the internal forces hold 0 points, the phyxels 280"
+)]
+fn a_force_buffer_of_the_wrong_size_is_named() {
+    struct Unsized(Vec3s);
+    impl Dynamics for Unsized {
+        fn name(&self) -> &str {
+            "unsized"
+        }
+        fn step(&mut self, p: &mut Phyxels, ctx: &StepContext<'_>) {
+            integrate_symplectic(p, &self.0, ctx);
+        }
+        fn stable_dt(&self, _p: &Phyxels, _m: &Material) -> f32 {
+            1e-3
+        }
+    }
+    let mut b = spring_ball(0, Vec3::ZERO, Vec3::ZERO);
+    b.dynamics = Box::new(Unsized(Vec3s::zeros(0)));
+    let mut world = World::new(vec![b], Vec3::ZERO, 1e-4);
+    world.step();
+}
+
 /// A surfel disk radius of 0 would make every kernel weight of the surface zero (the
 /// object would pass through others): refused, naming the surfel.
 #[test]
