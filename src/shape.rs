@@ -274,9 +274,11 @@ impl Shape {
     /// Plane: one layer at y = -spacing/2 over the patch.
     ///
     /// # Panics
-    /// If `spacing` is not a finite number > 0.
+    /// If `spacing` is not a finite number > 0, or for a mesh not loaded yet
+    /// ([`Shape::load_mesh`]).
     pub fn sample_volume(&self, spacing: f32) -> VolumeSample {
         check_spacing(spacing);
+        self.check_loaded("sample_volume");
         let cell_volume = spacing.powi(3);
         if let Shape::Plane { size: [x, z] } = *self {
             let y = -0.5 * spacing;
@@ -291,10 +293,10 @@ impl Shape {
             };
         }
 
-        if let Shape::Mesh { ref mesh, .. } = *self {
-            let Some(m) = mesh else {
-                return VolumeSample::default();
-            };
+        if let Shape::Mesh {
+            mesh: Some(ref m), ..
+        } = *self
+        {
             let half = m.half_extents().to_array();
             let axes =
                 |counts: [usize; 3]| counts.map(|n| lattice_axis(n, spacing).collect::<Vec<_>>());
@@ -344,13 +346,15 @@ impl Shape {
     /// The order is deterministic.
     ///
     /// # Panics
-    /// If `spacing` is not a finite number > 0.
+    /// If `spacing` is not a finite number > 0, or for a mesh not loaded yet
+    /// ([`Shape::load_mesh`]).
     pub fn sample_surface(&self, spacing: f32) -> SurfaceSample {
         check_spacing(spacing);
-        if let Shape::Mesh { ref mesh, .. } = *self {
-            let Some(m) = mesh else {
-                return SurfaceSample::default();
-            };
+        self.check_loaded("sample_surface");
+        if let Shape::Mesh {
+            mesh: Some(ref m), ..
+        } = *self
+        {
             let (positions, normals, r) = m.sample_surface(spacing);
             let radii = vec![r; positions.len()];
             return SurfaceSample {
@@ -501,6 +505,22 @@ fn positive(field: &str, value: f32) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("{field} = {value}: must be a finite number > 0"))
+    }
+}
+
+impl Shape {
+    /// Panics, naming the file, for a mesh whose file is not loaded: sampling one gave
+    /// no points at all, and `Object::new` then blamed "no phyxels".
+    fn check_loaded(&self, what: &str) {
+        if let Shape::Mesh {
+            path, mesh: None, ..
+        } = self
+        {
+            panic!(
+                "Shape::{what}: mesh \"{path}\" is not loaded: call Shape::load_mesh first \
+                 (Scene::load and ObjectSpec::build do)"
+            );
+        }
     }
 }
 

@@ -579,3 +579,32 @@ fn target_counts_set_the_sampling() {
         );
     }
 }
+
+/// Sampling a `mesh` shape built in code before `Shape::load_mesh` names the file and
+/// the missing call: it returned no points, and `Object::new` then panicked with "no
+/// phyxels", far from the cause.
+#[test]
+#[should_panic(
+    expected = "Shape::sample_volume: mesh \"bunny.obj\" is not loaded: call Shape::load_mesh first"
+)]
+fn sampling_an_unloaded_mesh_names_it() {
+    let shape = Shape::Mesh {
+        path: "bunny.obj".into(),
+        scale: 1.0,
+        mesh: None,
+    };
+    shape.validate().expect("valid parameters");
+    shape.sample_volume(0.01);
+}
+
+/// The same for the surface sampler.
+#[test]
+#[should_panic(expected = "Shape::sample_surface: mesh \"bunny.obj\" is not loaded")]
+fn sampling_an_unloaded_mesh_surface_names_it() {
+    let shape = Shape::Mesh {
+        path: "bunny.obj".into(),
+        scale: 1.0,
+        mesh: None,
+    };
+    shape.sample_surface(0.01);
+}
