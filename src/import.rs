@@ -7,7 +7,7 @@ use glam::Vec3;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, Encoding, Header, Payload, Property};
 use std::fs::File;
-use std::io::BufReader;
+use std::io::{BufRead, BufReader};
 use std::path::Path;
 
 /// A parsed PLY file: its header and every element, in header order.
@@ -21,7 +21,14 @@ pub struct PlyFile {
 pub fn read_ply(path: &Path) -> Result<PlyFile, String> {
     let name = path.display();
     let file = File::open(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
-    let mut reader = Reader::new(BufReader::new(file));
+    let mut buffered = BufReader::new(file);
+    let start = buffered
+        .fill_buf()
+        .map_err(|e| format!("{name}: cannot read: {e}"))?;
+    if !start.starts_with(b"ply") {
+        return Err(format!("{name}: {}", not_ply(start)));
+    }
+    let mut reader = Reader::new(buffered);
     let parser = Parser::<DefaultElement>::new();
     let header = parser
         .read_header(&mut reader)
@@ -57,6 +64,34 @@ pub fn read_ply(path: &Path) -> Result<PlyFile, String> {
     }
     check_nothing_after(&name.to_string(), &header, reader.get_mut())?;
     Ok(PlyFile { header, payload })
+}
+
+/// Why a file that does not start with the PLY magic word is not read, from its first
+/// bytes: the parser's own message was a multi-line dump of its expected tokens (for the
+/// `.vtp` frames `run --format vtk` writes, too).
+fn not_ply(start: &[u8]) -> String {
+    if start.is_empty() {
+        return "not a PLY file: it is empty".to_string();
+    }
+    let first_line = start.split(|&b| b == b'\n').next().unwrap_or(start);
+    let text = std::str::from_utf8(first_line)
+        .ok()
+        .map(|t| t.trim_end_matches('\r'))
+        .filter(|t| !t.chars().any(|c| c.is_control() && c != '\t'));
+    let Some(text) = text else {
+        return "not a PLY file: it starts with binary data, not 'ply'".to_string();
+    };
+    let mut shown: String = text.chars().take(40).collect();
+    if shown.len() < text.len() {
+        shown.push_str("...");
+    }
+    let hint = if start.starts_with(b"<?xml") || start.starts_with(b"<VTKFile") {
+        " (XML: a VTK frame, as `run --format vtk` writes; only PLY is read, so write the \
+         frames with the default `--format ply`)"
+    } else {
+        ""
+    };
+    format!("not a PLY file: it starts with '{shown}', not 'ply'{hint}")
 }
 
 /// Data after the last declared element means the header's counts do not match the

@@ -1516,6 +1516,36 @@ fn compare_backends_are_trimmed_and_unique() {
     );
 }
 
+/// `render` of a `.vtp` frame (what `run --format vtk` writes) says the file is not PLY
+/// and how to get PLY frames (it was the PLY parser's multi-line dump of expected
+/// tokens, "ParseError { location: LineCol { .. }, expected: ExpectedSet { .. } }").
+#[test]
+fn render_of_a_vtk_frame_says_it_is_not_ply() {
+    let dir = TempPath::new("vtk-frames");
+    stdout_of(&[
+        "run",
+        "--steps",
+        "1",
+        "--out",
+        dir.arg(),
+        "--format",
+        "vtk",
+        "--json",
+    ]);
+    let frame = dir.path().join("surfels_00000.vtp");
+    let image = dir.path().join("x.png");
+    let err = expect_error(
+        &[
+            "render",
+            frame.to_str().expect("UTF-8"),
+            "-o",
+            image.to_str().expect("UTF-8"),
+        ],
+        &["surfels_00000.vtp: not a PLY file", "--format ply"],
+    );
+    assert!(!err.contains("ParseError"), "{err}");
+}
+
 /// An `--out` directory that cannot be made is reported by the flag before the run
 /// (it was "writing frame 0 to …", after the scene file's name).
 #[test]

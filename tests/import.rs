@@ -164,7 +164,7 @@ fn truncated_binary_ply_names_file_and_element() {
 }
 
 /// Reading bad frames gives errors naming the file: a missing file (`cannot open`), a
-/// text file that is not PLY (`header`), a NaN coordinate in a binary frame (`'vertex' 1`
+/// text file that is not PLY (`not a PLY file`, quoting its first line), a NaN coordinate in a binary frame (`'vertex' 1`
 /// … `not finite`), a `nan` in an ASCII frame (the parser's `Line 9`), and an ASCII frame
 /// with fewer values than its header declares (`vertex`).
 #[test]
@@ -178,7 +178,10 @@ fn missing_and_malformed_frames_are_errors() {
     let p = dir.0.join("text.ply");
     std::fs::write(&p, "not a ply file\n").unwrap();
     let err = read_frame(&p).unwrap_err();
-    assert!(err.contains("text.ply") && err.contains("header"), "{err}");
+    assert!(
+        err.contains("text.ply") && err.contains("not a PLY file: it starts with 'not a ply file'"),
+        "{err}"
+    );
     // NaN in a binary frame: the element is named.
     let mut f = Frame::default();
     f.push(glam::Vec3::ZERO, glam::Vec3::Z, 0.1, 0, 0);
