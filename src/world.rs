@@ -1184,7 +1184,9 @@ impl World {
                     .map(|c| 0.25 * k * c.area as f64 * closure(c).powi(2))
                     .sum::<f64>()
             })
-            .sum()
+            // Not `sum`: an empty f64 sum is -0.0, which `run --json` printed as the
+            // contact energy of every run without contact.
+            .fold(0.0, |a, e| a + e)
     }
 
     /// Whether the object list is the one the last broad phase saw (its pairs and

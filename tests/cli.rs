@@ -1546,6 +1546,17 @@ fn render_of_a_vtk_frame_says_it_is_not_ply() {
     assert!(!err.contains("ParseError"), "{err}");
 }
 
+/// A run without contact reports its contact energy as 0, not -0 (an empty f64 `sum` is
+/// -0.0, which `run --json` printed as `"contact": -0.0` in both energies).
+#[test]
+fn contact_energy_without_contact_is_plus_zero() {
+    let v = run_json(&["run", "falling-sphere", "--steps", "2", "--json"]);
+    for key in ["energy_initial", "energy_final"] {
+        let c = field(field(&v, key), "contact").as_f64().expect("a number");
+        assert!(c == 0.0 && c.is_sign_positive(), "{key}.contact = {c:?}");
+    }
+}
+
 /// An `--out` directory that cannot be made is reported by the flag before the run
 /// (it was "writing frame 0 to …", after the scene file's name).
 #[test]
