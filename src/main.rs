@@ -393,6 +393,16 @@ fn scenes(show: Option<String>) -> ExitCode {
     }
 }
 
+/// Creates the output directory `dir` (and its parents). A path that exists as a file
+/// is said to be one: `create_dir_all` reported "File exists", as if the trouble were
+/// that something was there at all.
+fn make_dir(dir: &Path) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err("a file, not a directory: give a directory for the output".to_string());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))
+}
+
 /// A sampling profiler (timer signal, so no perf permissions are needed) and the file
 /// its flamegraph goes to, created before the run so that a bad path fails at once,
 /// not after the whole run.
@@ -429,12 +439,9 @@ fn run_scene(arg: &str, opts: &RunOptions, json: bool, flamegraph: Option<&Path>
         return ExitCode::FAILURE;
     }
     if let Some(dir) = &opts.out
-        && let Err(e) = std::fs::create_dir_all(dir)
+        && let Err(e) = make_dir(dir)
     {
-        eprintln!(
-            "error: --out {}: cannot create the directory: {e}",
-            dir.display()
-        );
+        eprintln!("error: --out {}: {e}", dir.display());
         return ExitCode::FAILURE;
     }
     let Some((scene, file_prefix)) = resolve_scene(arg) else {
@@ -806,12 +813,9 @@ fn validate(
         return ExitCode::FAILURE;
     }
     if let Some(dir) = plot
-        && let Err(e) = std::fs::create_dir_all(dir)
+        && let Err(e) = make_dir(dir)
     {
-        eprintln!(
-            "error: --plot {}: cannot create the directory: {e}",
-            dir.display()
-        );
+        eprintln!("error: --plot {}: {e}", dir.display());
         return ExitCode::FAILURE;
     }
     let bar = if std::io::stderr().is_terminal() {

@@ -1567,6 +1567,24 @@ fn error_out_directory_names_the_flag() {
     );
 }
 
+/// An `--out` (or `--plot`) path that is an existing file is called a file, not a
+/// directory (it was "cannot create the directory: File exists (os error 17)").
+#[test]
+fn error_out_path_that_is_a_file() {
+    let file = TempPath::scene("out-file", "not a directory");
+    for args in [
+        ["run", "--steps", "1", "--out", file.arg()].as_slice(),
+        ["validate", "--plot", file.arg()].as_slice(),
+    ] {
+        let flag = args[args.len() - 2];
+        let err = expect_error(
+            args,
+            &[&format!("{flag} {}", file.arg()), "a file, not a directory"],
+        );
+        assert!(!err.contains("File exists"), "{err}");
+    }
+}
+
 /// A run that goes non-finite in its very first step (here a falling sphere at `--dt
 /// 1e30 --allow-unstable`: the first step's fall leaves f32's range) is told to look at
 /// the scene's sizes and material as well as dt: at the first step a scene whose values
