@@ -1122,6 +1122,24 @@ impl World {
         (work, splits)
     }
 
+    /// The object with id `id`, wherever it is in [`World::objects`] (which a fracture
+    /// reorders and extends); `None` if there is none, e.g. after it broke: its pieces
+    /// have new ids and [`Object::parent`] = `Some(id)`.
+    pub fn object(&self, id: u32) -> Option<&Object> {
+        self.objects.iter().find(|o| o.id == id)
+    }
+
+    /// Mutable [`World::object`].
+    pub fn object_mut(&mut self, id: u32) -> Option<&mut Object> {
+        self.objects.iter_mut().find(|o| o.id == id)
+    }
+
+    /// The object named `name` (names are unique in a scene; a fracture's pieces are
+    /// named `NAME.0`, `NAME.1`, ...); `None` if there is none.
+    pub fn object_named(&self, name: &str) -> Option<&Object> {
+        self.objects.iter().find(|o| o.name == name)
+    }
+
     /// Total linear momentum of the moving objects (kg·m/s; static objects, which
     /// take up any momentum without moving, are left out).
     pub fn momentum(&self) -> [f64; 3] {
