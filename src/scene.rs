@@ -1220,6 +1220,17 @@ impl ObjectSpec {
                 b.min, b.max
             ));
         }
+        // A body anchored whole never moves: its velocity and load would be ignored.
+        if phyxels.fixed[..phyxels.len()].iter().all(|&f| f != 0) {
+            for (key, v) in [("velocity", self.velocity), ("load", self.load)] {
+                if v != [0.0; 3] {
+                    return Err(format!(
+                        "{key} = {v:?}: has no effect: the `fixed` boxes anchor every phyxel \
+                         of the body (for a body that never moves, use `static = true`)"
+                    ));
+                }
+            }
+        }
         let s_pos: Vec<Vec3> = surf.positions.iter().map(|&p| rot * p + pos).collect();
         let s_nrm: Vec<Vec3> = surf.normals.iter().map(|&n| rot * n).collect();
         // Stored in Morton order of cells a few surfels wide: neighbours sit together in

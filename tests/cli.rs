@@ -645,6 +645,33 @@ fn error_settings_without_effect() {
     );
 }
 
+/// A body whose `fixed` boxes anchor every phyxel never moves: a `velocity` or `load` on
+/// it is refused, naming the key and the value (both were ignored: the body stood still
+/// and the run reported nothing). Anchoring only part of it keeps them legal.
+#[test]
+fn error_velocity_or_load_on_a_fully_fixed_body() {
+    let all = "fixed = [{ min = [-1.0, -1.0, -1.0], max = [1.0, 1.0, 1.0] }]\n";
+    for (key, value) in [("velocity", "[1.0, 0.0, 0.0]"), ("load", "[0.0, 0.0, 2.0]")] {
+        expect_scene_error(
+            "all-fixed",
+            &format!("{SPHERE}{key} = {value}\n{all}"),
+            &[
+                "objects[0]",
+                &format!("{key} = {value}"),
+                "anchor every phyxel",
+            ],
+        );
+    }
+    let part = TempPath::scene(
+        "part-fixed",
+        &format!(
+            "{SPHERE}velocity = [1.0, 0.0, 0.0]\n\
+             fixed = [{{ min = [-1.0, -1.0, -1.0], max = [1.0, 0.0, 1.0] }}]\n"
+        ),
+    );
+    stdout_of(&["run", part.arg(), "--steps", "1"]);
+}
+
 /// Bodies that start inside one another (phyxels more than a spacing deep) are refused,
 /// naming both; touching or barely overlapping ones run.
 #[test]
