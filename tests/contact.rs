@@ -115,8 +115,9 @@ fn stiff_contact_stays_stable_at_the_default_dt() {
 
 /// Runs `sphere-on-plane` to 1.5 s, then 0.5 s more; returns the peak kinetic energy
 /// of each 0.1 s window of the second part, the deepest penetration of an original surfel
-/// and the mean vertical speed of the centre of mass over it.
-fn resting_sphere() -> (Vec<f64>, f32, f32) {
+/// and the mean vertical speed of the centre of mass over it, and the total mechanical
+/// energy (`World::energy`, J) at the end of each window.
+fn resting_sphere() -> (Vec<f64>, f32, f32, Vec<f64>) {
     let scene = Scene::builtin("sphere-on-plane").unwrap();
     let mut w = build(&scene);
     let window = (0.1 / w.dt) as usize;
@@ -126,6 +127,7 @@ fn resting_sphere() -> (Vec<f64>, f32, f32) {
     }
     let y_settled = com(&w, 1).y;
     let (mut peaks, mut peak, mut deepest) = (Vec::new(), 0.0f64, 0.0f32);
+    let mut energies = Vec::new();
     for s in 0..5 * window {
         w.step();
         peak = peak.max(kinetic(&w));
@@ -138,24 +140,29 @@ fn resting_sphere() -> (Vec<f64>, f32, f32) {
         if (s + 1) % window == 0 {
             peaks.push(peak);
             peak = 0.0;
+            energies.push(w.energy().total());
         }
     }
     assert!(w.all_finite());
     let drift = (com(&w, 1).y - y_settled).abs() / (5.0 * 0.1);
-    (peaks, deepest, drift)
+    (peaks, deepest, drift, energies)
 }
 
 /// Resting contact (`sphere-on-plane`, ball of radius 0.1 m, 4.1 kg dropped 2 cm, 0.8 J):
 /// after 1.5 s the ball has settled: its centre of mass moves less than 2 mm/s
 /// vertically on average, the remaining kinetic energy stays below 2% of the drop
-/// energy, it keeps decaying (each 0.1 s window's peak of kinetic energy below the
-/// previous one's: no sustained oscillation, the paper's claim), and original surfels
-/// penetrate the plane by less than 5% of the radius.
+/// energy, nothing pumps it (the total mechanical energy, `World::energy`, at the end of
+/// each 0.1 s window exceeds the previous window's by less than 0.1% of the drop
+/// energy: 8e-4 J; no sustained oscillation, the paper's claim), and original surfels
+/// penetrate the plane by less than 5% of the radius. (An earlier form required each
+/// window's peak kinetic energy below the last one's; the residual rocking of the ball
+/// trades kinetic for elastic energy on a slow beat, and that form held here by chance:
+/// the same code's peaks rose from 1.6 to 4.4 mJ over 2.1–2.6 s.)
 #[test]
 fn sphere_comes_to_rest_on_plane() {
-    let (peaks, deepest, drift) = resting_sphere();
+    let (peaks, deepest, drift, energies) = resting_sphere();
     println!(
-        "sphere-on-plane: KE window peaks {peaks:?} J, deepest {deepest:.4} m, vertical drift {drift:.2e} m/s"
+        "sphere-on-plane: KE window peaks {peaks:?} J, total energy {energies:?} J, deepest {deepest:.4} m, vertical drift {drift:.2e} m/s"
     );
     assert!(drift < 2e-3, "still moving vertically: {drift} m/s");
     assert!(
@@ -163,8 +170,8 @@ fn sphere_comes_to_rest_on_plane() {
         "kinetic energy not settled: {peaks:?}"
     );
     assert!(
-        peaks.windows(2).all(|p| p[1] < p[0]),
-        "kinetic energy does not keep decaying: {peaks:?}"
+        energies.windows(2).all(|e| e[1] < e[0] + 1e-3 * 0.8),
+        "the resting ball gains energy: {energies:?} J"
     );
     assert!(
         deepest < 0.05 * 0.1,
@@ -1030,5 +1037,171 @@ fn pressed_spheres_release_the_contact_energy() {
     assert!(
         (released / stored - 1.0).abs() < 0.15,
         "stored {stored} J, released {released} J"
+    );
+}
+
+/// Angular momentum (kg·m²/s) of the moving objects' phyxels about their common centre
+/// of mass, in f64 with the position sums' carries.
+fn angular_momentum(w: &World) -> DVec3 {
+    let moving = || w.objects.iter().filter(|o| !o.is_static());
+    let at = |p: &phyxel::phyxels::Phyxels, i: usize| {
+        p.pos.get(i).as_dvec3() + p.pos_carry.get(i).as_dvec3()
+    };
+    let (mut m, mut mx) = (0.0, DVec3::ZERO);
+    for o in moving() {
+        let p = &o.phyxels;
+        for i in 0..p.len() {
+            m += p.mass[i] as f64;
+            mx += p.mass[i] as f64 * at(p, i);
+        }
+    }
+    let c = mx / m;
+    moving()
+        .flat_map(|o| {
+            let p = &o.phyxels;
+            (0..p.len())
+                .map(move |i| (at(p, i) - c).cross(p.mass[i] as f64 * p.vel.get(i).as_dvec3()))
+        })
+        .sum()
+}
+
+/// Newton's third law in its strong form (the pair's forces equal, opposite and on one
+/// line): two spheres (R = 0.1 m, 4.1 kg each, 1 m/s each, no gravity) meet off centre
+/// (centres 0.1 m apart across the line of flight: L = 0.4375 kg·m²/s) and rub with
+/// friction μ = 0.5 (and without). The angular momentum about the centre of mass must
+/// stay at its initial value to 1e-5 of `m v R` (0.41 kg·m²/s) through the whole
+/// collision, on MLS and LJ, whose internal forces conserve it (SPH's corotated
+/// elasticity does not exactly: 2e-4, so it is left out). Measured about 4e-8 on both.
+/// Reference: conservation of angular momentum of an isolated system. Before the
+/// contact force was applied at its contact surfel (`contact::distribute`), eq. 8's
+/// weighted spread applied `f` and `−f` at the two phyxel centroids, a spacing apart:
+/// 4.8e-2 (μ = 0.5, 10% of L lost) and 1.9e-3 (μ = 0) on MLS, 4.7e-2 on LJ.
+#[test]
+fn off_centre_collision_conserves_angular_momentum() {
+    let scene = |mu: f32, backend: &str| {
+        let object = |name: &str, x: f32, y: f32, v: f32| {
+            format!(
+                "[[objects]]\nname = \"{name}\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\n\
+                 spacing = 0.025\nsurfel_spacing = 0.0035\nposition = [{x}, {y}, 0.0]\n\
+                 velocity = [{v}, 0.0, 0.0]\nbackend = \"{backend}\"\n\
+                 material = {{ density = 1000.0, young = 1.0e5, poisson = 0.3, friction = {mu} }}\n"
+            )
+        };
+        let text = format!(
+            "name = \"off-centre\"\nsteps = 400\ngravity = [0.0, 0.0, 0.0]\n{}{}",
+            object("left", -0.15, 0.05, 1.0),
+            object("right", 0.15, -0.05, -1.0)
+        );
+        Scene::parse(&text, "off-centre").unwrap()
+    };
+    for (mu, backend) in [(0.5, "mls"), (0.0, "mls"), (0.5, "lj")] {
+        let scene = scene(mu, backend);
+        let mut w = build(&scene);
+        let l0 = angular_momentum(&w);
+        let scale = w.objects[0].phyxels.total_mass() * 1.0 * 0.1;
+        let (mut worst, mut contact_steps) = (0.0f64, 0);
+        for _ in 0..scene.steps {
+            w.step();
+            contact_steps += !w.patches.is_empty() as usize;
+            worst = worst.max((angular_momentum(&w) - l0).length() / scale);
+        }
+        println!(
+            "off-centre {backend} μ {mu}: L0 {:.4} kg·m²/s, largest drift {worst:.2e} of m v R, {contact_steps} steps in contact",
+            l0.z
+        );
+        assert!(contact_steps > 10, "the spheres never touched");
+        assert!(
+            worst < 1e-5,
+            "{backend}, μ {mu}: angular momentum drifted by {worst:e} of m v R"
+        );
+    }
+}
+
+/// Each contact surfel's force acts at the surfel (`contact::distribute`): the phyxel
+/// forces it makes sum to it (eq. 8) and have no moment about it (N·m), for the lane
+/// path and the scalar reference, on `two-spheres`' first sphere (390 phyxels), one
+/// surfel at a time: 200 surfels within half an influence radius of its surface, and 10
+/// far outside (the widened k-nearest spread, which keeps eq. 8's plain spread: only
+/// their sum is checked). Tolerance: moment below 1e-5 of `|f| h` (f32
+/// round-off; h the influence radius), force sum within 1e-5 of `|f|`. Reference: the
+/// moment computed by brute force over the phyxels in f64. Eq. 8's plain spread leaves
+/// a moment of about 0.3 `|f| h` (its weighted centroid lies inside the body).
+#[test]
+fn distributed_contact_forces_act_at_the_surfel() {
+    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
+    use phyxel::grid::Grid;
+    let w = build(&Scene::builtin("two-spheres").unwrap());
+    let o = &w.objects[0];
+    let h = o.max_influence;
+    let grid = Grid::build(o.phyxels.pos.iter(), h);
+    let centre = com(&w, 0);
+    let radius = o
+        .surfels
+        .pos
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0f32, f32::max);
+    let mut seed = 11u32;
+    let mut rand = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    };
+    let (mut worst, mut worst_sum) = ([0.0f64; 2], [0.0f64; 2]);
+    for k in 0..210 {
+        let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
+        let r = if k < 200 {
+            radius + (rand() - 0.5) * h
+        } else {
+            radius + 2.0 * h
+        };
+        let force = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 10.0;
+        let c = ContactSurfel {
+            pos: centre + r * dir,
+            normal: dir,
+            object: 0,
+            area: 1.0,
+            force,
+            anchor_a: Vec3::ZERO,
+            anchor_b: Vec3::ZERO,
+            velocity: Vec3::ZERO,
+        };
+        for (slot, f) in [distribute, distribute_reference].into_iter().enumerate() {
+            let mut p = o.phyxels.clone();
+            p.force = phyxel::columns::Vec3s::zeros(p.len());
+            f(
+                &[c],
+                -1.0,
+                &mut p,
+                &grid,
+                h,
+                &mut DistributeScratch::default(),
+            );
+            let (mut sum, mut moment) = (DVec3::ZERO, DVec3::ZERO);
+            for i in 0..p.len() {
+                let fi = p.force.get(i).as_dvec3();
+                sum += fi;
+                moment += (p.pos.get(i) - c.pos).as_dvec3().cross(fi);
+            }
+            let f = force.as_dvec3();
+            worst_sum[slot] = worst_sum[slot].max((sum + f).length() / f.length());
+            assert!(
+                (sum + f).length() <= 1e-5 * f.length(),
+                "surfel {k}: distributed {sum} N for {} N",
+                -f
+            );
+            if k < 200 {
+                worst[slot] = worst[slot].max(moment.length() / (f.length() * h as f64));
+            }
+        }
+    }
+    println!(
+        "moment about the surfel / (|f| h): lanes {:.2e}, scalar {:.2e}; force sum error / |f|: {:.2e}, {:.2e}",
+        worst[0], worst[1], worst_sum[0], worst_sum[1]
+    );
+    assert!(
+        worst.iter().all(|&m| m < 1e-5),
+        "moments {worst:?} of |f| h"
     );
 }
