@@ -17,8 +17,11 @@ use wide::f32x8;
 
 /// Phyxels a contact force spreads over at least (paper §7.3: k = 6).
 pub const MIN_DISTRIBUTION_PHYXELS: usize = 6;
-/// Friction regularisation speed (m/s): below it Coulomb friction is viscous, so a
-/// sticking contact neither chatters nor creeps faster than this times F_t/(μ F_n).
+/// Friction regularisation speed (m/s): below it Coulomb friction is viscous
+/// (`μ F_n v_t / FRICTION_SLIP_SPEED`). Explicit integration of that stiff viscous term
+/// does not hold a sticking contact to this speed times `F_t/(μ F_n)`: a block on the 20°
+/// `incline` (μ = 0.5, where that bound is 0.07 mm/s) creeps at 0.24–0.35 mm/s at
+/// dt = 0.1 ms, in proportion to dt (docs/ACCURACY.md, "Known limits").
 pub const FRICTION_SLIP_SPEED: f32 = 1.0e-4;
 
 /// A surfel on the contact surface Φ.
