@@ -583,7 +583,7 @@ pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchSc
 /// kernel of support `h` (twice the influence radius), widened to the
 /// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within `h`, normalised so the
 /// phyxel forces sum exactly to the surfel force (paper eqs. 8–9), with a rotational
-/// field that makes them act at the surfel ([`Couple`]: no moment about it, so a pair's
+/// field that makes them act at the surfel (`Couple`: no moment about it, so a pair's
 /// forces conserve angular momentum too). `sign` is +1 for
 /// object a, −1 for b. The forces act at the next step.
 ///
