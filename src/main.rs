@@ -661,6 +661,14 @@ fn compare(
     let Some((scene, file_prefix)) = resolve_scene(arg) else {
         return ExitCode::FAILURE;
     };
+    // Backends move only the moving objects: with none, every row would be the same.
+    if scene.objects.iter().all(|o| o.is_static) {
+        eprintln!(
+            "error: {file_prefix}every object is static (`static = true`): the backends have \
+             nothing to move, so there is nothing to compare; run it with `phyxel run`"
+        );
+        return ExitCode::FAILURE;
+    }
     let total = steps.unwrap_or(scene.steps);
     let mut summaries = Vec::with_capacity(names.len());
     for (k, b) in names.iter().enumerate() {

@@ -1664,3 +1664,22 @@ fn a_first_step_blow_up_points_at_the_scene() {
         ],
     );
 }
+
+/// `compare` on a scene whose objects are all static has nothing to compare (the backends
+/// move only moving objects, so every row was the same, labelled `static`): it is refused
+/// with a message naming the file and pointing to `run`, which still runs it.
+#[test]
+fn compare_refuses_a_scene_without_moving_objects() {
+    let scene = TempPath::scene(
+        "static-only",
+        "name = \"static-only\"\n[[objects]]\nname = \"ground\"\n\
+         shape = { type = \"plane\", size = [1.0, 1.0] }\nstatic = true\nspacing = 0.05\n",
+    );
+    let file = scene.arg();
+    expect_error(
+        &["compare", file, "--steps", "2"],
+        &[file, "every object is static", "phyxel run"],
+    );
+    let out = phyxel(&["run", file, "--steps", "2", "--json"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+}
