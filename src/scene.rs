@@ -666,14 +666,15 @@ impl Scene {
                     .cbrt();
                 if depth > IMPACT_DEPTH_WARNING * thinnest {
                     out.push(format!(
-                        "{} and {} approach at {closing:.3} m/s: the penalty contact needs \
+                        "{} and {} approach at {} m/s: the penalty contact needs \
                          about {depth:.2e} m of penetration to stop them, more than \
                          {IMPACT_DEPTH_WARNING} of the thinner body's thickness 3V/A = \
                          {thinnest:.2e} m: they may pass through each other; raise \
                          contact_stiffness, thicken the body or lower the speed \
                          (docs/SCENES.md, \"Limits\")",
                         self.label(k),
-                        self.label(l)
+                        self.label(l),
+                        speed_text(closing)
                     ));
                 }
             }
@@ -715,12 +716,14 @@ impl Scene {
                     .fold((k, f32::INFINITY), |m, x| if x.1 < m.1 { x } else { m });
                 if closing > c {
                     out.push(format!(
-                        "{} and {} approach at {closing:.3} m/s, faster than the P-wave speed \
-                         {c:.3} m/s of {}: penalty contact may let them pass through each \
+                        "{} and {} approach at {} m/s, faster than the P-wave speed \
+                         {} m/s of {}: penalty contact may let them pass through each \
                          other; raise contact_stiffness or lower the speed (docs/SCENES.md, \
                          \"Limits\")",
                         self.label(k),
                         self.label(l),
+                        speed_text(closing as f64),
+                        speed_text(c as f64),
                         self.label(slow)
                     ));
                 }
@@ -900,6 +903,16 @@ fn phyxel_estimate(shape: &Shape, spacing: f32) -> f64 {
 /// range, not rounded to infinity, to 0 or to a subnormal.
 pub fn fits_f32(x: f64) -> bool {
     (f32::MIN_POSITIVE as f64..=f32::MAX as f64).contains(&x.abs())
+}
+
+/// A speed (m/s) for messages: three decimals, in scientific notation from 10⁴ on (a
+/// speed of 1e30 printed 31 digits).
+fn speed_text(v: f64) -> String {
+    if v.abs() < 1e4 {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.3e}")
+    }
 }
 
 /// Every float in `value` (at `path`) within the range of normal f32 numbers (or 0,
@@ -1261,6 +1274,16 @@ impl ObjectSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Speeds in the build's warnings: three decimals up to 10⁴ m/s, then scientific
+    /// notation (1e30 m/s printed 31 digits).
+    #[test]
+    fn speeds_in_messages_stay_short() {
+        assert_eq!(speed_text(11.6024), "11.602");
+        assert_eq!(speed_text(9999.0), "9999.000");
+        assert_eq!(speed_text(1.0e30), "1.000e30");
+        assert_eq!(speed_text(-2.5e5), "-2.500e5");
+    }
 
     /// The built-in scenes are sampled finely enough for their masses: none warns.
     #[test]
