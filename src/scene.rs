@@ -518,6 +518,7 @@ impl Scene {
         let mut objects = Vec::with_capacity(self.objects.len());
         let mut placed = Vec::with_capacity(self.objects.len());
         let mut warnings = Vec::new();
+        let mut supports = Vec::with_capacity(self.objects.len());
         let gravity = Vec3::from(self.gravity);
         let grounded = self.objects.iter().any(|o| o.is_static);
         for (k, spec) in self.objects.iter().enumerate() {
@@ -556,7 +557,6 @@ impl Scene {
                 mass_warning(&spec, &obj),
                 surface_warning(&spec, &obj),
                 flat_warning(&obj),
-                weight_warning(&obj, gravity, supported),
                 inelastic,
             ]
             .into_iter()
@@ -564,7 +564,15 @@ impl Scene {
             {
                 warnings.push(format!("{origin}: objects[{k}] '{}': {w}", obj.name));
             }
+            supports.push(supported);
             objects.push(obj);
+        }
+        // After every object is built: the weight check counts the bodies stacked above.
+        for (k, obj) in objects.iter().enumerate() {
+            let load = load_above(&objects, k, gravity);
+            if let Some(w) = weight_warning(obj, gravity, supports[k], load) {
+                warnings.push(format!("{origin}: objects[{k}] '{}': {w}", obj.name));
+            }
         }
         start_overlap(&objects, &placed).map_err(|m| SceneError(format!("{origin}: {m}")))?;
         warnings.extend(
@@ -803,12 +811,66 @@ fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
 /// E = 3 kPa (0.67 by this H: the phyxels' height plus a spacing) held, squashed to a
 /// third of its height; at 2 kPa (1.01) and below it sank through the plane on `mls`.
 /// The `self-contact` ring, meant to buckle onto itself, is at 0.62; the other
-/// built-in scenes stay below 0.1.
+/// built-in scenes stay below 0.1. Bodies stacked on it add their weight
+/// (`load_above`: twice their mass counts as own weight).
 pub const WEIGHT_WARNING: f32 = 0.8;
 
+/// Mass (kg) that the other moving objects stack on `objects[k]` under `gravity`: those
+/// whose lowest phyxel lies above its centre of mass and whose footprint (the box of
+/// their phyxels across gravity) overlaps its own. They come to rest on it, or on a body
+/// that rests on it, so their weight joins its own (0 without gravity).
+fn load_above(objects: &[Object], k: usize, gravity: Vec3) -> f32 {
+    let g = gravity.length();
+    let obj = &objects[k];
+    if obj.is_static() || g == 0.0 {
+        return 0.0;
+    }
+    let down = gravity / g;
+    let (u, v) = down.any_orthonormal_pair();
+    // Footprint box across gravity and the lowest point along it.
+    let footprint = |o: &Object| {
+        o.phyxels.pos.iter().fold(
+            (
+                [f32::INFINITY; 2],
+                [f32::NEG_INFINITY; 2],
+                f32::NEG_INFINITY,
+            ),
+            |(lo, hi, low), p| {
+                let (a, b) = (p.dot(u), p.dot(v));
+                (
+                    [lo[0].min(a), lo[1].min(b)],
+                    [hi[0].max(a), hi[1].max(b)],
+                    low.max(p.dot(down)),
+                )
+            },
+        )
+    };
+    let (lo, hi, _) = footprint(obj);
+    let c = obj.phyxels.centre_of_mass();
+    let centre = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).dot(down);
+    objects
+        .iter()
+        .enumerate()
+        .filter(|&(j, o)| j != k && !o.is_static())
+        .filter(|(_, o)| {
+            let (olo, ohi, lowest) = footprint(o);
+            // `lowest` is the largest depth along gravity: above the centre means less.
+            lowest < centre && (0..2).all(|a| olo[a] <= hi[a] && ohi[a] >= lo[a])
+        })
+        .map(|(_, o)| o.phyxels.total_mass() as f32)
+        .sum()
+}
+
 /// The warning for a moving `obj` resting on something (a static object or its own
-/// fixed phyxels) under `gravity` if its own weight strains it past [`WEIGHT_WARNING`].
-fn weight_warning(obj: &Object, gravity: Vec3, supported: bool) -> Option<String> {
+/// fixed phyxels) under `gravity` if its own weight and the `load` (kg) of the bodies
+/// stacked on it ([`load_above`]) strain it past [`WEIGHT_WARNING`]:
+/// `ρ |g| H / E · (1 + 2 load / m)`. Its own weight's stress grows from 0 at its top to
+/// `ρ |g| H` at its base (mean strain half of that), a load's `|g| load / A` is the same
+/// all through it (`A = V / H`, its mean cross-section): a load strains it as much as
+/// twice its mass of own weight. A 10 cm cube (1 kg) under a 10 kg cube (docs/SCENES.md,
+/// "Limits"): at E = 20 kPa (1.08) it was squeezed out through the plane, at 30 kPa
+/// (0.72) it held but tipped, at 50 kPa (0.43) it held.
+fn weight_warning(obj: &Object, gravity: Vec3, supported: bool, load: f32) -> Option<String> {
     let g = gravity.length();
     if obj.is_static() || !supported || g == 0.0 {
         return None;
@@ -824,14 +886,23 @@ fn weight_warning(obj: &Object, gravity: Vec3, supported: bool) -> Option<String
         });
     let height = hi - lo + obj.phyxel_spacing;
     let m = &obj.material;
-    let strain = m.density * g * height / m.young;
+    let factor = 1.0 + 2.0 * load / obj.phyxels.total_mass() as f32;
+    let strain = m.density * g * height * factor / m.young;
+    let what = if load > 0.0 {
+        format!(
+            "its own weight and the {load:.3e} kg of the bodies stacked on it strain it by \
+             about ρ|g|H/E · (1 + 2 · {load:.3e} kg / m) = {strain:.2}"
+        )
+    } else {
+        format!("its own weight strains it by about ρ|g|H/E = {strain:.2}")
+    };
     (strain > WEIGHT_WARNING).then(|| {
         format!(
-            "its own weight strains it by about ρ|g|H/E = {strain:.2} (H = {height:.3e} m along \
-             gravity, E = {:e} Pa): too soft to keep its shape; it may collapse and sink \
-             through what holds it (young >= {:.3e} Pa keeps it below {WEIGHT_WARNING})",
+            "{what} (H = {height:.3e} m along gravity, E = {:e} Pa): too soft to keep its \
+             shape; it may collapse and sink through what holds it (young >= {:.3e} Pa \
+             keeps it below {WEIGHT_WARNING})",
             m.young,
-            m.density * g * height / WEIGHT_WARNING
+            m.density * g * height * factor / WEIGHT_WARNING
         )
     })
 }

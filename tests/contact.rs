@@ -1205,3 +1205,48 @@ fn distributed_contact_forces_act_at_the_surfel() {
         "moments {worst:?} of |f| h"
     );
 }
+
+/// Build warning for a body crushed by what is stacked on it. A 10 cm cube (ρ = 1000
+/// kg/m³, E = 5 kPa, 1 kg) on a static plane under a 10 kg cube (ρ = 10⁴ kg/m³, E = 10
+/// MPa): its own weight strains it by ρ|g|H/E = 0.21 (dimensionless; no warning before
+/// the stack was counted), with the stack's `0.21 · (1 + 2 · 10 kg / 1 kg)` = 4.32,
+/// above `scene::WEIGHT_WARNING` (0.8, calibrated on `sphere-on-plane` and this stack:
+/// docs/SCENES.md "Limits"), so the build warns, naming the soft cube and the 10 kg.
+/// Reference: run, the soft cube was squeezed out through the plane (its centre 10 m
+/// below it after 1.5 s, silently). With the heavy cube beside it (footprints apart), or
+/// at ρ = 1000 kg/m³ (0.21 · 3 = 0.62), it does not.
+#[test]
+fn a_body_under_a_heavy_stack_warns() {
+    let scene = |x: f32, density: f32| {
+        Scene::parse(
+            &format!(
+                "name = \"stack\"\n\
+                 [[objects]]\nname = \"ground\"\nstatic = true\n\
+                 shape = {{ type = \"plane\", size = [1.0, 1.0] }}\nspacing = 0.025\n\
+                 [[objects]]\nname = \"soft\"\n\
+                 shape = {{ type = \"box\", size = [0.1, 0.1, 0.1] }}\nspacing = 0.02\n\
+                 surfel_spacing = 0.005\nposition = [0.0, 0.05, 0.0]\n\
+                 material = {{ young = 5.0e3 }}\n\
+                 [[objects]]\nname = \"heavy\"\n\
+                 shape = {{ type = \"box\", size = [0.1, 0.1, 0.1] }}\nspacing = 0.02\n\
+                 surfel_spacing = 0.005\nposition = [{x}, 0.15, 0.0]\n\
+                 material = {{ young = 1.0e7, density = {density} }}\n"
+            ),
+            "stack",
+        )
+        .expect("parses")
+        .build(&BuildOptions::default())
+        .expect("builds")
+        .warnings
+    };
+    let stacked = scene(0.0, 1e4);
+    let [w] = stacked.as_slice() else {
+        panic!("{stacked:?}")
+    };
+    assert!(
+        w.contains("objects[1] 'soft'") && w.contains("1.000e1 kg") && w.contains("= 4.32"),
+        "{w}"
+    );
+    assert!(scene(0.2, 1e4).is_empty(), "{:?}", scene(0.2, 1e4));
+    assert!(scene(0.0, 1e3).is_empty(), "{:?}", scene(0.0, 1e3));
+}
