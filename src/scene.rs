@@ -568,8 +568,14 @@ impl Scene {
             objects.push(obj);
         }
         // After every object is built: the weight check counts the bodies stacked above.
+        // (None without gravity: nothing stacks, and `load_above` reads none.)
+        let footprints: Vec<Footprint> = if gravity == Vec3::ZERO {
+            Vec::new()
+        } else {
+            objects.iter().map(|o| footprint(o, gravity)).collect()
+        };
         for (k, obj) in objects.iter().enumerate() {
-            let load = load_above(&objects, k, gravity);
+            let load = load_above(&objects, &footprints, k, gravity);
             if let Some(w) = weight_warning(obj, gravity, supports[k], load) {
                 warnings.push(format!("{origin}: objects[{k}] '{}': {w}", obj.name));
             }
@@ -815,49 +821,58 @@ fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String> {
 /// (`load_above`: twice their mass counts as own weight).
 pub const WEIGHT_WARNING: f32 = 0.8;
 
+/// An object's phyxels seen along gravity: the box of their positions across it (two
+/// axes) and their lowest point along it (the largest depth along `gravity`).
+struct Footprint {
+    lo: [f32; 2],
+    hi: [f32; 2],
+    lowest: f32,
+}
+
+/// The [`Footprint`] of `o` under a non-zero `gravity`.
+fn footprint(o: &Object, gravity: Vec3) -> Footprint {
+    let down = gravity.normalize();
+    let (u, v) = down.any_orthonormal_pair();
+    o.phyxels.pos.iter().fold(
+        Footprint {
+            lo: [f32::INFINITY; 2],
+            hi: [f32::NEG_INFINITY; 2],
+            lowest: f32::NEG_INFINITY,
+        },
+        |f, p| {
+            let (a, b) = (p.dot(u), p.dot(v));
+            Footprint {
+                lo: [f.lo[0].min(a), f.lo[1].min(b)],
+                hi: [f.hi[0].max(a), f.hi[1].max(b)],
+                lowest: f.lowest.max(p.dot(down)),
+            }
+        },
+    )
+}
+
 /// Mass (kg) that the other moving objects stack on `objects[k]` under `gravity`: those
 /// whose lowest phyxel lies above its centre of mass and whose footprint (the box of
 /// their phyxels across gravity) overlaps its own. They come to rest on it, or on a body
-/// that rests on it, so their weight joins its own (0 without gravity).
-fn load_above(objects: &[Object], k: usize, gravity: Vec3) -> f32 {
-    let g = gravity.length();
+/// that rests on it, so their weight joins its own (0 without gravity). `footprints`
+/// holds every object's [`footprint`].
+fn load_above(objects: &[Object], footprints: &[Footprint], k: usize, gravity: Vec3) -> f32 {
     let obj = &objects[k];
-    if obj.is_static() || g == 0.0 {
+    if obj.is_static() || gravity == Vec3::ZERO {
         return 0.0;
     }
-    let down = gravity / g;
-    let (u, v) = down.any_orthonormal_pair();
-    // Footprint box across gravity and the lowest point along it.
-    let footprint = |o: &Object| {
-        o.phyxels.pos.iter().fold(
-            (
-                [f32::INFINITY; 2],
-                [f32::NEG_INFINITY; 2],
-                f32::NEG_INFINITY,
-            ),
-            |(lo, hi, low), p| {
-                let (a, b) = (p.dot(u), p.dot(v));
-                (
-                    [lo[0].min(a), lo[1].min(b)],
-                    [hi[0].max(a), hi[1].max(b)],
-                    low.max(p.dot(down)),
-                )
-            },
-        )
-    };
-    let (lo, hi, _) = footprint(obj);
+    let own = &footprints[k];
     let c = obj.phyxels.centre_of_mass();
-    let centre = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).dot(down);
+    let centre = Vec3::new(c[0] as f32, c[1] as f32, c[2] as f32).dot(gravity.normalize());
     objects
         .iter()
+        .zip(footprints)
         .enumerate()
-        .filter(|&(j, o)| j != k && !o.is_static())
-        .filter(|(_, o)| {
-            let (olo, ohi, lowest) = footprint(o);
+        .filter(|&(j, (o, _))| j != k && !o.is_static())
+        .filter(|(_, (_, f))| {
             // `lowest` is the largest depth along gravity: above the centre means less.
-            lowest < centre && (0..2).all(|a| olo[a] <= hi[a] && ohi[a] >= lo[a])
+            f.lowest < centre && (0..2).all(|a| f.lo[a] <= own.hi[a] && f.hi[a] >= own.lo[a])
         })
-        .map(|(_, o)| o.phyxels.total_mass() as f32)
+        .map(|(_, (o, _))| o.phyxels.total_mass() as f32)
         .sum()
 }
 
