@@ -382,6 +382,34 @@ fn force_carriers_match_every_surfel_carrying() {
     assert!(n * 3 < n_ref, "carriers {n} of {n_ref}");
 }
 
+/// `two-spheres`' first sphere (390 phyxels) for the distribution tests: the world, the
+/// grid of that sphere's phyxels, its influence radius h (m), its centre of mass and its
+/// surfels' largest distance from it (m).
+fn distribution_sphere() -> (World, phyxel::grid::Grid, f32, Vec3, f32) {
+    let w = build(&Scene::builtin("two-spheres").unwrap());
+    let o = &w.objects[0];
+    let h = o.max_influence;
+    let grid = phyxel::grid::Grid::build(o.phyxels.pos.iter(), h);
+    let centre = com(&w, 0);
+    let radius = o
+        .surfels
+        .pos
+        .iter()
+        .map(|p| p.distance(centre))
+        .fold(0.0f32, f32::max);
+    (w, grid, h, centre, radius)
+}
+
+/// Deterministic test inputs: a xorshift sequence from `seed`, as floats in [0, 1].
+fn uniform(mut seed: u32) -> impl FnMut() -> f32 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        seed as f32 / u32::MAX as f32
+    }
+}
+
 /// The SIMD force distribution (`contact::distribute`: lane groups of the phyxel grid,
 /// forces gathered in the grid's order) against its scalar reference
 /// (`contact::distribute_reference`), on `two-spheres`' first sphere (390 phyxels) with
@@ -394,24 +422,9 @@ fn force_carriers_match_every_surfel_carrying() {
 fn simd_distribution_matches_scalar_reference() {
     use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
     use phyxel::grid::Grid;
-    let w = build(&Scene::builtin("two-spheres").unwrap());
+    let (w, grid, h, centre, radius) = distribution_sphere();
     let o = &w.objects[0];
-    let h = o.max_influence;
-    let grid = Grid::build(o.phyxels.pos.iter(), h);
-    let centre = com(&w, 0);
-    let radius = o
-        .surfels
-        .pos
-        .iter()
-        .map(|p| p.distance(centre))
-        .fold(0.0f32, f32::max);
-    let mut seed = 7u32;
-    let mut rand = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 17;
-        seed ^= seed << 5;
-        seed as f32 / u32::MAX as f32
-    };
+    let mut rand = uniform(7u32);
     let mut surfels = Vec::new();
     for k in 0..2040 {
         let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
@@ -1129,25 +1142,9 @@ fn off_centre_collision_conserves_angular_momentum() {
 #[test]
 fn distributed_contact_forces_act_at_the_surfel() {
     use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
-    use phyxel::grid::Grid;
-    let w = build(&Scene::builtin("two-spheres").unwrap());
+    let (w, grid, h, centre, radius) = distribution_sphere();
     let o = &w.objects[0];
-    let h = o.max_influence;
-    let grid = Grid::build(o.phyxels.pos.iter(), h);
-    let centre = com(&w, 0);
-    let radius = o
-        .surfels
-        .pos
-        .iter()
-        .map(|p| p.distance(centre))
-        .fold(0.0f32, f32::max);
-    let mut seed = 11u32;
-    let mut rand = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 17;
-        seed ^= seed << 5;
-        seed as f32 / u32::MAX as f32
-    };
+    let mut rand = uniform(11u32);
     let (mut worst, mut worst_sum) = ([0.0f64; 2], [0.0f64; 2]);
     for k in 0..210 {
         let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
