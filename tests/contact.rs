@@ -382,10 +382,21 @@ fn force_carriers_match_every_surfel_carrying() {
     assert!(n * 3 < n_ref, "carriers {n} of {n_ref}");
 }
 
-/// `two-spheres`' first sphere (390 phyxels) for the distribution tests: the world, the
-/// grid of that sphere's phyxels, its influence radius h (m), its centre of mass and its
-/// surfels' largest distance from it (m).
-fn distribution_sphere() -> (World, phyxel::grid::Grid, f32, Vec3, f32) {
+/// Contact surfels around `two-spheres`' first sphere (390 phyxels) for the distribution
+/// tests: `near` of them in a shell half an influence radius h thick around its surface
+/// and then `far` at 2h outside it, in random directions with random forces (N) of up to
+/// 5 N per axis, from a xorshift sequence seeded with `seed`. Returns the world, the
+/// grid of that sphere's phyxels, h (m) and the surfels.
+fn shell_surfels(
+    near: usize,
+    far: usize,
+    mut seed: u32,
+) -> (
+    World,
+    phyxel::grid::Grid,
+    f32,
+    Vec<phyxel::contact::ContactSurfel>,
+) {
     let w = build(&Scene::builtin("two-spheres").unwrap());
     let o = &w.objects[0];
     let h = o.max_influence;
@@ -397,17 +408,34 @@ fn distribution_sphere() -> (World, phyxel::grid::Grid, f32, Vec3, f32) {
         .iter()
         .map(|p| p.distance(centre))
         .fold(0.0f32, f32::max);
-    (w, grid, h, centre, radius)
-}
-
-/// Deterministic test inputs: a xorshift sequence from `seed`, as floats in [0, 1].
-fn uniform(mut seed: u32) -> impl FnMut() -> f32 {
-    move || {
+    let mut rand = move || {
         seed ^= seed << 13;
         seed ^= seed >> 17;
         seed ^= seed << 5;
         seed as f32 / u32::MAX as f32
-    }
+    };
+    let surfels = (0..near + far)
+        .map(|k| {
+            let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
+            let r = if k < near {
+                radius + (rand() - 0.5) * h
+            } else {
+                radius + 2.0 * h
+            };
+            let force = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 10.0;
+            phyxel::contact::ContactSurfel {
+                pos: centre + r * dir,
+                normal: dir,
+                object: 0,
+                area: 1.0,
+                force,
+                anchor_a: Vec3::ZERO,
+                anchor_b: Vec3::ZERO,
+                velocity: Vec3::ZERO,
+            }
+        })
+        .collect();
+    (w, grid, h, surfels)
 }
 
 /// The SIMD force distribution (`contact::distribute`: lane groups of the phyxel grid,
@@ -422,29 +450,8 @@ fn uniform(mut seed: u32) -> impl FnMut() -> f32 {
 fn simd_distribution_matches_scalar_reference() {
     use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
     use phyxel::grid::Grid;
-    let (w, grid, h, centre, radius) = distribution_sphere();
+    let (w, grid, h, surfels) = shell_surfels(2000, 40, 7);
     let o = &w.objects[0];
-    let mut rand = uniform(7u32);
-    let mut surfels = Vec::new();
-    for k in 0..2040 {
-        let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
-        let r = if k < 2000 {
-            radius + (rand() - 0.5) * h
-        } else {
-            radius + 2.0 * h
-        };
-        let force = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 10.0;
-        surfels.push(ContactSurfel {
-            pos: centre + r * dir,
-            normal: dir,
-            object: 0,
-            area: 1.0,
-            force,
-            anchor_a: Vec3::ZERO,
-            anchor_b: Vec3::ZERO,
-            velocity: Vec3::ZERO,
-        });
-    }
     let run = |f: fn(
         &[ContactSurfel],
         f32,
@@ -1141,29 +1148,11 @@ fn off_centre_collision_conserves_angular_momentum() {
 /// a moment of about 0.3 `|f| h` (its weighted centroid lies inside the body).
 #[test]
 fn distributed_contact_forces_act_at_the_surfel() {
-    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
-    let (w, grid, h, centre, radius) = distribution_sphere();
+    use phyxel::contact::{DistributeScratch, distribute, distribute_reference};
+    let (w, grid, h, surfels) = shell_surfels(200, 10, 11);
     let o = &w.objects[0];
-    let mut rand = uniform(11u32);
     let (mut worst, mut worst_sum) = ([0.0f64; 2], [0.0f64; 2]);
-    for k in 0..210 {
-        let dir = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5).normalize_or(Vec3::X);
-        let r = if k < 200 {
-            radius + (rand() - 0.5) * h
-        } else {
-            radius + 2.0 * h
-        };
-        let force = Vec3::new(rand() - 0.5, rand() - 0.5, rand() - 0.5) * 10.0;
-        let c = ContactSurfel {
-            pos: centre + r * dir,
-            normal: dir,
-            object: 0,
-            area: 1.0,
-            force,
-            anchor_a: Vec3::ZERO,
-            anchor_b: Vec3::ZERO,
-            velocity: Vec3::ZERO,
-        };
+    for (k, &c) in surfels.iter().enumerate() {
         for (slot, f) in [distribute, distribute_reference].into_iter().enumerate() {
             let mut p = o.phyxels.clone();
             p.force = phyxel::columns::Vec3s::zeros(p.len());
@@ -1181,7 +1170,7 @@ fn distributed_contact_forces_act_at_the_surfel() {
                 sum += fi;
                 moment += (p.pos.get(i) - c.pos).as_dvec3().cross(fi);
             }
-            let f = force.as_dvec3();
+            let f = c.force.as_dvec3();
             worst_sum[slot] = worst_sum[slot].max((sum + f).length() / f.length());
             assert!(
                 (sum + f).length() <= 1e-5 * f.length(),
