@@ -518,7 +518,10 @@ impl Scene {
         let mut objects = Vec::with_capacity(self.objects.len());
         let mut placed = Vec::with_capacity(self.objects.len());
         let mut warnings = Vec::new();
-        let mut supports = Vec::with_capacity(self.objects.len());
+        // A per-object warning as the build reports it.
+        let tagged = |k: usize, obj: &Object, w: String| {
+            format!("{origin}: objects[{k}] '{}': {w}", obj.name)
+        };
         let gravity = Vec3::from(self.gravity);
         let grounded = self.objects.iter().any(|o| o.is_static);
         for (k, spec) in self.objects.iter().enumerate() {
@@ -552,7 +555,6 @@ impl Scene {
                     backends::PLASTIC.join(", ")
                 )
             });
-            let supported = grounded || obj.phyxels.fixed.iter().any(|&f| f != 0);
             for w in [
                 mass_warning(&spec, &obj),
                 surface_warning(&spec, &obj),
@@ -562,9 +564,8 @@ impl Scene {
             .into_iter()
             .flatten()
             {
-                warnings.push(format!("{origin}: objects[{k}] '{}': {w}", obj.name));
+                warnings.push(tagged(k, &obj, w));
             }
-            supports.push(supported);
             objects.push(obj);
         }
         // After every object is built: the weight check counts the bodies stacked above.
@@ -575,9 +576,10 @@ impl Scene {
             objects.iter().map(|o| footprint(o, gravity)).collect()
         };
         for (k, obj) in objects.iter().enumerate() {
+            let supported = grounded || obj.phyxels.fixed.iter().any(|&f| f != 0);
             let load = load_above(&objects, &footprints, k, gravity);
-            if let Some(w) = weight_warning(obj, gravity, supports[k], load) {
-                warnings.push(format!("{origin}: objects[{k}] '{}': {w}", obj.name));
+            if let Some(w) = weight_warning(obj, gravity, supported, load) {
+                warnings.push(tagged(k, obj, w));
             }
         }
         start_overlap(&objects, &placed).map_err(|m| SceneError(format!("{origin}: {m}")))?;
