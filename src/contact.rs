@@ -58,7 +58,8 @@ pub struct ContactPatch {
     pub render: Vec<ContactSurfel>,
     /// Colliding surfels dropped because the root left the intersection volume.
     pub dropped: usize,
-    /// Colliding surfels that are not force carriers (not moved onto Φ).
+    /// Colliding surfels that are not force carriers (not moved onto Φ; 0 unless every
+    /// surfel was tested: `World::render_contacts`).
     pub not_carriers: usize,
 }
 

@@ -41,10 +41,15 @@ pub struct PairDetection {
 impl PairDetection {
     /// Largest penetration depth in this pair (m), 0 without colliding surfels.
     pub fn max_depth(&self) -> f32 {
-        self.a_in_b
-            .iter()
-            .chain(&self.b_in_a)
-            .fold(0.0f32, |m, c| m.max(c.depth))
+        self.max_depth_of(|_| true, |_| true)
+    }
+
+    /// Largest penetration depth of the colliding surfels `s` of a with `of_a(s)` and
+    /// of b with `of_b(s)` (m), 0 without any.
+    pub fn max_depth_of(&self, of_a: impl Fn(u32) -> bool, of_b: impl Fn(u32) -> bool) -> f32 {
+        let a = self.a_in_b.iter().filter(|c| of_a(c.surfel));
+        let b = self.b_in_a.iter().filter(|c| of_b(c.surfel));
+        a.chain(b).fold(0.0f32, |m, c| m.max(c.depth))
     }
 }
 
@@ -89,7 +94,9 @@ pub struct DetectScratch {
 }
 
 /// The surfels of `surfels` in `pair.bounds` that are inside `other`, in surfel order,
-/// written to `out`; returns the number of candidates tested. Candidates far from
+/// written to `out`; returns the number of candidates tested. With `only`, the surfels
+/// `s` with `only[s]` false are not tested (the force carriers when no render surface
+/// needs the others: see `World::render_contacts`). Candidates far from
 /// `other`'s surface are classified by `volume` alone (one grid query) and projected only
 /// when inside (deep penetration); candidates near it whose `f` is clearly positive
 /// ([`OUTSIDE_FRACTION`]) are outside without a projection.
@@ -98,6 +105,7 @@ pub fn colliding_surfels(
     other: &ImplicitSurface<'_>,
     volume: &Volume<'_>,
     pair: &Pair,
+    only: Option<&[bool]>,
     scratch: &mut DetectScratch,
     out: &mut Vec<Colliding>,
 ) -> usize {
@@ -111,6 +119,9 @@ pub fn colliding_surfels(
     let outside = OUTSIDE_FRACTION * other.reach();
     candidates.clear();
     points_in_box(&surfels.pos, &pair.bounds, candidates);
+    if let Some(only) = only {
+        candidates.retain(|&s| only[s as usize]);
+    }
     // Hints of another pair or object would still give exact results, only slower.
     let this = (pair.a, pair.b, surfels.len());
     if *owner != this {

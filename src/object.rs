@@ -60,8 +60,9 @@ static NEXT_SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64:
 /// forces reach the phyxels through a kernel of about two phyxel spacings, so sampling
 /// the contact pressure much finer than the phyxels changes nothing they can feel;
 /// surfels finer than an eighth of a phyxel spacing (a million-surfel sphere on 20k
-/// phyxels has 17 surfels per phyxel spacing) are still detected and rendered, but
-/// only a fixed subset at this spacing is moved onto the contact surface and carries
+/// phyxels has 17 surfels per phyxel spacing) are still rendered, but only a fixed
+/// subset at this spacing is tested for contact (all surfels are when frames are
+/// written: `World::render_contacts`), moved onto the contact surface and carries
 /// force. An eighth keeps the paper's sampling (about a sixth) untouched; a quarter
 /// made a resting ball jitter (each carrier's area estimate changes as its neighbours
 /// enter and leave the contact) (docs/ARCHITECTURE.md).

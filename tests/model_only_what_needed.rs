@@ -87,3 +87,74 @@ fn static_objects_have_no_dynamics() {
         (ball.phyxels.len() * steps) as u64
     );
 }
+
+/// Surfels finer than the force carriers (`object::FORCE_CARRIER_SPACING`) are tested
+/// for contact only when a render surface needs them (`World::render_contacts`): the
+/// `scale` spheres with 20,000 surfels on 150 phyxels (13,657 carriers of 40,000
+/// surfels), 60 steps into their contact, once without and once with frames. Reference:
+/// the run with every colliding surfel found. Without frames the detection tests fewer
+/// candidates and finds only carriers, and the runs are the same bit for bit: positions,
+/// velocities and the reported penetration depth (which is taken over the carriers).
+#[test]
+fn surfels_finer_than_the_carriers_are_tested_only_for_frames() {
+    let scene = Scene::builtin("scale").unwrap();
+    let opts = BuildOptions {
+        surfels: Some(20_000),
+        phyxels: Some(150),
+        ..Default::default()
+    };
+    let run = |render: bool| {
+        let mut w = scene.build(&opts).unwrap();
+        w.render_contacts = render;
+        for _ in 0..60 {
+            w.step();
+        }
+        w
+    };
+    let (lean, full) = (run(false), run(true));
+    let carriers: usize = lean
+        .objects
+        .iter()
+        .map(|o| o.force_carrier.iter().filter(|&&c| c).count())
+        .sum();
+    let surfels: usize = lean.objects.iter().map(|o| o.surfels.len()).sum();
+    assert!(
+        2 * carriers < surfels,
+        "{carriers} carriers of {surfels} surfels: no thinning to test"
+    );
+    let non_carriers = |w: &phyxel::World| {
+        w.detections
+            .iter()
+            .map(|d| {
+                let (a, b) = (&w.objects[d.a].force_carrier, &w.objects[d.b].force_carrier);
+                d.a_in_b.iter().filter(|c| !a[c.surfel as usize]).count()
+                    + d.b_in_a.iter().filter(|c| !b[c.surfel as usize]).count()
+            })
+            .sum::<usize>()
+    };
+    assert!(
+        non_carriers(&full) > 0,
+        "the spheres must overlap for this test"
+    );
+    assert_eq!(non_carriers(&lean), 0);
+    let (tested, tested_full) = (
+        lean.times.work(Phase::Detect),
+        full.times.work(Phase::Detect),
+    );
+    println!(
+        "{carriers} carriers of {surfels} surfels; candidates tested: {tested} without frames, {tested_full} with"
+    );
+    assert!(2 * tested < tested_full);
+    assert_eq!(
+        lean.times.work(Phase::ContactSurface),
+        full.times.work(Phase::ContactSurface)
+    );
+    assert_eq!(
+        lean.max_penetration.to_bits(),
+        full.max_penetration.to_bits()
+    );
+    for (a, b) in lean.objects.iter().zip(&full.objects) {
+        assert_eq!(a.phyxels.pos, b.phyxels.pos);
+        assert_eq!(a.phyxels.vel, b.phyxels.vel);
+    }
+}
