@@ -42,7 +42,9 @@ fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
 
 /// The render surface `S' = S \ C ∪ Φ` (paper §8) of every object as one point cloud:
 /// each object's surfels except its colliding ones, plus the resampled contact surfels
-/// (flag `contact = 1`, disk radius from their object's surfel spacing).
+/// (flag `contact = 1`, disk radius from their object's surfel spacing). It needs
+/// `World::render_contacts` set before the step: otherwise Φ is not resampled and only
+/// the force carriers among the colliding surfels are known.
 pub fn surface_frame(world: &World) -> Frame {
     let n_obj = world.objects.len();
     let mut colliding: Vec<Vec<bool>> = world
