@@ -173,6 +173,9 @@ impl Default for NearHits {
 
 /// Iteration limit of the orthogonal projection.
 pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
+/// A projection step that leaves every kernel's reach is halved up to this many times
+/// (to a sixteenth) before the far field is sampled at its end.
+pub const MAX_STEP_HALVINGS: u32 = 4;
 /// The projection's step is `f/g`, with `g = ∂f/∂t` the slope of `f` along the normal
 /// measured over the last step, when `g` lies in this range (`g` is 1 for a flat
 /// surface of equal kernels); outside it, and on the first step, the plain step `f`.
@@ -583,7 +586,9 @@ impl<'a> ImplicitSurface<'a> {
     /// Orthogonal projection onto the surface: `x ← x − t n(x)` until `|f| < tolerance`
     /// ([`PROJECTION_TOLERANCE`] σ, at least [`PROJECTION_ROUNDOFF_EPS`] epsilons of
     /// `x`'s largest coordinate) or [`MAX_PROJECTION_ITERATIONS`], with `t = f(x)` on the
-    /// first step and the secant step of [`PROJECTION_SLOPE_RANGE`] after it.
+    /// first step and the secant step of [`PROJECTION_SLOPE_RANGE`] after a step between
+    /// two kernel samples (far-field samples take the plain step); a step from within
+    /// the kernels' reach that leaves it is halved, up to [`MAX_STEP_HALVINGS`] times.
     pub fn project(&self, x: Vec3) -> Option<Projection> {
         self.project_given(x, self.sample_near(x))
     }
@@ -619,10 +624,26 @@ impl<'a> ImplicitSurface<'a> {
         // The last step's length and the sample it started from.
         let mut last: Option<(f32, SurfaceSample)> = None;
         while !converged && iterations < MAX_PROJECTION_ITERATIONS {
-            let t = projection_step(&s, last);
-            last = Some((t, s));
-            p -= t * s.normal;
-            near = self.sample_near_kept(p, &mut kept);
+            let mut t = projection_step(&s, last);
+            let mut next = p - t * s.normal;
+            let from_near = near.is_some();
+            near = self.sample_near_kept(next, &mut kept);
+            // A step from within the kernels' reach that lands beyond all of them
+            // overshot (a secant slope near its floor): shorten it rather than sample
+            // the far field out there (a nearest-surfel search, the costliest sample).
+            let mut halvings = 0;
+            while from_near && near.is_none() && halvings < MAX_STEP_HALVINGS {
+                t *= 0.5;
+                next = p - t * s.normal;
+                near = self.sample_near_kept(next, &mut kept);
+                halvings += 1;
+            }
+            // Far-field samples (no kernel in reach) fit a plane to the nearest surfels,
+            // which moves from one point to the next: their difference is no slope of
+            // f, and a secant through it can throw the next step millimetres past the
+            // surface. Only a step between two kernel samples gives the next a slope.
+            last = (from_near && near.is_some()).then_some((t, s));
+            p = next;
             s = self.sample_given(p, near)?;
             iterations += 1;
             converged = s.f.abs() < tolerance;
