@@ -32,35 +32,56 @@ pub const BINDING_FRACTION: f32 = 0.5;
 /// Surfels advected per parallel task: large enough to amortise rayon's scheduling,
 /// small enough to balance two objects on two cores.
 const CHUNK: usize = 4096;
+const _: () = assert!(CHUNK.is_multiple_of(LANES), "chunks are whole lane groups");
 
 /// One phyxel's advection terms for this step, `[c_i, ∇u_i (columns), v_i, 0]`, as two
 /// 8-lane vectors so a weighted sum over a row is two multiply-adds per entry.
 type AffineRow = [f32x8; 2];
 
-/// Fixed binding of each surfel to nearby phyxels, with normalised weights.
+/// Fixed binding of each surfel to nearby phyxels, with normalised weights, in lane
+/// layout: eight consecutive surfels form a group, and slot `s` of a group holds entry
+/// `s` of each of the eight at `8 s + lane` (rows in ascending phyxel order; shorter
+/// rows padded with weight 0 on their own last phyxel). The advection sums a group's
+/// eight rows side by side, eight independent chains with one trip count per group,
+/// instead of one surfel's short loop after another (whose exit, at 4, 5 or 6 entries,
+/// the branch predictor kept missing).
 #[derive(Clone, Debug, Default)]
 pub struct SurfelBinding {
-    offsets: Vec<u32>,
-    /// Bound phyxel and its normalised weight, rows in ascending phyxel order.
-    entries: Vec<(u32, f32)>,
+    /// Slots of group g: `slot_off[g]..slot_off[g + 1]`.
+    slot_off: Vec<u32>,
+    /// Bound phyxel per slot lane.
+    index: Vec<u32>,
+    /// Its normalised weight (0 in padding).
+    weight: Vec<f32>,
     /// Reference point `o` of the affine table (rest centroid of the phyxels).
     origin: Vec3,
     /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
     /// does not allocate.
     table: Vec<AffineRow>,
-    /// Phyxel count of the rest shape it was built from.
+    /// Surfel and phyxel counts of the rest shape it was built from.
+    surfels: usize,
     phyxels: usize,
 }
 
-/// Weighted sum of the table rows of one surfel's binding entries, in entry order.
-#[inline]
-fn row_sum(table: &[AffineRow], entries: &[(u32, f32)]) -> (f32x8, f32x8) {
-    let (mut a, mut b) = (f32x8::ZERO, f32x8::ZERO);
-    for &(i, w) in entries {
-        let row = &table[i as usize];
-        let w = f32x8::splat(w);
-        a += w * row[0];
-        b += w * row[1];
+/// Weighted sums of the table rows of a group's eight surfels, each in its entry order
+/// (padding adds `0 · row`).
+#[inline(always)]
+fn group_sums(
+    table: &[AffineRow],
+    index: &[u32],
+    weight: &[f32],
+    slots: std::ops::Range<usize>,
+) -> ([f32x8; LANES], [f32x8; LANES]) {
+    let (mut a, mut b) = ([f32x8::ZERO; LANES], [f32x8::ZERO; LANES]);
+    for s in slots {
+        let at = s * LANES;
+        let (index, weight) = (&index[at..at + LANES], &weight[at..at + LANES]);
+        for l in 0..LANES {
+            let row = &table[index[l] as usize];
+            let w = f32x8::splat(weight[l]);
+            a[l] += w * row[0];
+            b[l] += w * row[1];
+        }
     }
     (a, b)
 }
@@ -68,7 +89,7 @@ fn row_sum(table: &[AffineRow], entries: &[(u32, f32)]) -> (f32x8, f32x8) {
 impl SurfelBinding {
     /// The surfel and phyxel counts it was built for.
     pub fn counts(&self) -> (usize, usize) {
-        (self.offsets.len() - 1, self.phyxels)
+        (self.surfels, self.phyxels)
     }
 
     /// Binds every surfel to the phyxels within [`BINDING_FRACTION`] of their influence
@@ -78,12 +99,12 @@ impl SurfelBinding {
     /// positions of surfels or phyxels needs a new binding.
     pub fn build(surfels: &Surfels, phyxels: &Phyxels) -> Self {
         let mut b = Self {
-            offsets: vec![0],
+            surfels: surfels.len(),
             phyxels: phyxels.len(),
             ..Default::default()
         };
         if phyxels.is_empty() {
-            b.offsets.resize(surfels.len() + 1, 0);
+            b.slot_off = vec![0; surfels.len().div_ceil(LANES) + 1];
             return b;
         }
         let centroid = phyxels
@@ -120,11 +141,32 @@ impl SurfelBinding {
                 row
             })
             .collect();
-        for row in rows {
-            b.entries.extend(row);
-            b.offsets.push(b.entries.len() as u32);
+        b.slot_off.push(0);
+        for group in rows.chunks(LANES) {
+            let slots = group.iter().map(Vec::len).max().unwrap_or(0);
+            for s in 0..slots {
+                for l in 0..LANES {
+                    let row = group.get(l).map_or(&[][..], |r| &r[..]);
+                    let (i, w) = match row.get(s) {
+                        Some(&e) => e,
+                        None => (row.last().map_or(0, |e| e.0), 0.0),
+                    };
+                    b.index.push(i);
+                    b.weight.push(w);
+                }
+            }
+            b.slot_off
+                .push(b.slot_off.last().copied().unwrap_or(0) + slots as u32);
         }
         b
+    }
+
+    /// Surfel `s`'s binding entries (phyxel, normalised weight) in ascending phyxel order.
+    fn entries(&self, s: usize) -> impl Iterator<Item = (u32, f32)> + '_ {
+        let (g, l) = (s / LANES, s % LANES);
+        (self.slot_off[g] as usize..self.slot_off[g + 1] as usize)
+            .map(move |k| (self.index[k * LANES + l], self.weight[k * LANES + l]))
+            .filter(|e| e.1 != 0.0)
     }
 
     /// Moves surfels, their normals and velocities with the phyxels, given the
@@ -160,7 +202,8 @@ impl SurfelBinding {
             vel,
             ..
         } = surfels;
-        let (table, entries, offsets) = (&self.table, &self.entries, &self.offsets);
+        let (table, index, weight, slot_off) =
+            (&self.table, &self.index, &self.weight, &self.slot_off);
         pos.par_chunks_mut(CHUNK)
             .zip(normal.par_chunks_mut(CHUNK))
             .zip(vel.par_chunks_mut(CHUNK))
@@ -168,7 +211,6 @@ impl SurfelBinding {
             .for_each(|(c, ((p, n), v))| {
                 let first = c * CHUNK;
                 let len = p.0.len();
-                let offsets = &offsets[first..=first + len];
                 let (rx, ry, rz) = (
                     &rest.x[first..first + len],
                     &rest.y[first..first + len],
@@ -179,11 +221,11 @@ impl SurfelBinding {
                     &rest_normal.y[first..first + len],
                     &rest_normal.z[first..first + len],
                 );
-                let row = |k: usize| {
-                    row_sum(
-                        table,
-                        &entries[offsets[k] as usize..offsets[k + 1] as usize],
-                    )
+                // The sums of the eight surfels from `k` on (chunks are whole groups).
+                let sums = |k: usize| {
+                    let g = (first + k) / LANES;
+                    let slots = slot_off[g] as usize..slot_off[g + 1] as usize;
+                    group_sums(table, index, weight, slots)
                 };
                 // Eight surfels at a time: sums per surfel, then the closing
                 // arithmetic (cofactor, normalisation) across lanes, in the scalar
@@ -192,11 +234,7 @@ impl SurfelBinding {
                 for k in (0..groups).step_by(LANES) {
                     // The eight surfels' sums, transposed to lanes: column j of the
                     // table rows is `lane(j)`.
-                    let mut first = [f32x8::ZERO; LANES];
-                    let mut second = [f32x8::ZERO; LANES];
-                    for l in 0..LANES {
-                        (first[l], second[l]) = row(k + l);
-                    }
+                    let (first, second) = sums(k);
                     let (first, second) = (f32x8::transpose(first), f32x8::transpose(second));
                     let lane = |j: usize| if j < 8 { first[j] } else { second[j - 8] };
                     let s0 = [load8(rx, k), load8(ry, k), load8(rz, k)];
@@ -237,9 +275,13 @@ impl SurfelBinding {
                         store8(n, k, ok.select(m[r] * rcp, old));
                     }
                 }
+                let (tail_a, tail_b) = if groups < len {
+                    sums(groups)
+                } else {
+                    Default::default()
+                };
                 for k in groups..len {
-                    let (a, b) = row(k);
-                    let (a, b) = (a.to_array(), b.to_array());
+                    let (a, b) = (tail_a[k - groups].to_array(), tail_b[k - groups].to_array());
                     let g = Mat3::from_cols_array(&[
                         a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3],
                     ]);
@@ -266,8 +308,7 @@ impl SurfelBinding {
             .map(|s| {
                 let s0 = surfels.rest.get(s);
                 let (mut u, mut g, mut v) = (Vec3::ZERO, Mat3::ZERO, Vec3::ZERO);
-                for &(i, w) in &self.entries[self.offsets[s] as usize..self.offsets[s + 1] as usize]
-                {
+                for (i, w) in self.entries(s) {
                     let i = i as usize;
                     let ui = phyxels.pos.get(i) - phyxels.rest.get(i);
                     u += w * (ui + grad[i] * (s0 - phyxels.rest.get(i)));

@@ -10,12 +10,13 @@ use phyxel::shape::Shape;
 use phyxel::surfels::Surfels;
 
 /// A 0.1 m sphere centred 2.5 m from the origin, its phyxels rotated, stretched and bent
-/// (non-uniform gradients) and given a swirling velocity; gradients by MLS.
-fn deformed_ball() -> (Surfels, Phyxels, Vec<Mat3>) {
+/// (non-uniform gradients) and given a swirling velocity; gradients by MLS. Surfels
+/// `surfel_spacing` apart (m).
+fn deformed_ball(surfel_spacing: f32) -> (Surfels, Phyxels, Vec<Mat3>) {
     let centre = Vec3::new(2.0, -1.0, 1.0);
     let shape = Shape::Sphere { radius: 0.1 };
     let vol = shape.sample_volume(0.02);
-    let surf = shape.sample_surface(0.01);
+    let surf = shape.sample_surface(surfel_spacing);
     let shift = |p: &[Vec3]| p.iter().map(|&x| x + centre).collect::<Vec<_>>();
     let mat = Material::default();
     let mut p = Phyxels::at_rest(&shift(&vol.positions), vol.cell_volume, mat.density);
@@ -43,9 +44,24 @@ fn deformed_ball() -> (Surfels, Phyxels, Vec<Mat3>) {
 /// and the table regroups `u` as `Σ w c_i + g (s₀ − o)`, so a few ulp of round-off of
 /// terms up to the object size times `|∇u|` separate them. Normals (unit) and velocities
 /// (≈ 1 m/s) agree to 1e-6: the same weighted sums in the same order.
+/// Two samplings: one surfel count not a multiple of the eight-surfel lane groups (a
+/// partial last group), and one of several parallel chunks of surfels.
 #[test]
 fn fast_advection_matches_reference() {
-    let (s, p, grad) = deformed_ball();
+    let counts: Vec<usize> = [0.01, 0.004].map(compare_with_reference).into();
+    assert!(
+        counts.iter().any(|n| n % 8 != 0),
+        "a partial lane group ({counts:?})"
+    );
+    assert!(
+        counts.iter().any(|&n| n > 4096),
+        "more than one chunk ({counts:?})"
+    );
+}
+
+/// [`fast_advection_matches_reference`] at one surfel spacing; returns the surfel count.
+fn compare_with_reference(surfel_spacing: f32) -> usize {
+    let (s, p, grad) = deformed_ball(surfel_spacing);
     let spread = grad
         .iter()
         .map(|g| {
@@ -75,6 +91,10 @@ fn fast_advection_matches_reference() {
     assert!(dp < 2e-6, "position difference {dp:e} m");
     assert!(dn < 1e-6, "normal difference {dn:e}");
     assert!(dv < 1e-6, "velocity difference {dv:e} m/s");
-    eprintln!("max differences: position {dp:e} m, normal {dn:e}, velocity {dv:e} m/s");
+    eprintln!(
+        "{} surfels: max differences: position {dp:e} m, normal {dn:e}, velocity {dv:e} m/s",
+        s.len()
+    );
     assert!(fast.all_finite());
+    s.len()
 }
