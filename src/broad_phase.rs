@@ -6,6 +6,10 @@ use crate::columns::{LANES, Vec3s, load8};
 use glam::Vec3;
 use wide::f32x8;
 
+/// Points per parallel task of [`Aabb::of`] (a multiple of the lane width): a 1M-surfel
+/// object's box takes 0.3 ms on one core, a 10k one's a few microseconds.
+pub const PARALLEL_CHUNK: usize = 1 << 16;
+
 /// An axis-aligned box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
@@ -28,10 +32,27 @@ impl Aabb {
         max: Vec3::NAN,
     };
 
-    /// Bounding box of the first `len` points of the columns (SIMD over lanes);
-    /// [`Aabb::NON_FINITE`] if a coordinate is infinite or NaN.
+    /// Bounding box of the first `len` points of the columns (SIMD over lanes, and
+    /// rayon over chunks of [`PARALLEL_CHUNK`] points for large sets: min and max give
+    /// the same box in any order); [`Aabb::NON_FINITE`] if a coordinate is infinite or
+    /// NaN.
     pub fn of(points: &Vec3s) -> Aabb {
+        use rayon::prelude::*;
         let n = points.len();
+        let (x, y, z) = (&points.x[..n], &points.y[..n], &points.z[..n]);
+        if n <= PARALLEL_CHUNK {
+            return Self::of_columns(x, y, z);
+        }
+        let chunk = |k: usize| k * PARALLEL_CHUNK..((k + 1) * PARALLEL_CHUNK).min(n);
+        (0..n.div_ceil(PARALLEL_CHUNK))
+            .into_par_iter()
+            .map(|k| Self::of_columns(&x[chunk(k)], &y[chunk(k)], &z[chunk(k)]))
+            .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
+    }
+
+    /// [`Aabb::of`] of three equally long coordinate columns, on one thread.
+    fn of_columns(x: &[f32], y: &[f32], z: &[f32]) -> Aabb {
+        let n = x.len();
         if n == 0 {
             return Aabb::EMPTY;
         }
@@ -41,7 +62,7 @@ impl Aabb {
         // `0·v` is 0 for a finite v and NaN for ±inf or NaN: summed, it flags a
         // non-finite point at the cost of two lane operations (the loop is memory-bound).
         let (mut flag, zero) = (f32x8::splat(0.0), f32x8::splat(0.0));
-        let cols = [&points.x, &points.y, &points.z];
+        let cols = [x, y, z];
         for at in (0..full).step_by(LANES) {
             for c in 0..3 {
                 let v = load8(cols[c], at);
@@ -64,9 +85,10 @@ impl Aabb {
         );
         let mut finite = flag.to_array().iter().all(|&f| f == 0.0);
         for i in full..n {
-            finite &= points.get(i).is_finite();
-            min = min.min(points.get(i));
-            max = max.max(points.get(i));
+            let p = Vec3::new(x[i], y[i], z[i]);
+            finite &= p.is_finite();
+            min = min.min(p);
+            max = max.max(p);
         }
         if !finite {
             return Aabb::NON_FINITE;
@@ -153,6 +175,42 @@ pub fn points_in_box(points: &Vec3s, bounds: &Aabb, out: &mut Vec<u32>) {
             if at + l < n {
                 out.push((at + l) as u32);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Aabb, PARALLEL_CHUNK};
+    use crate::columns::Vec3s;
+    use glam::Vec3;
+
+    /// The box of a set larger than several parallel chunks (and not a whole number of
+    /// lane groups) is the brute-force min and max, exactly; one NaN or infinite
+    /// coordinate anywhere, the last chunk included, makes it `NON_FINITE`.
+    #[test]
+    fn parallel_box_is_the_exact_box() {
+        let n = 3 * PARALLEL_CHUNK + 1237;
+        let mut state = 12345u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / (1u32 << 24) as f32 - 0.5
+        };
+        let points: Vec<Vec3> = (0..n)
+            .map(|i| Vec3::new(next(), next(), next()) * (1.0 + i as f32 * 1e-5))
+            .collect();
+        let (mut min, mut max) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for &p in &points {
+            (min, max) = (min.min(p), max.max(p));
+        }
+        let mut cols = Vec3s::from_points(&points);
+        let b = Aabb::of(&cols);
+        assert_eq!((b.min, b.max), (min, max));
+        for (at, bad) in [(n - 3, f32::NAN), (PARALLEL_CHUNK + 5, f32::INFINITY)] {
+            let keep = cols.get(at);
+            cols.set(at, Vec3::new(keep.x, bad, keep.z));
+            assert!(Aabb::of(&cols).is_non_finite(), "{bad} at {at}");
+            cols.set(at, keep);
         }
     }
 }
