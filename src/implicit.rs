@@ -69,14 +69,15 @@ pub fn exp_neg(q: f32x8) -> f32x8 {
     p * scale
 }
 
-/// The surfels' normals and kernel widths σ in a grid's sorted order, as columns
+/// The surfels' normals and kernel widths σ (as `1/σ²`) in a grid's sorted order, as columns
 /// padded by `LANES − 1` like the grid's own sorted positions: the kernel sums then
 /// read every surfel datum in whole lane groups, next to the grid's distance test, with
 /// no gather per hit. Rebuilt after each grid rebuild (surfels move); keeps its buffers.
 #[derive(Clone, Debug, Default)]
 pub struct SurfelRows {
     normal: [Vec<f32>; 3],
-    sigma: Vec<f32>,
+    /// `1/σ²`: the weight's exponent is a product, not a division (∞ for a zero radius).
+    inv_sigma2: Vec<f32>,
 }
 
 impl SurfelRows {
@@ -93,7 +94,10 @@ impl SurfelRows {
         fill(&mut self.normal[0], &|i| normal.x[i]);
         fill(&mut self.normal[1], &|i| normal.y[i]);
         fill(&mut self.normal[2], &|i| normal.z[i]);
-        fill(&mut self.sigma, &|i| SIGMA_PER_RADIUS * radius[i]);
+        fill(&mut self.inv_sigma2, &|i| {
+            let sigma = SIGMA_PER_RADIUS * radius[i];
+            1.0 / (sigma * sigma)
+        });
     }
 }
 
@@ -112,9 +116,8 @@ impl LaneSums {
     /// with squared distances `d2` (the grid's sorted positions `points`).
     #[inline(always)]
     fn add(&mut self, points: [&[f32]; 3], rows: &SurfelRows, k: usize, mask: u32, d2: f32x8) {
-        let sigma = load8(&rows.sigma, k);
-        let q = d2 / (sigma * sigma);
-        // Beyond the cutoff (and NaN from a zero radius) weigh 0.
+        let q = d2 * load8(&rows.inv_sigma2, k);
+        // Beyond the cutoff (and ∞ or NaN from a zero radius) weigh 0.
         let on = lane_mask(mask) & q.simd_lt(f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS));
         let w = on.select(exp_neg(q), f32x8::ZERO);
         self.w += w;
@@ -124,8 +127,8 @@ impl LaneSums {
             .zip(&mut self.n)
             .zip(points.iter().zip(&rows.normal))
         {
-            *s += w * load8(p, k);
-            *n += w * load8(nc, k);
+            *s = w.mul_add(load8(p, k), *s);
+            *n = w.mul_add(load8(nc, k), *n);
         }
     }
 
