@@ -34,8 +34,8 @@ impl Aabb {
 
     /// Bounding box of the first `len` points of the columns (SIMD over lanes, and
     /// rayon over chunks of [`PARALLEL_CHUNK`] points for large sets: min and max give
-    /// the same box in any order); [`Aabb::NON_FINITE`] if a coordinate is infinite or
-    /// NaN.
+    /// the same box in any order, up to the sign of a corner that is exactly zero, which
+    /// no comparison sees); [`Aabb::NON_FINITE`] if a coordinate is infinite or NaN.
     pub fn of(points: &Vec3s) -> Aabb {
         use rayon::prelude::*;
         let n = points.len();
