@@ -86,18 +86,21 @@ impl SurfelRows {
     pub fn rebuild(&mut self, grid: &Grid, pos: &Vec3s, normal: &Vec3s, radius: &[f32]) {
         debug_assert_eq!(grid.len(), pos.len());
         let sorted = grid.sorted();
-        let fill = |col: &mut Vec<f32>, value: &dyn Fn(usize) -> f32| {
+        // One pass over the sorted order, the four columns side by side: each surfel's
+        // data is read once, and nothing is called through a pointer per element.
+        let len = sorted.len() + LANES - 1;
+        let [nx, ny, nz] = &mut self.normal;
+        for col in [&mut *nx, &mut *ny, &mut *nz, &mut self.inv_sigma2] {
             col.clear();
-            col.extend(sorted.iter().map(|&i| value(i as usize)));
-            col.resize(sorted.len() + LANES - 1, 0.0);
-        };
-        fill(&mut self.normal[0], &|i| normal.x[i]);
-        fill(&mut self.normal[1], &|i| normal.y[i]);
-        fill(&mut self.normal[2], &|i| normal.z[i]);
-        fill(&mut self.inv_sigma2, &|i| {
+            col.resize(len, 0.0);
+        }
+        let columns = nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut());
+        for ((((x, y), z), w), &i) in columns.zip(self.inv_sigma2.iter_mut()).zip(sorted) {
+            let i = i as usize;
+            (*x, *y, *z) = (normal.x[i], normal.y[i], normal.z[i]);
             let sigma = SIGMA_PER_RADIUS * radius[i];
-            1.0 / (sigma * sigma)
-        });
+            *w = 1.0 / (sigma * sigma);
+        }
     }
 }
 
