@@ -79,7 +79,8 @@ fn topology_allocations(world: &mut phyxel::World, warm_up: usize, n: usize) -> 
 /// One test (the counter is global, so nothing else may run in this binary):
 /// a falling body (dynamics, advection, broad phase), a body resting on a plane
 /// (every contact phase, every step), a ring folded onto itself (self-collision) and a
-/// hanging bar that may break (the fracture check) allocate nothing after warm-up.
+/// hanging bar that may break (the fracture check) allocate nothing after warm-up, and
+/// neither does a falling body of 100k surfels (its box over parallel chunks).
 #[test]
 fn steady_state_steps_do_not_allocate() {
     let mut falling = built("falling-sphere");
@@ -115,4 +116,22 @@ fn steady_state_steps_do_not_allocate() {
     let allocs = topology_allocations(&mut bar, 300, 100);
     assert_eq!(bar.objects.len(), 2, "the elastic bar stays whole");
     assert_eq!(allocs, 0, "plastic-fracture bar, elastic, hanging");
+
+    // A 100k-surfel falling body: above `broad_phase::PARALLEL_CHUNK` surfels, its box
+    // is taken over parallel chunks.
+    let big = BuildOptions {
+        surfels: Some(100_000),
+        ..Default::default()
+    };
+    let mut fine = Scene::builtin("falling-sphere")
+        .unwrap()
+        .build(&big)
+        .unwrap();
+    assert!(fine.objects[0].surfels.len() > phyxel::broad_phase::PARALLEL_CHUNK);
+    allocations_over(&mut fine, 5);
+    assert_eq!(
+        allocations_over(&mut fine, 20),
+        0,
+        "falling-sphere, 100k surfels"
+    );
 }
