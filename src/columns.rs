@@ -217,8 +217,16 @@ pub fn check_lengths(
 }
 
 /// The first of `values` (named `name`) that is not finite and > 0, as an error.
+///
+/// The step checks four phyxel columns with it, so the common case is one pass without
+/// an early exit (`0 < v < ∞`, false for NaN), which the compiler runs in lanes: an
+/// early-exit search of the 1M scene's 40k phyxels took 0.2 ms per step, about 1%.
 pub fn check_positive(name: &str, values: &[f32]) -> Result<(), String> {
-    match values.iter().position(|v| !(v.is_finite() && *v > 0.0)) {
+    let valid = |v: f32| (v > 0.0) & (v < f32::INFINITY);
+    if values.iter().fold(true, |all, &v| all & valid(v)) {
+        return Ok(());
+    }
+    match values.iter().position(|&v| !valid(v)) {
         Some(i) => Err(format!(
             "{name}[{i}] = {}: must be finite and > 0",
             values[i]
@@ -247,4 +255,31 @@ pub fn lane_mask(bits: u32) -> wide::f32x8 {
     let lane_bits = wide::i32x8::from([1, 2, 4, 8, 16, 32, 64, 128]);
     let set = (wide::i32x8::splat(bits as i32) & lane_bits).simd_eq(lane_bits);
     cast(set)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::check_positive;
+
+    /// `check_positive` against its definition, brute force: Ok exactly when every value
+    /// is finite and > 0, else an error naming the first value that is not, for each
+    /// kind of bad value at each place of a column longer than a few lanes.
+    #[test]
+    fn check_positive_names_the_first_bad_value() {
+        let good: Vec<f32> = (0..37).map(|i| 0.5 + i as f32).collect();
+        assert_eq!(check_positive("mass", &good), Ok(()));
+        assert_eq!(check_positive("mass", &[f32::MIN_POSITIVE / 2.0]), Ok(()));
+        assert_eq!(check_positive("mass", &[]), Ok(()));
+        for bad in [0.0, -0.0, -1.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for at in [0, 7, 8, 36] {
+                let mut v = good.clone();
+                v[at] = bad;
+                if let Some(later) = v.get_mut(at + 9) {
+                    *later = -2.0; // a later bad value is not the one named
+                }
+                let e = check_positive("mass", &v).expect_err("a bad value");
+                assert_eq!(e, format!("mass[{at}] = {bad}: must be finite and > 0"));
+            }
+        }
+    }
 }

@@ -565,7 +565,7 @@ impl World {
     /// fragments key on them), valid materials, columns of the counts each object was
     /// built with, and phyxel masses, volumes, spacings and radii finite and > 0
     /// ([`Object::check_counts`]). A few comparisons per object, and one pass over four
-    /// phyxel columns (about 0.05% of a step of the 1M scene).
+    /// phyxel columns (15 µs for the 1M scene's 40k phyxels, under 0.1% of its step).
     fn check_inputs(&mut self) {
         assert!(
             self.dt.is_finite() && self.dt > 0.0,
