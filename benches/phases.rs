@@ -1,10 +1,11 @@
 //! One criterion group per phase of the step, and whole steps, on the `scale` scene
 //! (two elastic spheres pressing into each other, as `phyxel run scale`) at the paper's
-//! size (2 × 10k surfels, 2 × 390 phyxels) and at 2 × 100k surfels (2 × 2,800 phyxels).
+//! size (2 × 10k surfels, 2 × 390 phyxels) and at 2 × 100k surfels (2 × 3,900 phyxels).
 //!
-//! Each size is run for `WARM_STEPS` steps first, so that the spheres are in contact
-//! (about 650 contact surfels per step at 10k); that state is the start of every
-//! measurement. `phase_<name>/<size>` times [`World::run_phase`] alone on that state
+//! Each size is run for `WARM_STEPS` steps first, so that the spheres are in contact;
+//! that state is the start of every measurement. Both sizes step with the finer one's
+//! dt (the default dt shrinks with the phyxel spacing), so that they reach the same
+//! stage of the same motion, as in the scaling protocol of docs/PERFORMANCE.md. `phase_<name>/<size>` times [`World::run_phase`] alone on that state
 //! (the phases before it in the step have run on it, so it sees what the step would
 //! give it); `step/<size>` times a whole `world.step()`. Phases that change the state
 //! (`dynamics`, `advect`, `distribute`) are restored from the start state before each
@@ -31,7 +32,7 @@ struct Sized {
 }
 
 impl Sized {
-    fn new(label: &'static str, surfels: u32, phyxels: u32) -> Self {
+    fn new(label: &'static str, surfels: u32, phyxels: u32, dt: Option<f32>) -> Self {
         let scene = Scene::builtin("scale").expect("built-in scale scene");
         let options = BuildOptions {
             surfels: Some(surfels),
@@ -39,6 +40,10 @@ impl Sized {
             ..Default::default()
         };
         let mut world = scene.build(&options).expect("scale scene builds");
+        if let Some(dt) = dt {
+            assert!(dt <= world.dt, "a common dt must be stable at every size");
+            world.dt = dt;
+        }
         for _ in 0..WARM_STEPS {
             world.step();
         }
@@ -69,10 +74,8 @@ fn changes_state(p: Phase) -> bool {
 }
 
 fn phases(c: &mut Criterion) {
-    let mut sizes = [
-        Sized::new("10k", 10_000, 390),
-        Sized::new("100k", 100_000, 2_800),
-    ];
+    let fine = Sized::new("100k", 100_000, 3_900, None);
+    let mut sizes = [Sized::new("10k", 10_000, 390, Some(fine.world.dt)), fine];
     let mut g = c.benchmark_group("step");
     g.sample_size(20);
     for s in sizes.iter_mut() {
