@@ -1,12 +1,12 @@
 //! Collision detection and whole steps at scale: two spheres of radius R = 0.1 m whose
-//! surfaces overlap by 1 cm (centres 0.19 m apart, at rest, no gravity), sampled with
+//! surfaces overlap by 5 mm (centres 0.195 m apart, at rest, no gravity), sampled with
 //! 10k, 100k and 1M surfels each (surfel spacing `√(4πR²/N)`) and 390, 2,800 and 20,000
 //! phyxels each: the paper's size, the performance issue's 1M size, and their log-linear
 //! interpolation (the phyxel count grows with the resolution, `N^0.86`).
 //!
 //! Every measured step starts from the same state: before each step the phyxels and
 //! surfels are restored from a copy taken after building (outside the timed region), so
-//! the overlap stays 1 cm and every step tests the same candidates. Per size:
+//! the overlap stays 5 mm and every step tests the same candidates. Per size:
 //!
 //! - `detect_<size>/step`: a whole `world.step()` (dynamics, advection, broad phase,
 //!   surfel grids, detection, contact surface, forces, distribution);
@@ -16,24 +16,24 @@
 //!   three phases count. Throughput is in candidate surfels (surfels of either sphere in
 //!   the broad phase's intersection box): µs per candidate = 1000 / (Kelem/s).
 //!
-//! - `threads_100k/1` and `/2`: the whole step at 100k in a 1- and a 2-thread rayon pool.
+//! - `threads_100k/1` and `/2`, `threads_1m/1` and `/2`: the whole step at 100k and at
+//!   1M in a 1- and a 2-thread rayon pool.
 //!
 //! After each size a table of per-phase medians over every step criterion ran (warm-up
 //! included) is printed to stderr, with the candidate and colliding counts, followed by
 //! a single-thread split of the candidates by path through detection (`paths`: near the
 //! other surface, far inside it, far outside) with the time per candidate of each.
 //!
-//! 1M surfels per sphere is not a criterion bench: one step takes seconds (tens of
-//! seconds at the time of writing) and criterion needs at least 10 samples after a
-//! warm-up. After the criterion benches, `detect_1m` times a few steps one-shot from the
-//! same start state, on 2 threads and then on 1, and prints each step and the per-phase
-//! medians (`PHYXEL_BENCH_1M_STEPS`, default 3; 0 skips it). The criterion filter does
-//! not apply to it.
+//! 1M surfels per sphere runs with criterion's smallest sample count (10): a step takes
+//! tens of milliseconds now (it took seconds when this bench was written), and building
+//! the 1M world about ten seconds. `PHYXEL_BENCH_1M=0` leaves the 1M size out.
 //!
 //! Run: `cargo bench --bench detect -- --warm-up-time 1 --measurement-time 5`
 //! (one criterion size: append `detect_100k`). Numbers go to docs/PERFORMANCE.md.
 
-use criterion::{BenchmarkGroup, Criterion, Throughput, criterion_group, measurement::WallTime};
+use criterion::{
+    BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main, measurement::WallTime,
+};
 use glam::Vec3;
 use phyxel::broad_phase::{Aabb, points_in_box};
 use phyxel::grid::Grid;
@@ -46,8 +46,10 @@ use std::time::{Duration, Instant};
 
 /// Sphere radius (m).
 const R: f32 = 0.1;
-/// Overlap of the two surfaces (m): centres are `2R − OVERLAP` apart.
-const OVERLAP: f32 = 0.01;
+/// Overlap of the two surfaces (m): centres are `2R − OVERLAP` apart. At most the 1M
+/// size's phyxel spacing (7 mm), or the scene check refuses bodies that start inside
+/// one another (it refused the 1 cm of the first rounds once that check came).
+const OVERLAP: f32 = 0.005;
 /// Phyxels per sphere for `n` surfels per sphere: 390 at 10k (the paper), 20,000 at 1M
 /// (the performance issue), log-linear in between.
 fn phyxels_for(n: usize) -> u32 {
@@ -281,23 +283,33 @@ fn bench_size(g: &mut BenchmarkGroup<'_, WallTime>, b: &mut Bench) {
 }
 
 fn detect(c: &mut Criterion) {
-    for (label, n) in [("detect_10k", 10_000), ("detect_100k", 100_000)] {
-        let mut g = c.benchmark_group(label);
+    let with_1m = std::env::var("PHYXEL_BENCH_1M").map_or(true, |v| v != "0");
+    let sizes = [("10k", 10_000), ("100k", 100_000), ("1m", 1_000_000)];
+    for (size, n) in sizes {
+        if n == 1_000_000 && !with_1m {
+            continue;
+        }
+        // Criterion's smallest sample count where a step takes tens of milliseconds.
+        let samples = if n >= 1_000_000 { 10 } else { 100 };
+        let label = format!("detect_{size}");
+        let mut g = c.benchmark_group(&label);
+        g.sample_size(samples);
         let mut b = Bench::new(n);
         bench_size(&mut g, &mut b);
         g.finish();
-        b.report(label, "criterion warm-up and samples");
+        b.report(&label, "criterion warm-up and samples");
         b.paths();
-        if n == 100_000 {
-            threads(c, "threads_100k", &mut b);
+        if n >= 100_000 {
+            threads(c, &format!("threads_{size}"), samples, &mut b);
         }
     }
 }
 
 /// Whole steps of `b` in a 1- and a 2-thread pool (the loop runs inside the pool, as
 /// `phyxel run` does).
-fn threads(c: &mut Criterion, label: &str, b: &mut Bench) {
+fn threads(c: &mut Criterion, label: &str, samples: usize, b: &mut Bench) {
     let mut g = c.benchmark_group(label);
+    g.sample_size(samples);
     for n in [1, 2] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(n)
@@ -310,54 +322,6 @@ fn threads(c: &mut Criterion, label: &str, b: &mut Bench) {
     g.finish();
 }
 
-/// Steps of the one-shot 1M-surfel timing: `PHYXEL_BENCH_1M_STEPS` (default 3; 0 skips).
-fn steps_1m() -> usize {
-    std::env::var("PHYXEL_BENCH_1M_STEPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(3)
-}
-
-/// 1M surfels per sphere: a step takes seconds, so instead of criterion (at least 10
-/// samples after a warm-up) a one-shot timing of a few steps from the start state,
-/// printed to stderr (each step's wall time, then per-phase medians).
-fn detect_1m() {
-    let steps = steps_1m();
-    if steps == 0 {
-        return;
-    }
-    let mut b = Bench::new(1_000_000);
-    for threads in [2, 1] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .expect("thread pool");
-        b.records.clear();
-        let mut wall = Vec::new();
-        for k in 0..steps {
-            let (whole, det) = pool.install(|| b.step());
-            wall.push(whole.as_secs_f64());
-            eprintln!(
-                "detect_1m one-shot, {threads} thread(s), step {}: {:.3} s, detection phases {:.3} s",
-                k + 1,
-                whole.as_secs_f64(),
-                det.as_secs_f64()
-            );
-        }
-        wall.sort_by(f64::total_cmp);
-        eprintln!(
-            "detect_1m {threads} thread(s): median whole step {:.3} s",
-            wall[wall.len() / 2]
-        );
-        b.report(&format!("detect_1m ({threads} threads)"), "one-shot");
-    }
-    b.paths();
-}
-
 criterion_group!(benches, detect);
 
-fn main() {
-    benches();
-    Criterion::default().configure_from_args().final_summary();
-    detect_1m();
-}
+criterion_main!(benches);
