@@ -1025,19 +1025,22 @@ fn error_scene_without_objects() {
 }
 
 /// `run --flamegraph FILE.svg` profiles the run and writes an SVG flamegraph; the run's
-/// own output is unchanged.
+/// own output is unchanged, and stderr lists the frames of most own time: at most five,
+/// each a share in (0, 100] %, largest first, the shares summing to at most 100%.
 #[test]
 fn flamegraph_is_written() {
     let path = std::env::temp_dir().join(format!("phyxel-flame-{}.svg", std::process::id()));
     let path_s = path.to_str().unwrap();
-    stdout_of(&[
+    let args = [
         "run",
         "falling-sphere",
         "--steps",
         "200",
         "--flamegraph",
         path_s,
-    ]);
+    ];
+    let out = phyxel(&args);
+    assert!(out.status.success(), "stderr:\n{}", text(&out.stderr));
     let svg = std::fs::read_to_string(&path).expect("flamegraph written");
     assert!(
         svg.starts_with("<?xml") && svg.contains("<svg"),
@@ -1045,6 +1048,29 @@ fn flamegraph_is_written() {
         &svg[..svg.len().min(200)]
     );
     std::fs::remove_file(&path).ok();
+    let stderr = text(&out.stderr);
+    let listed = stderr
+        .split_once("top frames by own time:\n")
+        .unwrap_or_else(|| panic!("no top frames in stderr:\n{stderr}"))
+        .1;
+    let shares: Vec<f64> = listed
+        .lines()
+        .map_while(|l| l.trim_start().split_once("%  "))
+        .map(|(p, frame)| {
+            assert!(
+                !frame.trim().is_empty(),
+                "a share without a frame: {listed}"
+            );
+            p.trim().parse().expect("a percentage")
+        })
+        .collect();
+    assert!((1..=5).contains(&shares.len()), "frames listed: {listed}");
+    assert!(shares.iter().all(|&p| p > 0.0 && p <= 100.0), "{listed}");
+    assert!(
+        shares.windows(2).all(|w| w[0] >= w[1]),
+        "not ranked: {listed}"
+    );
+    assert!(shares.iter().sum::<f64>() <= 100.0 + 0.5, "{listed}");
 }
 
 /// The scale family: `--surfels N --phyxel-count M` resample every deformable object of
