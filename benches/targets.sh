@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The performance issue's targets in one sitting (docs/PERFORMANCE.md, "At a glance"):
 # whole runs of the `scale` scene from the CLI, then the SIMD-against-scalar kernel
-# benches, with the ratios worked out. About 12 minutes on the 2-core CI machine.
+# benches, with the ratios worked out. About 2.5 minutes on the 2-core CI machine once
+# the benches are built.
 #
 #   bash benches/targets.sh             # two runs per row
 #   RUNS=1 SKIP_BENCH=1 bash benches/targets.sh   # the CLI rows once, no criterion
