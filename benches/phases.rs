@@ -5,7 +5,8 @@
 //! Each size is run for `WARM_STEPS` steps first, so that the spheres are in contact;
 //! that state is the start of every measurement. Both sizes step with the finer one's
 //! dt (the default dt shrinks with the phyxel spacing), so that they reach the same
-//! stage of the same motion, as in the scaling protocol of docs/PERFORMANCE.md. `phase_<name>/<size>` times [`World::run_phase`] alone on that state
+//! stage of the same motion, as in the scaling protocol of docs/PERFORMANCE.md.
+//! `phase_<name>/<size>` times [`World::run_phase`] alone on that state
 //! (the phases before it in the step have run on it, so it sees what the step would
 //! give it); `step/<size>` times a whole `world.step()`. Phases that change the state
 //! (`dynamics`, `advect`, `distribute`) are restored from the start state before each

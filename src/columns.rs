@@ -220,7 +220,7 @@ pub fn check_lengths(
 ///
 /// The step checks four phyxel columns with it, so the common case is one pass without
 /// an early exit (`0 < v < ∞`, false for NaN), which the compiler runs in lanes: an
-/// early-exit search of the 1M scene's 40k phyxels took 0.2 ms per step, about 1%.
+/// early-exit search of the 1M scene's 40k phyxels took 0.2 ms, 0.6–0.9% of its step.
 pub fn check_positive(name: &str, values: &[f32]) -> Result<(), String> {
     let valid = |v: f32| (v > 0.0) & (v < f32::INFINITY);
     if values.iter().fold(true, |all, &v| all & valid(v)) {
