@@ -72,9 +72,11 @@ enum Command {
         /// Phyxels per deformable object (overrides the scene's sampling).
         #[arg(long, value_name = "N")]
         phyxel_count: Option<u32>,
-        /// Profile the run (sampling, 997 Hz) and write a flamegraph SVG; the phases appear
-        /// as frames named like the timing table (`phyxel::world::World::detect`, ...), and
-        /// the five frames of most own time are listed on stderr.
+        /// Profile the run (sampling at 997 Hz of CPU time, or at the kernel's timer tick
+        /// where that is coarser: 250 Hz on the CI machine) and write a flamegraph SVG; the
+        /// phases appear as frames named like the timing table
+        /// (`phyxel::world::World::detect`, ...), and the five frames of most own time are
+        /// listed on stderr.
         #[arg(long, value_name = "FILE.svg")]
         flamegraph: Option<PathBuf>,
     },
