@@ -10,6 +10,7 @@
 //! point `o` is the phyxels' rest centroid, so `c_i` stays small (no f32 cancellation) for
 //! objects far from the origin.
 
+use crate::broad_phase::{Aabb, BLOCK};
 use crate::columns::{LANES, load8, store8};
 use crate::grid::Grid;
 use crate::kernel::poly6_shape;
@@ -30,9 +31,9 @@ pub const MIN_BINDING: usize = 4;
 pub const BINDING_FRACTION: f32 = 0.5;
 
 /// Surfels advected per parallel task: large enough to amortise rayon's scheduling,
-/// small enough to balance two objects on two cores.
-const CHUNK: usize = 4096;
-const _: () = assert!(CHUNK.is_multiple_of(LANES), "chunks are whole lane groups");
+/// small enough to balance two objects on two cores. A task is a block of the broad
+/// phase, whose box it takes while it writes the positions ([`SurfelBinding::block_boxes`]).
+const CHUNK: usize = BLOCK;
 
 /// One phyxel's advection terms for this step, `[c_i, ∇u_i (columns), v_i, 0]`, as two
 /// 8-lane vectors so a weighted sum over a row is two multiply-adds per entry.
@@ -61,6 +62,9 @@ pub struct SurfelBinding {
     /// Surfel and phyxel counts of the rest shape it was built from.
     surfels: usize,
     phyxels: usize,
+    /// Box of the positions of each block of [`BLOCK`] surfels, as the last
+    /// [`Self::advect`] (or the build) wrote them.
+    block_boxes: Vec<Aabb>,
 }
 
 /// Weighted sums of the table rows of a group's eight surfels, each in its entry order
@@ -101,6 +105,13 @@ impl SurfelBinding {
         let mut b = Self {
             surfels: surfels.len(),
             phyxels: phyxels.len(),
+            block_boxes: (0..surfels.len().div_ceil(BLOCK))
+                .map(|k| {
+                    let r = k * BLOCK..((k + 1) * BLOCK).min(surfels.len());
+                    let p = &surfels.pos;
+                    Aabb::of_columns(&p.x[r.clone()], &p.y[r.clone()], &p.z[r])
+                })
+                .collect(),
             ..Default::default()
         };
         if phyxels.is_empty() {
@@ -161,6 +172,14 @@ impl SurfelBinding {
         b
     }
 
+    /// The box of each block of [`BLOCK`] surfels (block `k` holds surfels
+    /// `k·BLOCK..`) as the last [`Self::advect`] wrote their positions, or as they were
+    /// when the binding was built: the broad phase's object boxes and scans use them
+    /// instead of reading every position again, while the positions are unchanged.
+    pub fn block_boxes(&self) -> &[Aabb] {
+        &self.block_boxes
+    }
+
     /// Surfel `s`'s binding entries (phyxel, normalised weight) in ascending phyxel order.
     fn entries(&self, s: usize) -> impl Iterator<Item = (u32, f32)> + '_ {
         let (g, l) = (s / LANES, s % LANES);
@@ -176,6 +195,7 @@ impl SurfelBinding {
     /// per-phyxel affine table and written straight into the surfel columns.
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
         let o = self.origin;
+        let surfels_len = surfels.len();
         self.table.resize(phyxels.len(), [f32x8::ZERO, f32x8::ZERO]);
         self.table
             .par_chunks_mut(CHUNK)
@@ -204,11 +224,14 @@ impl SurfelBinding {
         } = surfels;
         let (table, index, weight, slot_off) =
             (&self.table, &self.index, &self.weight, &self.slot_off);
+        let boxes = &mut self.block_boxes;
+        boxes.resize(surfels_len.div_ceil(CHUNK), Aabb::EMPTY);
         pos.par_chunks_mut(CHUNK)
             .zip(normal.par_chunks_mut(CHUNK))
             .zip(vel.par_chunks_mut(CHUNK))
+            .zip(boxes.par_iter_mut())
             .enumerate()
-            .for_each(|(c, ((p, n), v))| {
+            .for_each(|(c, (((p, n), v), block))| {
                 let first = c * CHUNK;
                 let len = p.0.len();
                 let (rx, ry, rz) = (
@@ -296,6 +319,9 @@ impl SurfelBinding {
                     (p.0[k], p.1[k], p.2[k]) = (p_new.x, p_new.y, p_new.z);
                     (v.0[k], v.1[k], v.2[k]) = (b[4], b[5], b[6]);
                 }
+                // The block's box while its positions are still in cache: the broad
+                // phase and the scans then need not read them all again.
+                *block = Aabb::of_columns(p.0, p.1, p.2);
             });
     }
 

@@ -50,8 +50,9 @@ impl Aabb {
             .reduce(|| Aabb::EMPTY, |a, b| a.union(&b))
     }
 
-    /// [`Aabb::of`] of three equally long coordinate columns, on one thread.
-    fn of_columns(x: &[f32], y: &[f32], z: &[f32]) -> Aabb {
+    /// [`Aabb::of`] of three equally long coordinate columns, on one thread (the
+    /// advection takes each block's box with it while the block is still in cache).
+    pub fn of_columns(x: &[f32], y: &[f32], z: &[f32]) -> Aabb {
         let n = x.len();
         if n == 0 {
             return Aabb::EMPTY;
@@ -94,6 +95,13 @@ impl Aabb {
             return Aabb::NON_FINITE;
         }
         Aabb { min, max }
+    }
+
+    /// The union of `boxes` ([`Aabb::EMPTY`] for none, [`Aabb::NON_FINITE`] if one is):
+    /// the box of a set from the boxes of its parts, exactly as [`Aabb::of`] of the
+    /// whole (min and max do not round).
+    pub fn of_boxes(boxes: &[Aabb]) -> Aabb {
+        boxes.iter().fold(Aabb::EMPTY, |a, b| a.union(b))
     }
 
     /// Is this [`Aabb::NON_FINITE`] (a NaN corner)?
@@ -156,13 +164,41 @@ pub fn overlapping_pairs(boxes: &[Aabb], is_static: &[bool], out: &mut Vec<Pair>
     }
 }
 
+/// Points per block of [`points_in_blocks`]: the advection's parallel task
+/// (`SurfelBinding::block_boxes`), which takes each block's box as it writes it.
+pub const BLOCK: usize = 4096;
+const _: () = assert!(BLOCK.is_multiple_of(LANES), "blocks are whole lane groups");
+
 /// Indices of the points inside `bounds` (SIMD compare over lanes), appended to `out`.
 pub fn points_in_box(points: &Vec3s, bounds: &Aabb, out: &mut Vec<u32>) {
+    scan_box(points, bounds, 0..points.len(), out);
+}
+
+/// [`points_in_box`] given the boxes of the points' blocks of [`BLOCK`] (block `b` holds
+/// points `b·BLOCK..`): blocks whose box misses `bounds` are skipped unread. The same
+/// indices in the same order, as long as `blocks` bound the points (a point with a
+/// non-finite coordinate is in no box, and its block's box is [`Aabb::NON_FINITE`],
+/// which is scanned).
+pub fn points_in_blocks(points: &Vec3s, blocks: &[Aabb], bounds: &Aabb, out: &mut Vec<u32>) {
     let n = points.len();
+    assert_eq!(
+        blocks.len(),
+        n.div_ceil(BLOCK),
+        "points_in_blocks: one box per block of {BLOCK} points"
+    );
+    for (b, block) in blocks.iter().enumerate() {
+        if block.is_non_finite() || block.intersection(bounds).is_some() {
+            scan_box(points, bounds, b * BLOCK..((b + 1) * BLOCK).min(n), out);
+        }
+    }
+}
+
+/// The points of `range` (starting at a lane group) inside `bounds`, appended to `out`.
+fn scan_box(points: &Vec3s, bounds: &Aabb, range: std::ops::Range<usize>, out: &mut Vec<u32>) {
     let lo = bounds.min.to_array().map(f32x8::splat);
     let hi = bounds.max.to_array().map(f32x8::splat);
     let cols = [&points.x, &points.y, &points.z];
-    for at in (0..n).step_by(LANES) {
+    for at in range.clone().step_by(LANES) {
         let mut inside = f32x8::splat(f32::from_bits(u32::MAX));
         for c in 0..3 {
             let v = load8(cols[c], at);
@@ -172,7 +208,7 @@ pub fn points_in_box(points: &Vec3s, bounds: &Aabb, out: &mut Vec<u32>) {
         while bits != 0 {
             let l = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            if at + l < n {
+            if at + l < range.end {
                 out.push((at + l) as u32);
             }
         }
@@ -181,7 +217,7 @@ pub fn points_in_box(points: &Vec3s, bounds: &Aabb, out: &mut Vec<u32>) {
 
 #[cfg(test)]
 mod tests {
-    use super::{Aabb, PARALLEL_CHUNK};
+    use super::{Aabb, BLOCK, PARALLEL_CHUNK, points_in_blocks, points_in_box};
     use crate::columns::Vec3s;
     use glam::Vec3;
 
@@ -212,5 +248,70 @@ mod tests {
             assert!(Aabb::of(&cols).is_non_finite(), "{bad} at {at}");
             cols.set(at, keep);
         }
+    }
+
+    /// `points_in_blocks` against the full scan (`points_in_box`, itself against
+    /// `Aabb::contains` point by point): for query boxes that cut a few blocks, hold
+    /// none or hold all, over blocks boxed with `Aabb::of_columns` (the last one partial,
+    /// one holding a NaN point, which no box contains), the same indices in the same
+    /// order. A block whose box misses the query is not read: with one block's box
+    /// replaced by an empty one, its points drop out.
+    #[test]
+    fn block_scan_is_the_full_scan() {
+        let n = 5 * BLOCK + 1001;
+        // Points along a helix, so that consecutive blocks lie in different places.
+        let mut points: Vec<Vec3> = (0..n)
+            .map(|i| {
+                let t = i as f32 * 1e-3;
+                Vec3::new(t.cos(), t.sin(), 0.1 * t)
+            })
+            .collect();
+        points[2 * BLOCK + 17] = Vec3::new(f32::NAN, 0.0, 0.0);
+        let cols = Vec3s::from_points(&points);
+        let blocks: Vec<Aabb> = (0..n.div_ceil(BLOCK))
+            .map(|b| {
+                let r = b * BLOCK..((b + 1) * BLOCK).min(n);
+                Aabb::of_columns(&cols.x[r.clone()], &cols.y[r.clone()], &cols.z[r])
+            })
+            .collect();
+        assert!(blocks[2].is_non_finite());
+        let queries = [
+            Aabb {
+                min: Vec3::new(-0.5, 0.2, 0.3),
+                max: Vec3::new(0.9, 1.0, 1.2),
+            },
+            Aabb {
+                min: Vec3::splat(-2.0),
+                max: Vec3::splat(3.0),
+            },
+            Aabb {
+                min: Vec3::splat(5.0),
+                max: Vec3::splat(6.0),
+            },
+            Aabb {
+                min: Vec3::new(-1.0, -1.0, 1.5),
+                max: Vec3::new(1.0, 1.0, 1.6),
+            },
+        ];
+        for q in &queries {
+            let (mut full, mut blocked) = (Vec::new(), Vec::new());
+            points_in_box(&cols, q, &mut full);
+            points_in_blocks(&cols, &blocks, q, &mut blocked);
+            let brute: Vec<u32> = (0..n as u32)
+                .filter(|&i| q.contains(points[i as usize]))
+                .collect();
+            assert_eq!(full, brute, "{q:?}");
+            assert_eq!(blocked, full, "{q:?}");
+        }
+        let q = &queries[1];
+        let mut skipped = blocks.clone();
+        skipped[1] = Aabb::EMPTY;
+        let mut got = Vec::new();
+        points_in_blocks(&cols, &skipped, q, &mut got);
+        assert!(
+            got.iter()
+                .all(|&i| !(BLOCK..2 * BLOCK).contains(&(i as usize)))
+        );
+        assert_eq!(got.len(), n - 1 - BLOCK);
     }
 }

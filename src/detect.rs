@@ -1,7 +1,7 @@
 //! Colliding surfels (Keiser et al. 2004, §5, eq. 2): the surfels of one object that lie
 //! in the pair's intersection box and inside the other object's implicit surface.
 
-use crate::broad_phase::{Pair, points_in_box};
+use crate::broad_phase::{Aabb, Pair, points_in_blocks, points_in_box};
 use crate::grid::Grid;
 use crate::implicit::{FarHint, ImplicitSurface, SurfaceSample};
 use crate::surfels::Surfels;
@@ -93,22 +93,38 @@ pub struct DetectScratch {
     owner: (usize, usize, usize),
 }
 
-/// The surfels of `surfels` in `pair.bounds` that are inside `other`, in surfel order,
-/// written to `out`; returns the number of candidates tested. With `only`, the surfels
-/// `s` with `only[s]` false are not tested (the force carriers when no render surface
-/// needs the others: see `World::render_contacts`). Candidates far from
+/// The surfels one side of a pair may test against the other side's surface.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidates<'a> {
+    /// Every surfel of the object.
+    pub surfels: &'a Surfels,
+    /// The boxes of the surfels' blocks when they bound the current positions
+    /// ([`crate::advect::SurfelBinding::block_boxes`]): the candidate scan skips the blocks
+    /// outside the pair's box ([`points_in_blocks`]; the same candidates).
+    pub blocks: Option<&'a [Aabb]>,
+    /// When set, the surfels `s` with `only[s]` false are not tested (the force carriers
+    /// when no render surface needs the others: see `World::render_contacts`).
+    pub only: Option<&'a [bool]>,
+}
+
+/// The surfels of `side` in `pair.bounds` that are inside `other`, in surfel order,
+/// written to `out`; returns the number of candidates tested. Candidates far from
 /// `other`'s surface are classified by `volume` alone (one grid query) and projected only
 /// when inside (deep penetration); candidates near it whose `f` is clearly positive
 /// ([`OUTSIDE_FRACTION`]) are outside without a projection.
 pub fn colliding_surfels(
-    surfels: &Surfels,
+    side: Candidates<'_>,
     other: &ImplicitSurface<'_>,
     volume: &Volume<'_>,
     pair: &Pair,
-    only: Option<&[bool]>,
     scratch: &mut DetectScratch,
     out: &mut Vec<Colliding>,
 ) -> usize {
+    let Candidates {
+        surfels,
+        blocks,
+        only,
+    } = side;
     let DetectScratch {
         candidates,
         found,
@@ -118,7 +134,10 @@ pub fn colliding_surfels(
     } = scratch;
     let outside = OUTSIDE_FRACTION * other.reach();
     candidates.clear();
-    points_in_box(&surfels.pos, &pair.bounds, candidates);
+    match blocks {
+        Some(blocks) => points_in_blocks(&surfels.pos, blocks, &pair.bounds, candidates),
+        None => points_in_box(&surfels.pos, &pair.bounds, candidates),
+    }
     if let Some(only) = only {
         candidates.retain(|&s| only[s as usize]);
     }

@@ -1,10 +1,10 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
-use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_box};
+use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks, points_in_box};
 use crate::contact::{
     self, ContactParams, ContactPatch, ContactSurfel, DistributeScratch, PairSurfaces, PatchScratch,
 };
-use crate::detect::{DetectScratch, PairDetection, Volume, colliding_surfels};
+use crate::detect::{Candidates, DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::{StepContext, damped_euler_limit};
 use crate::grid::{Grid, LazyGrid};
 use crate::implicit::{ImplicitSurface, SurfelRows, grid_cell, radius_range};
@@ -45,6 +45,12 @@ pub struct World {
     /// under them (reordered, replaced, even by an object of the same id) must not
     /// inherit them.
     cache_owner: Vec<u64>,
+    /// True from this step's advection to the end of the step: every moving object's
+    /// `SurfelBinding::block_boxes` bound its positions, so the broad phase, the grid
+    /// regions and the candidate scans skip blocks that miss their boxes instead of
+    /// reading every position. Cleared at the start of a step and of
+    /// [`World::run_phase`] (the caller may have moved surfels in between).
+    blocks_current: bool,
     /// Colliding surfels of every overlapping pair of this step.
     pub detections: Vec<PairDetection>,
     /// Contact surfaces and forces of this step.
@@ -441,6 +447,7 @@ impl World {
             phyxel_grids: Vec::new(),
             surface_grids: Vec::new(),
             cache_owner: Vec::new(),
+            blocks_current: false,
             render_contacts: false,
             friction_work: 0,
             arena: Bump::new(),
@@ -538,6 +545,7 @@ impl World {
         self.check_inputs();
         let mut t = std::mem::take(&mut self.times);
         self.arena.reset();
+        self.blocks_current = false;
         t.time(Phase::Dynamics, || self.dynamics());
         t.add_work(Phase::Dynamics, self.moving_phyxels());
         t.time(Phase::Advect, || self.advect());
@@ -682,6 +690,7 @@ impl World {
              whose pairs this phase reads: run Phase::BroadPhase (or a step) first"
         );
         self.arena.reset();
+        self.blocks_current = false;
         match phase {
             Phase::Dynamics => self.dynamics(),
             Phase::Advect => self.advect(),
@@ -744,6 +753,7 @@ impl World {
             .par_iter_mut()
             .filter(|o| !o.is_static())
             .for_each(|o| o.advect_surfels());
+        self.blocks_current = true;
         // Plastic flow that asked for a new rest shape gets it now that the surfels
         // have followed this step's motion.
         self.rest_renewals += self
@@ -772,7 +782,11 @@ impl World {
                 self.grids[k] = None;
             }
             if fresh || !o.is_static() {
-                let surface = Aabb::of(&o.surfels.pos);
+                let surface = if self.blocks_current && !o.is_static() {
+                    Aabb::of_boxes(o.binding.block_boxes())
+                } else {
+                    Aabb::of(&o.surfels.pos)
+                };
                 if surface.is_non_finite() && self.non_finite.is_none() {
                     // (The step being taken: `steps` counts it at the end.)
                     self.non_finite = NonFinite::find(o, self.steps + 1, true);
@@ -819,6 +833,7 @@ impl World {
         }
         let objects = &self.objects;
         let (needed, near) = (&needed[..], &near[..]);
+        let blocks = self.blocks_current;
         // Objects in parallel, and each object's two grids in parallel: a grid's counting
         // sort is serial, so this is where the cores share the phase. The far grid and
         // the grid of all surfels are only reset here: they are built if and when a
@@ -848,7 +863,12 @@ impl World {
                 };
                 sg.members.clear();
                 if !o.is_static() {
-                    points_in_box(&o.surfels.pos, &region, &mut sg.members);
+                    let pos = &o.surfels.pos;
+                    if blocks {
+                        points_in_blocks(pos, o.binding.block_boxes(), &region, &mut sg.members);
+                    } else {
+                        points_in_box(pos, &region, &mut sg.members);
+                    }
                 }
                 let whole = o.is_static() || 2 * sg.members.len() > o.surfels.len();
                 sg.region = (!whole).then_some(region);
@@ -898,7 +918,15 @@ impl World {
         // other surfels are not tested (a million-surfel sphere on 20k phyxels has one
         // carrier in four or five surfels).
         let render = self.render_contacts;
-        let only = |k: usize| (!render).then(|| &view.objects[k].force_carrier[..]);
+        let current = self.blocks_current;
+        let side = |surfels, k: usize| {
+            let o = &view.objects[k];
+            Candidates {
+                surfels,
+                blocks: (current && !o.is_static()).then(|| o.binding.block_boxes()),
+                only: (!render).then(|| &o.force_carrier[..]),
+            }
+        };
         let volume = |k: usize| Volume {
             phyxels: phyxel_grids[k].as_ref().expect("grid built for pairs"),
             reach: view.objects[k].phyxel_spacing,
@@ -915,22 +943,20 @@ impl World {
                 let (na, nb) = rayon::join(
                     || {
                         colliding_surfels(
-                            s.surfels_a,
+                            side(s.surfels_a, pair.a),
                             &s.b,
                             &volume(pair.b),
                             pair,
-                            only(pair.a),
                             sa,
                             &mut d.a_in_b,
                         )
                     },
                     || {
                         colliding_surfels(
-                            s.surfels_b,
+                            side(s.surfels_b, pair.b),
                             &s.a,
                             &volume(pair.a),
                             pair,
-                            only(pair.b),
                             sb,
                             &mut d.b_in_a,
                         )
