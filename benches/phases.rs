@@ -6,7 +6,10 @@
 //! that state is the start of every measurement. Both sizes step with the finer one's
 //! dt (the default dt shrinks with the phyxel spacing), so that they reach the same
 //! stage of the same motion, as in the scaling protocol of docs/PERFORMANCE.md.
-//! `phase_<name>/<size>` times [`World::run_phase`] alone on that state
+//! `phase_<name>/<size>` times [`World::run_phase`] alone on that state (alone, the
+//! broad phase, the grid regions and the candidate scans read every surfel position:
+//! within a step they use the advection's block boxes instead, so `broad_phase`,
+//! `surfel_grid` and `detect` cost a step less than here)
 //! (the phases before it in the step have run on it, so it sees what the step would
 //! give it); `step/<size>` times a whole `world.step()`. Phases that change the state
 //! (`dynamics`, `advect`, `distribute`) are restored from the start state before each
