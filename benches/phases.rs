@@ -6,16 +6,16 @@
 //! that state is the start of every measurement. Both sizes step with the finer one's
 //! dt (the default dt shrinks with the phyxel spacing), so that they reach the same
 //! stage of the same motion, as in the scaling protocol of docs/PERFORMANCE.md.
-//! `phase_<name>/<size>` times [`World::run_phase`] alone on that state (alone, the
-//! broad phase, the grid regions and the candidate scans read every surfel position:
-//! within a step they use the advection's block boxes instead, so `broad_phase`,
-//! `surfel_grid` and `detect` cost a step less than here)
+//! `phase_<name>/<size>` times [`World::run_phase`] alone on that state
 //! (the phases before it in the step have run on it, so it sees what the step would
 //! give it); `step/<size>` times a whole `world.step()`. Phases that change the state
 //! (`dynamics`, `advect`, `distribute`) are restored from the start state before each
-//! sample batch, outside the timed region. 2 × 1M surfels is too slow for criterion:
-//! `phyxel run scale --surfels 1000000 --phyxel-count 20000 --steps 10 --json` prints
-//! the same per-phase times (docs/PERFORMANCE.md).
+//! sample batch, outside the timed region. Run alone, the broad phase, the grid regions
+//! and the candidate scans read every surfel position; within a step they use the
+//! advection's block boxes, so `broad_phase`, `surfel_grid` and `detect` cost a step
+//! less than their groups here. At 2 × 1M surfels, whole steps are criterion groups of
+//! `benches/detect.rs`, and `phyxel run scale --surfels 1000000 --phyxel-count 20000
+//! --json` prints the per-phase times of a run (docs/PERFORMANCE.md).
 //!
 //! Run: `cargo bench --bench phases -- --warm-up-time 1 --measurement-time 3 --noplot`
 //! (one phase: append its name, e.g. `phase_detect`).
