@@ -171,16 +171,24 @@ const _: () = assert!(BLOCK.is_multiple_of(LANES), "blocks are whole lane groups
 
 /// Indices of the points inside `bounds` (SIMD compare over lanes), appended to `out`.
 pub fn points_in_box(points: &Vec3s, bounds: &Aabb, out: &mut Vec<u32>) {
-    scan_box(points, bounds, 0..points.len(), out);
+    points_in_blocks(points, None, bounds, out);
 }
 
-/// [`points_in_box`] given the boxes of the points' blocks of [`BLOCK`] (block `b` holds
-/// points `b·BLOCK..`): blocks whose box misses `bounds` are skipped unread. The same
-/// indices in the same order, as long as `blocks` bound the points (a point with a
-/// non-finite coordinate is in no box, and its block's box is [`Aabb::NON_FINITE`],
-/// which is scanned).
-pub fn points_in_blocks(points: &Vec3s, blocks: &[Aabb], bounds: &Aabb, out: &mut Vec<u32>) {
+/// [`points_in_box`], given (when `Some`) the boxes of the points' blocks of [`BLOCK`]
+/// (block `b` holds points `b·BLOCK..`): blocks whose box misses `bounds` are skipped
+/// unread. The same indices in the same order, as long as `blocks` bound the points (a
+/// point with a non-finite coordinate is in no box, and its block's box is
+/// [`Aabb::NON_FINITE`], which is scanned). `None` scans every point.
+pub fn points_in_blocks(
+    points: &Vec3s,
+    blocks: Option<&[Aabb]>,
+    bounds: &Aabb,
+    out: &mut Vec<u32>,
+) {
     let n = points.len();
+    let Some(blocks) = blocks else {
+        return scan_box(points, bounds, 0..n, out);
+    };
     assert_eq!(
         blocks.len(),
         n.div_ceil(BLOCK),
@@ -296,7 +304,7 @@ mod tests {
         for q in &queries {
             let (mut full, mut blocked) = (Vec::new(), Vec::new());
             points_in_box(&cols, q, &mut full);
-            points_in_blocks(&cols, &blocks, q, &mut blocked);
+            points_in_blocks(&cols, Some(&blocks), q, &mut blocked);
             let brute: Vec<u32> = (0..n as u32)
                 .filter(|&i| q.contains(points[i as usize]))
                 .collect();
@@ -307,7 +315,7 @@ mod tests {
         let mut skipped = blocks.clone();
         skipped[1] = Aabb::EMPTY;
         let mut got = Vec::new();
-        points_in_blocks(&cols, &skipped, q, &mut got);
+        points_in_blocks(&cols, Some(&skipped), q, &mut got);
         assert!(
             got.iter()
                 .all(|&i| !(BLOCK..2 * BLOCK).contains(&(i as usize)))

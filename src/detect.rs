@@ -1,7 +1,7 @@
 //! Colliding surfels (Keiser et al. 2004, §5, eq. 2): the surfels of one object that lie
 //! in the pair's intersection box and inside the other object's implicit surface.
 
-use crate::broad_phase::{Aabb, Pair, points_in_blocks, points_in_box};
+use crate::broad_phase::{Aabb, Pair, points_in_blocks};
 use crate::grid::Grid;
 use crate::implicit::{FarHint, ImplicitSurface, SurfaceSample};
 use crate::surfels::Surfels;
@@ -134,10 +134,7 @@ pub fn colliding_surfels(
     } = scratch;
     let outside = OUTSIDE_FRACTION * other.reach();
     candidates.clear();
-    match blocks {
-        Some(blocks) => points_in_blocks(&surfels.pos, blocks, &pair.bounds, candidates),
-        None => points_in_box(&surfels.pos, &pair.bounds, candidates),
-    }
+    points_in_blocks(&surfels.pos, blocks, &pair.bounds, candidates);
     if let Some(only) = only {
         candidates.retain(|&s| only[s as usize]);
     }

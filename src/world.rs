@@ -1,6 +1,6 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
-use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks, points_in_box};
+use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
 use crate::contact::{
     self, ContactParams, ContactPatch, ContactSurfel, DistributeScratch, PairSurfaces, PatchScratch,
 };
@@ -413,6 +413,12 @@ pub fn contact_stable_dt(
     CONTACT_STABILITY_MARGIN * damped_euler_limit(omega, 0.0)
 }
 
+/// The block boxes of `o`'s surfels when they bound its current positions (`current`:
+/// [`World`]'s `blocks_current`; static objects are not advected, so never).
+fn current_blocks(current: bool, o: &Object) -> Option<&[Aabb]> {
+    (current && !o.is_static()).then(|| o.binding.block_boxes())
+}
+
 impl World {
     /// A world of `objects` under `gravity` (m/s²) stepped by `dt` (s), taken as given:
     /// set it from [`World::stable_dt`] (its bound may be infinite, e.g. for static
@@ -782,10 +788,9 @@ impl World {
                 self.grids[k] = None;
             }
             if fresh || !o.is_static() {
-                let surface = if self.blocks_current && !o.is_static() {
-                    Aabb::of_boxes(o.binding.block_boxes())
-                } else {
-                    Aabb::of(&o.surfels.pos)
+                let surface = match current_blocks(self.blocks_current, o) {
+                    Some(blocks) => Aabb::of_boxes(blocks),
+                    None => Aabb::of(&o.surfels.pos),
                 };
                 if surface.is_non_finite() && self.non_finite.is_none() {
                     // (The step being taken: `steps` counts it at the end.)
@@ -833,7 +838,7 @@ impl World {
         }
         let objects = &self.objects;
         let (needed, near) = (&needed[..], &near[..]);
-        let blocks = self.blocks_current;
+        let current = self.blocks_current;
         // Objects in parallel, and each object's two grids in parallel: a grid's counting
         // sort is serial, so this is where the cores share the phase. The far grid and
         // the grid of all surfels are only reset here: they are built if and when a
@@ -863,12 +868,8 @@ impl World {
                 };
                 sg.members.clear();
                 if !o.is_static() {
-                    let pos = &o.surfels.pos;
-                    if blocks {
-                        points_in_blocks(pos, o.binding.block_boxes(), &region, &mut sg.members);
-                    } else {
-                        points_in_box(pos, &region, &mut sg.members);
-                    }
+                    let blocks = current_blocks(current, o);
+                    points_in_blocks(&o.surfels.pos, blocks, &region, &mut sg.members);
                 }
                 let whole = o.is_static() || 2 * sg.members.len() > o.surfels.len();
                 sg.region = (!whole).then_some(region);
@@ -923,7 +924,7 @@ impl World {
             let o = &view.objects[k];
             Candidates {
                 surfels,
-                blocks: (current && !o.is_static()).then(|| o.binding.block_boxes()),
+                blocks: current_blocks(current, o),
                 only: (!render).then(|| &o.force_carrier[..]),
             }
         };
