@@ -27,6 +27,63 @@ const GROUP_GRAIN: usize = 16;
 /// Stress `P` of a phyxel as 16 floats (9 used): two aligned lane rows.
 pub type StressRow = [f32; 16];
 
+/// Lengths of the state and stress buffers whose gathers need no bounds checks: powers
+/// of two, a small one so that small bodies keep small buffers.
+const FIXED_ROWS: [usize; 2] = [1 << 10, 1 << 16];
+
+/// Rows of the state or stress buffer as the gathers read them.
+trait Rows<const W: usize>: Sync {
+    fn row(&self, i: u32) -> &[f32; W];
+}
+
+/// A buffer of exactly `N` rows, `N` a power of two known at compile time: the index is
+/// masked to `N`, so the compiler can drop the bounds check of every lane's load (in
+/// safe code; the checks were about a tenth of the kernel's time). Every table index is
+/// below [`LaneStencil::padded`] `≤ N`, so the mask changes none.
+struct Fixed<'a, const W: usize, const N: usize>(&'a [[f32; W]; N]);
+
+impl<const W: usize, const N: usize> Rows<W> for Fixed<'_, W, N> {
+    #[inline(always)]
+    fn row(&self, i: u32) -> &[f32; W] {
+        &self.0[i as usize & (N - 1)]
+    }
+}
+
+/// Any other buffer (bodies of more than 65,536 phyxels): checked loads.
+impl<const W: usize> Rows<W> for &[[f32; W]] {
+    #[inline(always)]
+    fn row(&self, i: u32) -> &[f32; W] {
+        &self[i as usize]
+    }
+}
+
+/// The length to give the state and stress buffers of `padded` rows: the smallest of
+/// [`FIXED_ROWS`] that holds them, else `padded`. Rows past `padded` are never read.
+pub fn buffer_rows(padded: usize) -> usize {
+    FIXED_ROWS
+        .into_iter()
+        .find(|&n| n >= padded)
+        .unwrap_or(padded)
+}
+
+/// Calls `$body` with `$rows` bound to the buffer `$buf` as a [`Rows`]: a [`Fixed`]
+/// view when its length is one of [`FIXED_ROWS`], the checked slice otherwise.
+macro_rules! with_rows {
+    ($buf:expr, |$rows:ident| $body:expr) => {{
+        let buf = $buf;
+        if let Ok(b) = <&[_; FIXED_ROWS[0]]>::try_from(buf) {
+            let $rows = Fixed(b);
+            $body
+        } else if let Ok(b) = <&[_; FIXED_ROWS[1]]>::try_from(buf) {
+            let $rows = Fixed(b);
+            $body
+        } else {
+            let $rows = buf;
+            $body
+        }
+    }};
+}
+
 /// Phyxels per window: within a window, a table's lanes take the phyxels in order of
 /// list length, so the eight lists of a group have nearly equal lengths and the group
 /// pads little (its slot count is its longest list). Windows are whole groups, and the
@@ -178,7 +235,8 @@ impl LaneStencil {
         Self { n, rows, targets }
     }
 
-    /// Phyxels rounded up to whole groups: the length of the state and stress buffers.
+    /// Phyxels rounded up to whole groups: the rows of the state and stress buffers the
+    /// kernel writes and reads (the buffers themselves have [`buffer_rows`] rows).
     pub fn padded(&self) -> usize {
         self.n.div_ceil(LANES) * LANES
     }
@@ -453,8 +511,9 @@ pub fn pack_state(
 pub struct LaneInputs<'a> {
     pub law: Law,
     /// Per phyxel `[u, v, 0, 0]`: displacement (m) and velocity (m/s, read only when
-    /// `law.tau > 0`), one 32-byte row so a neighbour is one lane load; padded to
-    /// [`LaneStencil::padded`] with zero rows.
+    /// `law.tau > 0`), one 32-byte row so a neighbour is one lane load; zero rows up to
+    /// [`LaneStencil::padded`], and [`buffer_rows`] rows in all so that the gathers
+    /// need no bounds checks.
     pub state: &'a [[f32; 8]],
     /// Rest volume per phyxel, padded (m³).
     pub volume: &'a [f32],
@@ -472,7 +531,13 @@ pub struct LaneOutputs<'a> {
 
 /// Gradients and stresses `P` of every phyxel; returns the largest strain norm.
 pub fn stress_pass(st: &LaneStencil, input: &LaneInputs<'_>, out: LaneOutputs<'_>) -> f32 {
-    groups_pass(st, input, 0..st.groups(), out)
+    with_rows!(input.state, |state| groups_pass(
+        st,
+        input,
+        &state,
+        0..st.groups(),
+        out
+    ))
 }
 
 /// Splits the outputs at window boundaries and runs the groups in parallel tasks.
@@ -481,6 +546,7 @@ pub fn stress_pass(st: &LaneStencil, input: &LaneInputs<'_>, out: LaneOutputs<'_
 fn groups_pass(
     st: &LaneStencil,
     input: &LaneInputs<'_>,
+    state: &impl Rows<8>,
     groups: std::ops::Range<usize>,
     out: LaneOutputs<'_>,
 ) -> f32 {
@@ -496,7 +562,7 @@ fn groups_pass(
             let (p, rest) = stress.split_at_mut(LANES);
             stress = rest;
             let plastic = (!plastic.is_empty()).then_some(&mut *plastic);
-            max = max.max(group(st, input, g, base, &mut *grad, plastic, p));
+            max = max.max(group(st, input, state, g, base, &mut *grad, plastic, p));
         }
         return max;
     }
@@ -517,7 +583,7 @@ fn groups_pass(
                 plastic: p0,
                 stress: s0,
             };
-            groups_pass(st, input, groups.start..mid, out)
+            groups_pass(st, input, state, groups.start..mid, out)
         },
         || {
             let out = LaneOutputs {
@@ -525,7 +591,7 @@ fn groups_pass(
                 plastic: p1,
                 stress: s1,
             };
-            groups_pass(st, input, mid..groups.end, out)
+            groups_pass(st, input, state, mid..groups.end, out)
         },
     );
     a.max(b)
@@ -533,9 +599,9 @@ fn groups_pass(
 
 /// Eight rows of eight floats transposed to lanes.
 #[inline(always)]
-fn gather<const W: usize>(rows: &[[f32; W]], idx: &[u32], half: usize) -> [f32x8; 8] {
+fn gather<const W: usize>(rows: &impl Rows<W>, idx: &[u32], half: usize) -> [f32x8; 8] {
     f32x8::transpose(std::array::from_fn(|lane| {
-        let r = &rows[idx[lane] as usize];
+        let r = rows.row(idx[lane]);
         let a: [f32; 8] = r[8 * half..8 * half + 8].try_into().expect("8 of W");
         f32x8::from(a)
     }))
@@ -549,7 +615,7 @@ fn gather<const W: usize>(rows: &[[f32; W]], idx: &[u32], half: usize) -> [f32x8
 #[inline(always)]
 fn lane_gradients<const VELOCITY: bool>(
     st: &LaneStencil,
-    state: &[[f32; 8]],
+    state: &impl Rows<8>,
     g: usize,
 ) -> (M3, M3) {
     let own = gather(state, &st.rows.phyxels(g), 0);
@@ -568,9 +634,11 @@ fn lane_gradients<const VELOCITY: bool>(
 
 /// One group: gradients and the law; returns the largest strain. `grad` and
 /// `plastic` start at phyxel `base`; `stress` is the group's eight lane positions.
+#[allow(clippy::too_many_arguments)]
 fn group(
     st: &LaneStencil,
     input: &LaneInputs<'_>,
+    state: &impl Rows<8>,
     g: usize,
     base: usize,
     grad: &mut [Mat3],
@@ -579,9 +647,9 @@ fn group(
 ) -> f32 {
     let velocity = input.law.tau > 0.0;
     let (gu, gv) = if velocity {
-        lane_gradients::<true>(st, input.state, g)
+        lane_gradients::<true>(st, state, g)
     } else {
-        lane_gradients::<false>(st, input.state, g)
+        lane_gradients::<false>(st, state, g)
     };
     let phyxels = st.rows.phyxels(g);
     // Lanes past the last phyxel come last in a group (the order pads with `p = i`).
@@ -613,10 +681,21 @@ fn group(
         .fold(0.0f32, |a, &b| a.max(b))
 }
 
-/// `f_j = P_j d_j + Σ_i P_i d_ij` of every phyxel into the padded force columns (N).
+/// `f_j = P_j d_j + Σ_i P_i d_ij` of every phyxel into the padded force columns (N);
+/// `stress` is the stress pass's buffer, of [`buffer_rows`] rows.
 pub fn force_pass(
     st: &LaneStencil,
     stress: &[StressRow],
+    fx: &mut [f32],
+    fy: &mut [f32],
+    fz: &mut [f32],
+) {
+    with_rows!(stress, |stress| force_rows(st, &stress, fx, fy, fz))
+}
+
+fn force_rows(
+    st: &LaneStencil,
+    stress: &impl Rows<16>,
     fx: &mut [f32],
     fy: &mut [f32],
     fz: &mut [f32],
@@ -635,9 +714,8 @@ pub fn force_pass(
                 for s in st.targets.slots(g) {
                     let idx = st.targets.indices(s);
                     let lo = gather(stress, idx, 0);
-                    let p8 = f32x8::from(std::array::from_fn::<f32, 8, _>(|l| {
-                        stress[idx[l] as usize][8]
-                    }));
+                    let p8 =
+                        f32x8::from(std::array::from_fn::<f32, 8, _>(|l| stress.row(idx[l])[8]));
                     let p = |k: usize| if k < 8 { lo[k] } else { p8 };
                     let d = st.targets.weight(s);
                     for (row, fr) in f.iter_mut().enumerate() {
@@ -653,4 +731,84 @@ pub fn force_pass(
                 }
             }
         });
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use phyxel::material::Material;
+    use phyxel::phyxels::Phyxels;
+    use phyxel::shape::Shape;
+
+    /// Both passes over buffers of each kind (a [`Fixed`] view of 1024 or 65,536 rows,
+    /// and the checked slice of exactly `padded` rows or of a length no fixed view takes)
+    /// give the same bits: the masked index reads the row the checked one reads.
+    /// Reference: the checked slice of `padded` rows, the kernel before fixed views.
+    #[test]
+    fn fixed_rows_read_what_checked_rows_read() {
+        let mat = Material::default();
+        // About 700 phyxels: indices past half the small view's rows.
+        let v = Shape::Sphere { radius: 0.1 }.sample_volume(0.018);
+        let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
+        for i in 0..p.len() {
+            let x = p.rest.get(i);
+            p.pos
+                .set(i, x + glam::Vec3::new(0.02 * x.y, -0.01 * x.x, 0.03 * x.z));
+            p.vel.set(i, glam::Vec3::new(x.z, 0.5 * x.x, -x.y));
+        }
+        let stencil = phyxel::mls::MlsStencil::build(&p);
+        let (in_off, incoming) = super::super::incoming_of(&stencil);
+        let st = LaneStencil::new(&stencil, &in_off, &incoming);
+        let padded = st.padded();
+        assert!(
+            (FIXED_ROWS[0] / 2..FIXED_ROWS[0]).contains(&padded),
+            "{padded} phyxels: the test wants indices past half the small view"
+        );
+        let law = super::super::Law::new(&mat, 1e-4, 1e-4);
+        let run = |rows: usize| {
+            let mut state = vec![[0.0f32; 8]; rows];
+            pack_state(
+                &p.pos,
+                &p.rest,
+                &p.pos_carry,
+                Some(&p.vel),
+                &mut state[..padded],
+            );
+            let mut stress = vec![[0.0f32; 16]; rows];
+            let mut grad = vec![Mat3::ZERO; p.len()];
+            let input = LaneInputs {
+                law,
+                state: &state,
+                volume: &p.volume,
+            };
+            let out = LaneOutputs {
+                grad: &mut grad,
+                plastic: &mut [],
+                stress: &mut stress[..padded],
+            };
+            let strain = stress_pass(&st, &input, out);
+            let mut f = [vec![0.0f32; padded], vec![0.0; padded], vec![0.0; padded]];
+            let [fx, fy, fz] = &mut f;
+            force_pass(&st, &stress, fx, fy, fz);
+            (strain.to_bits(), grad, f)
+        };
+        let reference = run(padded);
+        assert!(reference.2[0].iter().any(|&v| v != 0.0), "no force");
+        for rows in [FIXED_ROWS[0], FIXED_ROWS[1], padded + 3] {
+            let got = run(rows);
+            assert_eq!(got.0, reference.0, "{rows} rows: strain");
+            assert!(
+                got.1
+                    .iter()
+                    .zip(&reference.1)
+                    .all(|(a, b)| a.to_cols_array().map(f32::to_bits)
+                        == b.to_cols_array().map(f32::to_bits)),
+                "{rows} rows: gradients"
+            );
+            for (axis, (a, b)) in got.2.iter().zip(&reference.2).enumerate() {
+                let same = a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+                assert!(same, "{rows} rows: forces along axis {axis}");
+            }
+        }
+    }
 }

@@ -44,9 +44,11 @@ pub struct MlsDynamics {
     incoming: Vec<(u32, u32)>,
     /// The stencil in lane layout for the SIMD kernel.
     lanes: LaneStencil,
-    /// `P` per phyxel for the lane kernel's force pass (kept between steps).
+    /// `P` per phyxel for the lane kernel's force pass (kept between steps), and
+    /// `[u, v, 0, 0]` per phyxel for its gathers: [`lanes::buffer_rows`] rows each (1,024
+    /// or 65,536 for bodies up to that size, allocated zeroed, so the rows past the
+    /// body's are never touched), the lengths at which the gathers need no bounds checks.
     stress_rows: Vec<lanes::StressRow>,
-    /// `[u, v, 0, 0]` per phyxel for the lane kernel's gathers.
     state: Vec<[f32; 8]>,
     /// Displacement gradient per phyxel (column b = ∂u/∂x_b).
     grad: Vec<Mat3>,
@@ -82,8 +84,8 @@ impl MlsDynamics {
         let (in_off, incoming) = incoming_of(&stencil);
         let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
         let mut mls = Self {
-            stress_rows: vec![[0.0; 16]; lanes.padded()],
-            state: Vec::new(),
+            stress_rows: vec![[0.0; 16]; lanes::buffer_rows(lanes.padded())],
+            state: vec![[0.0; 8]; lanes::buffer_rows(lanes.padded())],
             lanes,
             stencil,
             in_off,
@@ -211,11 +213,18 @@ impl MlsDynamics {
     /// kernel (eight phyxels per `f32x8`, see `lanes`). `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let law = Law::new(material, dt, self.tau(material));
-        self.state.resize(self.lanes.padded(), [0.0; 8]);
+        let (padded, rows) = (self.lanes.padded(), lanes::buffer_rows(self.lanes.padded()));
+        self.state.resize(rows, [0.0; 8]);
         let vel = (law.tau > 0.0).then_some(&phyxels.vel);
         let p = phyxels;
-        lanes::pack_state(&p.pos, &p.rest, &p.pos_carry, vel, &mut self.state);
-        self.stress_rows.resize(self.lanes.padded(), [0.0; 16]);
+        lanes::pack_state(
+            &p.pos,
+            &p.rest,
+            &p.pos_carry,
+            vel,
+            &mut self.state[..padded],
+        );
+        self.stress_rows.resize(rows, [0.0; 16]);
         let input = LaneInputs {
             law,
             state: &self.state,
@@ -224,7 +233,7 @@ impl MlsDynamics {
         let out = LaneOutputs {
             grad: &mut self.grad,
             plastic: &mut self.plastic,
-            stress: &mut self.stress_rows,
+            stress: &mut self.stress_rows[..padded],
         };
         self.max_strain = lanes::stress_pass(&self.lanes, &input, out);
         self.after_plastic_flow(material);
