@@ -12,6 +12,7 @@
 
 use crate::broad_phase::{Aabb, BLOCK};
 use crate::columns::{LANES, load8, store8};
+use crate::gather::{Rows, fixed_rows};
 use crate::grid::Grid;
 use crate::kernel::poly6_shape;
 use crate::mls::cofactor;
@@ -36,8 +37,9 @@ pub const BINDING_FRACTION: f32 = 0.5;
 const CHUNK: usize = BLOCK;
 
 /// One phyxel's advection terms for this step, `[c_i, ∇u_i (columns), v_i, 0]`, as two
-/// 8-lane vectors so a weighted sum over a row is two multiply-adds per entry.
-type AffineRow = [f32x8; 2];
+/// 8-lane rows so a weighted sum over a row is two multiply-adds per entry (plain `f32`
+/// arrays, so that a zeroed table is allocated without writing it: `crate::gather`).
+type AffineRow = [[f32; 8]; 2];
 
 /// Fixed binding of each surfel to nearby phyxels, with normalised weights, in lane
 /// layout: eight consecutive surfels form a group, and slot `s` of a group holds entry
@@ -57,7 +59,8 @@ pub struct SurfelBinding {
     /// Reference point `o` of the affine table (rest centroid of the phyxels).
     origin: Vec3,
     /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
-    /// does not allocate.
+    /// does not allocate; [`fixed_rows`] rows, so that the sums' gathers need no bounds
+    /// checks (`crate::gather`).
     table: Vec<AffineRow>,
     /// Surfel and phyxel counts of the rest shape it was built from.
     surfels: usize,
@@ -71,7 +74,7 @@ pub struct SurfelBinding {
 /// (padding adds `0 · row`).
 #[inline(always)]
 fn group_sums(
-    table: &[AffineRow],
+    table: &impl Rows<AffineRow>,
     index: &[u32],
     weight: &[f32],
     slots: std::ops::Range<usize>,
@@ -81,10 +84,10 @@ fn group_sums(
         let at = s * LANES;
         let (index, weight) = (&index[at..at + LANES], &weight[at..at + LANES]);
         for l in 0..LANES {
-            let row = &table[index[l] as usize];
+            let row = table.row(index[l]);
             let w = f32x8::splat(weight[l]);
-            a[l] += w * row[0];
-            b[l] += w * row[1];
+            a[l] += w * f32x8::from(row[0]);
+            b[l] += w * f32x8::from(row[1]);
         }
     }
     (a, b)
@@ -196,8 +199,12 @@ impl SurfelBinding {
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
         let o = self.origin;
         let surfels_len = surfels.len();
-        self.table.resize(phyxels.len(), [f32x8::ZERO, f32x8::ZERO]);
-        self.table
+        let rows = fixed_rows(phyxels.len());
+        if self.table.len() != rows {
+            // Zeroed, not written: the rows past the phyxels' are never touched.
+            self.table = vec![[[0.0; 8]; 2]; rows];
+        }
+        self.table[..phyxels.len()]
             .par_chunks_mut(CHUNK)
             .enumerate()
             .for_each(|(c, rows)| {
@@ -209,8 +216,8 @@ impl SurfelBinding {
                     let v = phyxels.vel.get(i);
                     let (gx, gy, gz) = (g.x_axis, g.y_axis, g.z_axis);
                     *row = [
-                        f32x8::from([ci.x, ci.y, ci.z, gx.x, gx.y, gx.z, gy.x, gy.y]),
-                        f32x8::from([gy.z, gz.x, gz.y, gz.z, v.x, v.y, v.z, 0.0]),
+                        [ci.x, ci.y, ci.z, gx.x, gx.y, gx.z, gy.x, gy.y],
+                        [gy.z, gz.x, gz.y, gz.z, v.x, v.y, v.z, 0.0],
                     ];
                 }
             });
@@ -245,80 +252,85 @@ impl SurfelBinding {
                     &rest_normal.z[first..first + len],
                 );
                 // The sums of the eight surfels from `k` on (chunks are whole groups).
-                let sums = |k: usize| {
-                    let g = (first + k) / LANES;
-                    let slots = slot_off[g] as usize..slot_off[g + 1] as usize;
-                    group_sums(table, index, weight, slots)
-                };
-                // Eight surfels at a time: sums per surfel, then the closing
-                // arithmetic (cofactor, normalisation) across lanes, in the scalar
-                // tail's order of operations, so both give the same bits.
-                let groups = len / LANES * LANES;
-                for k in (0..groups).step_by(LANES) {
-                    // The eight surfels' sums, transposed to lanes: column j of the
-                    // table rows is `lane(j)`.
-                    let (first, second) = sums(k);
-                    let (first, second) = (f32x8::transpose(first), f32x8::transpose(second));
-                    let lane = |j: usize| if j < 8 { first[j] } else { second[j - 8] };
-                    let s0 = [load8(rx, k), load8(ry, k), load8(rz, k)];
-                    let d = [s0[0] - o.x, s0[1] - o.y, s0[2] - o.z];
-                    // g column-major, as Mat3::from_cols_array.
-                    let g: [f32x8; 9] = std::array::from_fn(|j| lane(3 + j));
-                    let mul = |m: &[f32x8; 9], v: &[f32x8; 3]| -> [f32x8; 3] {
-                        std::array::from_fn(|r| m[r] * v[0] + m[3 + r] * v[1] + m[6 + r] * v[2])
+                // The table through a view whose gathers need no bounds checks
+                // (`crate::gather`): the chunk's loops are compiled for each kind.
+                crate::with_rows!(&table[..], |rows| {
+                    let sums = |k: usize| {
+                        let g = (first + k) / LANES;
+                        let slots = slot_off[g] as usize..slot_off[g + 1] as usize;
+                        group_sums(&rows, index, weight, slots)
                     };
-                    let gd = mul(&g, &d);
-                    for r in 0..3 {
-                        let pos = s0[r] + (lane(r) + gd[r]);
-                        store8([&mut *p.0, &mut *p.1, &mut *p.2][r], k, pos);
-                        store8([&mut *v.0, &mut *v.1, &mut *v.2][r], k, lane(12 + r));
+                    // Eight surfels at a time: sums per surfel, then the closing
+                    // arithmetic (cofactor, normalisation) across lanes, in the scalar
+                    // tail's order of operations, so both give the same bits.
+                    let groups = len / LANES * LANES;
+                    for k in (0..groups).step_by(LANES) {
+                        // The eight surfels' sums, transposed to lanes: column j of the
+                        // table rows is `lane(j)`.
+                        let (first, second) = sums(k);
+                        let (first, second) = (f32x8::transpose(first), f32x8::transpose(second));
+                        let lane = |j: usize| if j < 8 { first[j] } else { second[j - 8] };
+                        let s0 = [load8(rx, k), load8(ry, k), load8(rz, k)];
+                        let d = [s0[0] - o.x, s0[1] - o.y, s0[2] - o.z];
+                        // g column-major, as Mat3::from_cols_array.
+                        let g: [f32x8; 9] = std::array::from_fn(|j| lane(3 + j));
+                        let mul = |m: &[f32x8; 9], v: &[f32x8; 3]| -> [f32x8; 3] {
+                            std::array::from_fn(|r| m[r] * v[0] + m[3 + r] * v[1] + m[6 + r] * v[2])
+                        };
+                        let gd = mul(&g, &d);
+                        for r in 0..3 {
+                            let pos = s0[r] + (lane(r) + gd[r]);
+                            store8([&mut *p.0, &mut *p.1, &mut *p.2][r], k, pos);
+                            store8([&mut *v.0, &mut *v.1, &mut *v.2][r], k, lane(12 + r));
+                        }
+                        let j: [f32x8; 9] = std::array::from_fn(|e| {
+                            let id = if e % 4 == 0 { f32x8::ONE } else { f32x8::ZERO };
+                            id + g[e]
+                        });
+                        let cross = |a: usize, b: usize| -> [f32x8; 3] {
+                            let (a, b) = (&j[3 * a..3 * a + 3], &j[3 * b..3 * b + 3]);
+                            [
+                                a[1] * b[2] - b[1] * a[2],
+                                a[2] * b[0] - b[2] * a[0],
+                                a[0] * b[1] - b[0] * a[1],
+                            ]
+                        };
+                        let (c0, c1, c2) = (cross(1, 2), cross(2, 0), cross(0, 1));
+                        let cof = [
+                            c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2],
+                        ];
+                        let m = mul(&cof, &[load8(nx, k), load8(ny, k), load8(nz, k)]);
+                        // Vec3::try_normalize, lane-wise.
+                        let rcp = f32x8::ONE / (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+                        let ok = rcp.is_finite() & rcp.simd_gt(f32x8::ZERO);
+                        for (r, n) in [&mut *n.0, &mut *n.1, &mut *n.2].into_iter().enumerate() {
+                            let old = load8(n, k);
+                            store8(n, k, ok.select(m[r] * rcp, old));
+                        }
                     }
-                    let j: [f32x8; 9] = std::array::from_fn(|e| {
-                        let id = if e % 4 == 0 { f32x8::ONE } else { f32x8::ZERO };
-                        id + g[e]
-                    });
-                    let cross = |a: usize, b: usize| -> [f32x8; 3] {
-                        let (a, b) = (&j[3 * a..3 * a + 3], &j[3 * b..3 * b + 3]);
-                        [
-                            a[1] * b[2] - b[1] * a[2],
-                            a[2] * b[0] - b[2] * a[0],
-                            a[0] * b[1] - b[0] * a[1],
-                        ]
+                    let (tail_a, tail_b) = if groups < len {
+                        sums(groups)
+                    } else {
+                        Default::default()
                     };
-                    let (c0, c1, c2) = (cross(1, 2), cross(2, 0), cross(0, 1));
-                    let cof = [
-                        c0[0], c0[1], c0[2], c1[0], c1[1], c1[2], c2[0], c2[1], c2[2],
-                    ];
-                    let m = mul(&cof, &[load8(nx, k), load8(ny, k), load8(nz, k)]);
-                    // Vec3::try_normalize, lane-wise.
-                    let rcp = f32x8::ONE / (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
-                    let ok = rcp.is_finite() & rcp.simd_gt(f32x8::ZERO);
-                    for (r, n) in [&mut *n.0, &mut *n.1, &mut *n.2].into_iter().enumerate() {
-                        let old = load8(n, k);
-                        store8(n, k, ok.select(m[r] * rcp, old));
+                    for k in groups..len {
+                        let (a, b) = (tail_a[k - groups].to_array(), tail_b[k - groups].to_array());
+                        let g = Mat3::from_cols_array(&[
+                            a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3],
+                        ]);
+                        let s0 = Vec3::new(rx[k], ry[k], rz[k]);
+                        let u = Vec3::new(a[0], a[1], a[2]) + g * (s0 - o);
+                        let p_new = s0 + u;
+                        // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
+                        let cof = cofactor(Mat3::IDENTITY + g);
+                        if let Some(n_new) = (cof * Vec3::new(nx[k], ny[k], nz[k])).try_normalize()
+                        {
+                            (n.0[k], n.1[k], n.2[k]) = (n_new.x, n_new.y, n_new.z);
+                        }
+                        (p.0[k], p.1[k], p.2[k]) = (p_new.x, p_new.y, p_new.z);
+                        (v.0[k], v.1[k], v.2[k]) = (b[4], b[5], b[6]);
                     }
-                }
-                let (tail_a, tail_b) = if groups < len {
-                    sums(groups)
-                } else {
-                    Default::default()
-                };
-                for k in groups..len {
-                    let (a, b) = (tail_a[k - groups].to_array(), tail_b[k - groups].to_array());
-                    let g = Mat3::from_cols_array(&[
-                        a[3], a[4], a[5], a[6], a[7], b[0], b[1], b[2], b[3],
-                    ]);
-                    let s0 = Vec3::new(rx[k], ry[k], rz[k]);
-                    let u = Vec3::new(a[0], a[1], a[2]) + g * (s0 - o);
-                    let p_new = s0 + u;
-                    // J⁻ᵀ n₀ ∝ cof(J) n₀ (cofactor avoids dividing by det J; sign kept for det > 0).
-                    let cof = cofactor(Mat3::IDENTITY + g);
-                    if let Some(n_new) = (cof * Vec3::new(nx[k], ny[k], nz[k])).try_normalize() {
-                        (n.0[k], n.1[k], n.2[k]) = (n_new.x, n_new.y, n_new.z);
-                    }
-                    (p.0[k], p.1[k], p.2[k]) = (p_new.x, p_new.y, p_new.z);
-                    (v.0[k], v.1[k], v.2[k]) = (b[4], b[5], b[6]);
-                }
+                });
                 // The block's box while its positions are still in cache: the broad
                 // phase and the scans then need not read them all again.
                 *block = Aabb::of_columns(p.0, p.1, p.2);

@@ -31,6 +31,7 @@ pub mod contact;
 pub mod detect;
 pub mod dynamics;
 pub mod frame;
+pub mod gather;
 pub mod grid;
 pub mod implicit;
 pub mod import;

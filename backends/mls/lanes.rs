@@ -18,6 +18,7 @@
 use super::Law;
 use glam::Mat3;
 use phyxel::columns::{LANES, Vec3s, load8, store8};
+use phyxel::gather::Rows;
 use phyxel::mls::MlsStencil;
 use wide::f32x8;
 
@@ -26,63 +27,6 @@ const GROUP_GRAIN: usize = 16;
 
 /// Stress `P` of a phyxel as 16 floats (9 used): two aligned lane rows.
 pub type StressRow = [f32; 16];
-
-/// Lengths of the state and stress buffers whose gathers need no bounds checks: powers
-/// of two, a small one so that small bodies keep small buffers.
-const FIXED_ROWS: [usize; 2] = [1 << 10, 1 << 16];
-
-/// Rows of the state or stress buffer as the gathers read them.
-trait Rows<const W: usize>: Sync {
-    fn row(&self, i: u32) -> &[f32; W];
-}
-
-/// A buffer of exactly `N` rows, `N` a power of two known at compile time: the index is
-/// masked to `N`, so the compiler can drop the bounds check of every lane's load (in
-/// safe code; the checks were about a tenth of the kernel's time). Every table index is
-/// below [`LaneStencil::padded`] `≤ N`, so the mask changes none.
-struct Fixed<'a, const W: usize, const N: usize>(&'a [[f32; W]; N]);
-
-impl<const W: usize, const N: usize> Rows<W> for Fixed<'_, W, N> {
-    #[inline(always)]
-    fn row(&self, i: u32) -> &[f32; W] {
-        &self.0[i as usize & (N - 1)]
-    }
-}
-
-/// Any other buffer (bodies of more than 65,536 phyxels): checked loads.
-impl<const W: usize> Rows<W> for &[[f32; W]] {
-    #[inline(always)]
-    fn row(&self, i: u32) -> &[f32; W] {
-        &self[i as usize]
-    }
-}
-
-/// The length to give the state and stress buffers of `padded` rows: the smallest of
-/// [`FIXED_ROWS`] that holds them, else `padded`. Rows past `padded` are never read.
-pub fn buffer_rows(padded: usize) -> usize {
-    FIXED_ROWS
-        .into_iter()
-        .find(|&n| n >= padded)
-        .unwrap_or(padded)
-}
-
-/// Calls `$body` with `$rows` bound to the buffer `$buf` as a [`Rows`]: a [`Fixed`]
-/// view when its length is one of [`FIXED_ROWS`], the checked slice otherwise.
-macro_rules! with_rows {
-    ($buf:expr, |$rows:ident| $body:expr) => {{
-        let buf = $buf;
-        if let Ok(b) = <&[_; FIXED_ROWS[0]]>::try_from(buf) {
-            let $rows = Fixed(b);
-            $body
-        } else if let Ok(b) = <&[_; FIXED_ROWS[1]]>::try_from(buf) {
-            let $rows = Fixed(b);
-            $body
-        } else {
-            let $rows = buf;
-            $body
-        }
-    }};
-}
 
 /// Phyxels per window: within a window, a table's lanes take the phyxels in order of
 /// list length, so the eight lists of a group have nearly equal lengths and the group
@@ -236,7 +180,7 @@ impl LaneStencil {
     }
 
     /// Phyxels rounded up to whole groups: the rows of the state and stress buffers the
-    /// kernel writes and reads (the buffers themselves have [`buffer_rows`] rows).
+    /// kernel writes and reads (the buffers themselves have `gather::fixed_rows` of it).
     pub fn padded(&self) -> usize {
         self.n.div_ceil(LANES) * LANES
     }
@@ -512,8 +456,8 @@ pub struct LaneInputs<'a> {
     pub law: Law,
     /// Per phyxel `[u, v, 0, 0]`: displacement (m) and velocity (m/s, read only when
     /// `law.tau > 0`), one 32-byte row so a neighbour is one lane load; zero rows up to
-    /// [`LaneStencil::padded`], and [`buffer_rows`] rows in all so that the gathers
-    /// need no bounds checks.
+    /// [`LaneStencil::padded`], and `gather::fixed_rows` of that in all so that the
+    /// gathers need no bounds checks.
     pub state: &'a [[f32; 8]],
     /// Rest volume per phyxel, padded (m³).
     pub volume: &'a [f32],
@@ -531,7 +475,7 @@ pub struct LaneOutputs<'a> {
 
 /// Gradients and stresses `P` of every phyxel; returns the largest strain norm.
 pub fn stress_pass(st: &LaneStencil, input: &LaneInputs<'_>, out: LaneOutputs<'_>) -> f32 {
-    with_rows!(input.state, |state| groups_pass(
+    phyxel::with_rows!(input.state, |state| groups_pass(
         st,
         input,
         &state,
@@ -546,7 +490,7 @@ pub fn stress_pass(st: &LaneStencil, input: &LaneInputs<'_>, out: LaneOutputs<'_
 fn groups_pass(
     st: &LaneStencil,
     input: &LaneInputs<'_>,
-    state: &impl Rows<8>,
+    state: &impl Rows<[f32; 8]>,
     groups: std::ops::Range<usize>,
     out: LaneOutputs<'_>,
 ) -> f32 {
@@ -599,7 +543,7 @@ fn groups_pass(
 
 /// Eight rows of eight floats transposed to lanes.
 #[inline(always)]
-fn gather<const W: usize>(rows: &impl Rows<W>, idx: &[u32], half: usize) -> [f32x8; 8] {
+fn gather<const W: usize>(rows: &impl Rows<[f32; W]>, idx: &[u32], half: usize) -> [f32x8; 8] {
     f32x8::transpose(std::array::from_fn(|lane| {
         let r = rows.row(idx[lane]);
         let a: [f32; 8] = r[8 * half..8 * half + 8].try_into().expect("8 of W");
@@ -615,7 +559,7 @@ fn gather<const W: usize>(rows: &impl Rows<W>, idx: &[u32], half: usize) -> [f32
 #[inline(always)]
 fn lane_gradients<const VELOCITY: bool>(
     st: &LaneStencil,
-    state: &impl Rows<8>,
+    state: &impl Rows<[f32; 8]>,
     g: usize,
 ) -> (M3, M3) {
     let own = gather(state, &st.rows.phyxels(g), 0);
@@ -638,7 +582,7 @@ fn lane_gradients<const VELOCITY: bool>(
 fn group(
     st: &LaneStencil,
     input: &LaneInputs<'_>,
-    state: &impl Rows<8>,
+    state: &impl Rows<[f32; 8]>,
     g: usize,
     base: usize,
     grad: &mut [Mat3],
@@ -682,7 +626,7 @@ fn group(
 }
 
 /// `f_j = P_j d_j + Σ_i P_i d_ij` of every phyxel into the padded force columns (N);
-/// `stress` is the stress pass's buffer, of [`buffer_rows`] rows.
+/// `stress` is the stress pass's buffer, of `gather::fixed_rows` rows.
 pub fn force_pass(
     st: &LaneStencil,
     stress: &[StressRow],
@@ -690,12 +634,12 @@ pub fn force_pass(
     fy: &mut [f32],
     fz: &mut [f32],
 ) {
-    with_rows!(stress, |stress| force_rows(st, &stress, fx, fy, fz))
+    phyxel::with_rows!(stress, |stress| force_rows(st, &stress, fx, fy, fz))
 }
 
 fn force_rows(
     st: &LaneStencil,
-    stress: &impl Rows<16>,
+    stress: &impl Rows<StressRow>,
     fx: &mut [f32],
     fy: &mut [f32],
     fz: &mut [f32],
@@ -740,8 +684,8 @@ mod tests {
     use phyxel::phyxels::Phyxels;
     use phyxel::shape::Shape;
 
-    /// Both passes over buffers of each kind (a [`Fixed`] view of 1024 or 65,536 rows,
-    /// and the checked slice of exactly `padded` rows or of a length no fixed view takes)
+    /// Both passes over buffers of each kind (the fixed view of 65,536 rows, and the
+    /// checked slice of exactly `padded` rows or of a length no fixed view takes)
     /// give the same bits: the masked index reads the row the checked one reads.
     /// Reference: the checked slice of `padded` rows, the kernel before fixed views.
     #[test]
@@ -760,10 +704,7 @@ mod tests {
         let (in_off, incoming) = super::super::incoming_of(&stencil);
         let st = LaneStencil::new(&stencil, &in_off, &incoming);
         let padded = st.padded();
-        assert!(
-            (FIXED_ROWS[0] / 2..FIXED_ROWS[0]).contains(&padded),
-            "{padded} phyxels: the test wants indices past half the small view"
-        );
+        assert!(padded < phyxel::gather::FIXED_ROWS, "{padded} phyxels");
         let law = super::super::Law::new(&mat, 1e-4, 1e-4);
         let run = |rows: usize| {
             let mut state = vec![[0.0f32; 8]; rows];
@@ -794,7 +735,7 @@ mod tests {
         };
         let reference = run(padded);
         assert!(reference.2[0].iter().any(|&v| v != 0.0), "no force");
-        for rows in [FIXED_ROWS[0], FIXED_ROWS[1], padded + 3] {
+        for rows in [phyxel::gather::FIXED_ROWS, padded + 3] {
             let got = run(rows);
             assert_eq!(got.0, reference.0, "{rows} rows: strain");
             assert!(

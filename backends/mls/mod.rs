@@ -45,9 +45,9 @@ pub struct MlsDynamics {
     /// The stencil in lane layout for the SIMD kernel.
     lanes: LaneStencil,
     /// `P` per phyxel for the lane kernel's force pass (kept between steps), and
-    /// `[u, v, 0, 0]` per phyxel for its gathers: [`lanes::buffer_rows`] rows each (1,024
-    /// or 65,536 for bodies up to that size, allocated zeroed, so the rows past the
-    /// body's are never touched), the lengths at which the gathers need no bounds checks.
+    /// `[u, v, 0, 0]` per phyxel for its gathers: `gather::fixed_rows` rows each (65,536
+    /// for bodies up to that size, allocated zeroed, so the rows past the body's are
+    /// never touched), the length at which the gathers need no bounds checks.
     stress_rows: Vec<lanes::StressRow>,
     state: Vec<[f32; 8]>,
     /// Displacement gradient per phyxel (column b = ∂u/∂x_b).
@@ -84,8 +84,8 @@ impl MlsDynamics {
         let (in_off, incoming) = incoming_of(&stencil);
         let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
         let mut mls = Self {
-            stress_rows: vec![[0.0; 16]; lanes::buffer_rows(lanes.padded())],
-            state: vec![[0.0; 8]; lanes::buffer_rows(lanes.padded())],
+            stress_rows: vec![[0.0; 16]; phyxel::gather::fixed_rows(lanes.padded())],
+            state: vec![[0.0; 8]; phyxel::gather::fixed_rows(lanes.padded())],
             lanes,
             stencil,
             in_off,
@@ -213,7 +213,10 @@ impl MlsDynamics {
     /// kernel (eight phyxels per `f32x8`, see `lanes`). `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let law = Law::new(material, dt, self.tau(material));
-        let (padded, rows) = (self.lanes.padded(), lanes::buffer_rows(self.lanes.padded()));
+        let (padded, rows) = (
+            self.lanes.padded(),
+            phyxel::gather::fixed_rows(self.lanes.padded()),
+        );
         self.state.resize(rows, [0.0; 8]);
         let vel = (law.tau > 0.0).then_some(&phyxels.vel);
         let p = phyxels;
