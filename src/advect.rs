@@ -199,10 +199,10 @@ impl SurfelBinding {
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
         let o = self.origin;
         let surfels_len = surfels.len();
-        let rows = fixed_rows(phyxels.len());
-        if self.table.len() != rows {
+        let table_len = fixed_rows(phyxels.len());
+        if self.table.len() != table_len {
             // Zeroed, not written: the rows past the phyxels' are never touched.
-            self.table = vec![[[0.0; 8]; 2]; rows];
+            self.table = vec![[[0.0; 8]; 2]; table_len];
         }
         self.table[..phyxels.len()]
             .par_chunks_mut(CHUNK)

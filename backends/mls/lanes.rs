@@ -691,7 +691,7 @@ mod tests {
     #[test]
     fn fixed_rows_read_what_checked_rows_read() {
         let mat = Material::default();
-        // About 700 phyxels: indices past half the small view's rows.
+        // About 700 phyxels, so the view's rows are mostly past the body's.
         let v = Shape::Sphere { radius: 0.1 }.sample_volume(0.018);
         let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
         for i in 0..p.len() {
