@@ -232,11 +232,9 @@ impl MlsDynamics {
     /// kernel (eight phyxels per `f32x8`, see `lanes`). `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let law = Law::new(material, dt, self.tau(material));
-        let (padded, rows) = (
-            self.lanes.padded(),
-            phyxel::gather::fixed_rows(self.lanes.padded()),
-        );
-        self.state.resize(rows, [0.0; 8]);
+        // The buffers were sized in `new` (`gather::fixed_rows`); the phyxel count, and so
+        // `padded`, never changes for a backend.
+        let padded = self.lanes.padded();
         let vel = (law.tau > 0.0).then_some(&phyxels.vel);
         let p = phyxels;
         lanes::pack_state(
@@ -246,7 +244,6 @@ impl MlsDynamics {
             vel,
             &mut self.state[..padded],
         );
-        self.stress_rows.resize(rows, [0.0; 16]);
         let input = LaneInputs {
             law,
             state: &self.state,
