@@ -35,11 +35,11 @@ use criterion::{
     BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main, measurement::WallTime,
 };
 use glam::Vec3;
-use phyxel::broad_phase::{Aabb, points_in_box};
-use phyxel::grid::Grid;
-use phyxel::implicit::{FAR_NEIGHBOURS, ImplicitSurface, grid_cell};
+use phyxel::contact::implicit::{FAR_NEIGHBOURS, ImplicitSurface, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::timing::{Phase, PhaseTimes};
+use phyxel::spatial::broad_phase::{Aabb, points_in_box};
+use phyxel::spatial::grid::Grid;
+use phyxel::world::phase::{Phase, PhaseTimes};
 use phyxel::{Phyxels, Surfels, World};
 use std::f32::consts::PI;
 use std::time::{Duration, Instant};

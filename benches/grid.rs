@@ -10,7 +10,7 @@
 //!   0.1, spiral order, cell of the fine surfel grid ≈ 2.5 spacings; its box holds 11.4M
 //!   cells, so the layout is hashed), also against the scalar reference;
 //! - `sphere_1m_morton/rebuild`: the same points in the engine's surfel storage order
-//!   (Morton order, `phyxel::morton`);
+//!   (Morton order, `phyxel::spatial::morton`);
 //! - `sphere_1m_far/rebuild`: the same, with the far-field grid's cells
 //!   (`implicit::FAR_GRID_FACTOR` times larger; dense layout), which a step of the 1M
 //!   `scale` scene builds over a whole sphere when a far-field search may leave the
@@ -23,11 +23,11 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
-use phyxel::columns::Vec3s;
-use phyxel::grid::Grid;
-use phyxel::implicit::FAR_GRID_FACTOR;
-use phyxel::morton;
+use phyxel::body::columns::Vec3s;
+use phyxel::contact::implicit::FAR_GRID_FACTOR;
 use phyxel::scene::SURFEL_ORDER_CELL;
+use phyxel::spatial::grid::Grid;
+use phyxel::spatial::morton;
 use std::hint::black_box;
 use std::num::NonZeroUsize;
 

@@ -5,10 +5,10 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use phyxel::columns::Vec3s;
-use phyxel::grid::Grid;
-use phyxel::implicit::{ImplicitSurface, SurfelRows, grid_cell};
-use phyxel::shape::Shape;
+use phyxel::body::columns::Vec3s;
+use phyxel::body::shape::Shape;
+use phyxel::contact::implicit::{ImplicitSurface, SurfelRows, grid_cell};
+use phyxel::spatial::grid::Grid;
 use std::hint::black_box;
 
 /// Implicit-surface kernel sums (eq. 1): the SIMD kernel (each lane group of the grid
@@ -150,8 +150,8 @@ fn distribution(c: &mut Criterion) {
 /// 20k phyxels).
 fn mls_forces(c: &mut Criterion) {
     use phyxel::backends::mls::MlsDynamics;
-    use phyxel::material::Material;
-    use phyxel::phyxels::Phyxels;
+    use phyxel::body::material::Material;
+    use phyxel::body::phyxels::Phyxels;
     let mat = Material::default();
     // The kernel runs rayon tasks: one thread, as the other kernels here.
     let pool = rayon::ThreadPoolBuilder::new()

@@ -22,7 +22,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::timing::Phase;
+use phyxel::world::phase::Phase;
 use phyxel::{Phyxels, Surfels, World};
 use std::time::{Duration, Instant};
 

@@ -22,36 +22,37 @@
 // outside crate would.
 extern crate self as phyxel;
 
-pub mod advect;
-pub mod brent;
-pub mod broad_phase;
-pub mod columns;
-pub mod connectivity;
+pub mod body;
 pub mod contact;
-pub mod detect;
 pub mod dynamics;
-pub mod frame;
-pub mod gather;
-pub mod grid;
-pub mod implicit;
-pub mod import;
-pub mod kernel;
-pub mod material;
-pub mod mesh;
-pub mod mls;
-pub mod morton;
-pub mod object;
-pub mod output;
-pub mod phyxels;
-pub mod render;
+pub mod io;
 pub mod scene;
-pub mod shape;
-pub mod summary;
-pub mod surfels;
-pub mod timing;
-pub mod topology;
-pub mod validate;
+pub mod spatial;
 pub mod world;
+
+#[cfg(feature = "app")]
+pub mod app;
+
+#[cfg(feature = "app")]
+#[doc(hidden)]
+pub use app::{render, summary, validate};
+/// Fracture and self-collision, one flat module in phyxel 0.1.
+#[doc(hidden)]
+pub mod topology {
+    pub use crate::body::fracture::*;
+    pub use crate::body::self_collision::*;
+}
+/// The flat module paths of phyxel 0.1 (before the folders by concept), kept so that
+/// code written against them compiles; new code uses the folders.
+#[doc(hidden)]
+pub use {
+    body::{advect, columns, connectivity, material, mesh, object, phyxels, shape, surfels},
+    contact::{brent, detect, implicit},
+    dynamics::{kernel, mls},
+    io::{frame, import, output},
+    spatial::{broad_phase, gather, grid, morton},
+    world::phase as timing,
+};
 
 #[doc(hidden)]
 #[path = "../backends/mls/mod.rs"]
@@ -72,9 +73,9 @@ pub mod backends {
     pub use super::mls_backend as mls;
     pub use super::sph_backend as sph;
 
+    use crate::body::material::Material;
+    use crate::body::phyxels::Phyxels;
     use crate::dynamics::{Dynamics, StaticDynamics};
-    use crate::material::Material;
-    use crate::phyxels::Phyxels;
 
     /// Names accepted by `backend = "..."` in scenes and `--backend`.
     pub const NAMES: &[&str] = &["mls", "sph", "lj"];

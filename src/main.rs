@@ -2,13 +2,13 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use phyxel::app::render::{Camera, RenderOptions, camera_for, render};
+use phyxel::app::summary::{RunOptions, RunSummary, run};
 use phyxel::backends;
-use phyxel::frame::Format;
-use phyxel::import::read_frame;
-use phyxel::render::{Camera, RenderOptions, camera_for, render};
+use phyxel::io::frame::Format;
+use phyxel::io::import::read_frame;
 use phyxel::scene::{BUILTIN, BuildOptions, DEFAULT_SCENE, Scene};
-use phyxel::summary::{RunOptions, RunSummary, run};
-use phyxel::timing::Phase;
+use phyxel::world::phase::Phase;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -833,7 +833,7 @@ fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
     );
     for s in runs {
         // The scene's error against its reference, where it has one (Hertz).
-        let error = phyxel::validate::scene_error(scene, s)
+        let error = phyxel::app::validate::scene_error(scene, s)
             .map_or_else(|| "-".to_string(), |e| format!("{e:.3e}"));
         println!(
             "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
@@ -873,7 +873,7 @@ fn validate(
     plot: Option<&Path>,
     only: Option<&str>,
 ) -> ExitCode {
-    use phyxel::validate;
+    use phyxel::app::validate;
     if let Some(b) = &backend
         && let Err(e) = validate::check_backend(b)
     {
@@ -975,9 +975,9 @@ mod tests {
     #[test]
     fn own_time_sums_frames_and_ranks_them() {
         let leaves = [
-            ("phyxel::advect::h0123456789abcdef", 30),
-            ("phyxel::detect", 25),
-            ("phyxel::advect::h1111111111111111", 15),
+            ("phyxel::body::advect::h0123456789abcdef", 30),
+            ("phyxel::contact::detect", 25),
+            ("phyxel::body::advect::h1111111111111111", 15),
             ("f32::mul", 25),
             ("a::hnot_a_hash", 5),
         ];
@@ -987,9 +987,9 @@ mod tests {
         assert_eq!(
             top,
             [
-                ("phyxel::advect", 45.0),
+                ("phyxel::body::advect", 45.0),
                 ("f32::mul", 25.0),
-                ("phyxel::detect", 25.0)
+                ("phyxel::contact::detect", 25.0)
             ]
         );
     }

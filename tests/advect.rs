@@ -2,12 +2,12 @@
 //! scalar reference sum of Müller et al. (2004, §5).
 
 use glam::{Mat3, Quat, Vec3};
-use phyxel::advect::SurfelBinding;
-use phyxel::material::Material;
-use phyxel::mls::MlsStencil;
-use phyxel::phyxels::Phyxels;
-use phyxel::shape::Shape;
-use phyxel::surfels::Surfels;
+use phyxel::body::advect::SurfelBinding;
+use phyxel::body::material::Material;
+use phyxel::body::phyxels::Phyxels;
+use phyxel::body::shape::Shape;
+use phyxel::body::surfels::Surfels;
+use phyxel::dynamics::mls::MlsStencil;
 
 /// A 0.1 m sphere centred 2.5 m from the origin, its phyxels rotated, stretched and bent
 /// (non-uniform gradients) and given a swirling velocity; gradients by MLS. Surfels

@@ -1,7 +1,7 @@
 //! Cantilever under gravity against Euler–Bernoulli beam theory.
 
+use phyxel::app::validate;
 use phyxel::scene::Scene;
-use phyxel::validate;
 
 /// Tip deflection vs Euler–Bernoulli `qL⁴/(8EI)` (an independent analytic reference):
 /// within 15% at the default spacing (0.025 m, 4 phyxels through the thickness), and the

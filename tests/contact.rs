@@ -3,8 +3,8 @@
 
 use glam::{DVec3, Vec3};
 use phyxel::World;
+use phyxel::app::validate;
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::validate;
 
 fn build(scene: &Scene) -> World {
     scene.build(&BuildOptions::default()).unwrap()
@@ -393,14 +393,14 @@ fn shell_surfels(
     mut seed: u32,
 ) -> (
     World,
-    phyxel::grid::Grid,
+    phyxel::spatial::grid::Grid,
     f32,
     Vec<phyxel::contact::ContactSurfel>,
 ) {
     let w = build(&Scene::builtin("two-spheres").unwrap());
     let o = &w.objects[0];
     let h = o.max_influence;
-    let grid = phyxel::grid::Grid::build(o.phyxels.pos.iter(), h);
+    let grid = phyxel::spatial::grid::Grid::build(o.phyxels.pos.iter(), h);
     let centre = com(&w, 0);
     let radius = o
         .surfels
@@ -449,19 +449,19 @@ fn shell_surfels(
 #[test]
 fn simd_distribution_matches_scalar_reference() {
     use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
-    use phyxel::grid::Grid;
+    use phyxel::spatial::grid::Grid;
     let (w, grid, h, surfels) = shell_surfels(2000, 40, 7);
     let o = &w.objects[0];
     let run = |f: fn(
         &[ContactSurfel],
         f32,
-        &mut phyxel::phyxels::Phyxels,
+        &mut phyxel::body::phyxels::Phyxels,
         &Grid,
         f32,
         &mut DistributeScratch,
     )| {
         let mut p = o.phyxels.clone();
-        p.force = phyxel::columns::Vec3s::zeros(p.len());
+        p.force = phyxel::body::columns::Vec3s::zeros(p.len());
         f(
             &surfels,
             1.0,
@@ -766,7 +766,7 @@ fn a_collision_is_the_same_from_micrometres_to_megametres() {
 #[test]
 fn scene_rotation_is_x_then_y_then_z_about_the_turned_axes() {
     use glam::DMat3;
-    use phyxel::shape::Shape;
+    use phyxel::body::shape::Shape;
     let text = r#"
         name = "rotated"
         gravity = [0.0, 0.0, 0.0]
@@ -1064,7 +1064,7 @@ fn pressed_spheres_release_the_contact_energy() {
 /// of mass, in f64 with the position sums' carries.
 fn angular_momentum(w: &World) -> DVec3 {
     let moving = || w.objects.iter().filter(|o| !o.is_static());
-    let at = |p: &phyxel::phyxels::Phyxels, i: usize| {
+    let at = |p: &phyxel::body::phyxels::Phyxels, i: usize| {
         p.pos.get(i).as_dvec3() + p.pos_carry.get(i).as_dvec3()
     };
     let (mut m, mut mx) = (0.0, DVec3::ZERO);
@@ -1155,7 +1155,7 @@ fn distributed_contact_forces_act_at_the_surfel() {
     for (k, &c) in surfels.iter().enumerate() {
         for (slot, f) in [distribute, distribute_reference].into_iter().enumerate() {
             let mut p = o.phyxels.clone();
-            p.force = phyxel::columns::Vec3s::zeros(p.len());
+            p.force = phyxel::body::columns::Vec3s::zeros(p.len());
             f(
                 &[c],
                 -1.0,

@@ -684,8 +684,8 @@ impl Dynamics for BreakingSprings {
 
 /// A user backend that may fracture splits through its own `Dynamics::fragment`: a ball
 /// torn in two (its x > 0 half moved 1 m away) becomes two objects driven by the user's
-/// backend, with the mass conserved; without an override (the default knows only the
-/// built-in names) it stays whole.
+/// backend, with the mass conserved; without an override (the default declines) it
+/// stays whole.
 #[test]
 fn a_user_backend_fractures_through_fragment() {
     for own in [true, false] {

@@ -3,12 +3,12 @@
 //! surfels of one sphere inside another.
 
 use glam::Vec3;
-use phyxel::columns::Vec3s;
-use phyxel::grid::Grid;
-use phyxel::implicit::{FarHint, ImplicitSurface, SurfelRows, exp_neg, grid_cell};
+use phyxel::body::columns::Vec3s;
+use phyxel::body::shape::Shape;
+use phyxel::contact::implicit::{FarHint, ImplicitSurface, SurfelRows, exp_neg, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::shape::Shape;
-use phyxel::timing::Phase;
+use phyxel::spatial::grid::Grid;
+use phyxel::world::phase::Phase;
 
 /// Sampled surface of a shape with its grid, owned.
 struct Sampled {
@@ -222,7 +222,7 @@ fn inside_test_matches_analytic_shapes() {
 /// the secant steps of [`ImplicitSurface::project`]): the point, whether `|f|` fell
 /// below `tol` within the projection's step limit, and the steps taken.
 fn plain_projection(surf: &ImplicitSurface<'_>, x: Vec3, tol: f32) -> (Vec3, bool, u32) {
-    let limit = phyxel::implicit::MAX_PROJECTION_ITERATIONS;
+    let limit = phyxel::contact::implicit::MAX_PROJECTION_ITERATIONS;
     let mut p = x;
     for k in 0..limit {
         let s = surf.sample(p).unwrap();
@@ -254,8 +254,8 @@ fn secant_projection_beats_the_plain_fixed_point() {
     for (shape, spacing) in shapes {
         let sampled = Sampled::new(&shape, spacing);
         let surf = sampled.surface();
-        let (r_min, _) = phyxel::implicit::radius_range(&sampled.radius);
-        let tol = phyxel::implicit::PROJECTION_TOLERANCE * r_min;
+        let (r_min, _) = phyxel::contact::implicit::radius_range(&sampled.radius);
+        let tol = phyxel::contact::implicit::PROJECTION_TOLERANCE * r_min;
         let mut rng = Rng(17);
         let half = shape.half_extents();
         let (mut n, mut conv, mut conv_plain, mut steps, mut steps_plain) = (0, 0, 0, 0, 0);
@@ -330,7 +330,7 @@ fn far_hints_change_only_the_work() {
     }
 }
 
-/// The detection's early out ([`phyxel::detect::OUTSIDE_FRACTION`]): every point near a
+/// The detection's early out ([`phyxel::contact::detect::OUTSIDE_FRACTION`]): every point near a
 /// sphere's and a box's surface (within two kernel reaches, where `sample_near` answers)
 /// whose implicit `f` exceeds that fraction of the reach is outside by the full inside
 /// test (eq. 2, projection). Reference: the projection; tolerance: none (all agree), and
@@ -346,7 +346,7 @@ fn early_outside_agrees_with_the_inside_test() {
     for shape in shapes {
         let sampled = Sampled::new(&shape, 0.005);
         let surf = sampled.surface();
-        let limit = phyxel::detect::OUTSIDE_FRACTION * surf.reach();
+        let limit = phyxel::contact::detect::OUTSIDE_FRACTION * surf.reach();
         let mut rng = Rng(11);
         let half = shape.half_extents();
         let (mut tested, mut early) = (0, 0);
@@ -384,17 +384,17 @@ fn early_outside_agrees_with_the_inside_test() {
 fn region_grid_matches_the_whole_surface() {
     let sphere = Sampled::new(&Shape::Sphere { radius: R }, 0.005);
     let whole = sphere.surface();
-    let region = phyxel::broad_phase::Aabb {
+    let region = phyxel::spatial::broad_phase::Aabb {
         min: Vec3::new(0.06, -0.04, -0.04),
         max: Vec3::new(0.12, 0.04, 0.04),
     };
     let mut members = Vec::new();
-    phyxel::broad_phase::points_in_box(&sphere.pos, &region, &mut members);
+    phyxel::spatial::broad_phase::points_in_box(&sphere.pos, &region, &mut members);
     assert!(members.len() < sphere.radius.len() / 5);
     let mut grid = Grid::default();
     grid.rebuild_subset(&sphere.pos, &members, sphere.grid.cell());
-    let far = phyxel::grid::LazyGrid::default();
-    let all = phyxel::grid::LazyGrid::default();
+    let far = phyxel::spatial::grid::LazyGrid::default();
+    let all = phyxel::spatial::grid::LazyGrid::default();
     // As the step builds it: the lane-group kernel over the region grid's columns.
     let mut rows = SurfelRows::default();
     rows.rebuild(&grid, &sphere.pos, &sphere.normal, &sphere.radius);
@@ -564,7 +564,7 @@ fn simd_kernel_sums_match_scalar_reference() {
 /// and `None` exactly where `sample_near` gives `None`.
 #[test]
 fn kept_hits_sample_like_fresh_queries() {
-    use phyxel::implicit::NearHits;
+    use phyxel::contact::implicit::NearHits;
     let r = 0.1;
     let spacing = 0.0035;
     let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);

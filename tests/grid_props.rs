@@ -1,4 +1,4 @@
-//! Property tests of `phyxel::grid::Grid` against brute force.
+//! Property tests of `phyxel::spatial::grid::Grid` against brute force.
 //!
 //! Reference: a linear scan over all points computing, in f32 and in this order,
 //! `d = p − x` per coordinate and `d² = d.x*d.x + d.y*d.y + d.z*d.z`, and accepting
@@ -9,8 +9,8 @@
 //! Run: `cargo test --release --test grid_props`.
 
 use glam::Vec3;
-use phyxel::columns::Vec3s;
-use phyxel::grid::Grid;
+use phyxel::body::columns::Vec3s;
+use phyxel::spatial::grid::Grid;
 use proptest::collection::vec;
 use proptest::prelude::*;
 use std::alloc::{GlobalAlloc, Layout, System};

@@ -1,8 +1,8 @@
 //! Frame export and import: PLY round trip, VTK (.vtp) export, bad-input errors.
 
-use phyxel::frame::{Format, Frame};
-use phyxel::import::read_frame;
-use phyxel::output::surface_frame;
+use phyxel::io::frame::{Format, Frame};
+use phyxel::io::import::read_frame;
+use phyxel::io::output::surface_frame;
 use phyxel::scene::Scene;
 use std::process::Command;
 

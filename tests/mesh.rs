@@ -2,9 +2,9 @@
 //! files, sampled into phyxels and surfels; and every bad input gives a clear error.
 
 use glam::Vec3;
-use phyxel::mesh::TriMesh;
+use phyxel::body::mesh::TriMesh;
+use phyxel::body::shape::Shape;
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::shape::Shape;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};

@@ -3,9 +3,9 @@
 
 use glam::{DMat3, DVec3, Mat3, Quat, Vec3};
 use phyxel::backends::mls::MlsDynamics;
-use phyxel::material::Material;
-use phyxel::phyxels::Phyxels;
-use phyxel::shape::Shape;
+use phyxel::body::material::Material;
+use phyxel::body::phyxels::Phyxels;
+use phyxel::body::shape::Shape;
 
 /// A deterministic pseudo-random generator (xorshift), so failures reproduce.
 struct Rng(u64);
@@ -278,7 +278,7 @@ fn coplanar_neighbourhoods_are_detected_and_handled() {
 #[test]
 fn surfels_follow_affine_motion_exactly() {
     use phyxel::Object;
-    use phyxel::surfels::Surfels;
+    use phyxel::body::surfels::Surfels;
     let mat = Material::default();
     let shape = Shape::Sphere { radius: 0.1 };
     let vol = shape.sample_volume(0.02);
@@ -315,8 +315,8 @@ fn surfels_follow_affine_motion_exactly() {
 /// plastic strains to 1e-6 (dimensionless); the strain norms to 1e-6 relative.
 #[test]
 fn lane_kernel_matches_scalar_reference() {
+    use phyxel::body::material::StrainForm;
     use phyxel::dynamics::Dynamics;
-    use phyxel::material::StrainForm;
     let base = Material::default();
     let materials = [
         ("calibrated", base.clone()),
@@ -455,11 +455,11 @@ fn quadratic_field() -> (impl Fn(DVec3) -> DVec3, impl Fn(DVec3) -> DMat3) {
 /// relative to the largest analytic gradient, per phyxel.
 fn gradient_errors(
     p: &Phyxels,
-    basis: phyxel::mls::GradientBasis,
+    basis: phyxel::dynamics::mls::GradientBasis,
     u: &impl Fn(DVec3) -> DVec3,
     grad: &impl Fn(DVec3) -> DMat3,
 ) -> Vec<f64> {
-    let st = phyxel::mls::MlsStencil::build_with(p, basis);
+    let st = phyxel::dynamics::mls::MlsStencil::build_with(p, basis);
     let field: Vec<Vec3> = p.rest.iter().map(|x| u(x.as_dvec3()).as_vec3()).collect();
     let mut g = vec![Mat3::ZERO; p.len()];
     st.gradients(&field, &mut g);
@@ -484,7 +484,7 @@ fn gradient_errors(
 /// weights; measured 4e-7).
 #[test]
 fn quadratic_basis_is_exact_for_quadratic_fields() {
-    use phyxel::mls::{GradientBasis, MlsStencil};
+    use phyxel::dynamics::mls::{GradientBasis, MlsStencil};
     let mat = Material::default();
     let (u, grad) = quadratic_field();
     for (name, (p, _)) in [("box", block(&mat)), ("ball", ball(&mat))] {
@@ -513,7 +513,7 @@ fn quadratic_basis_is_exact_for_quadratic_fields() {
 /// a thousand times the quadratic basis's tolerance, so the two bases differ.
 #[test]
 fn linear_basis_is_exact_only_for_affine_fields() {
-    use phyxel::mls::GradientBasis;
+    use phyxel::dynamics::mls::GradientBasis;
     let mat = Material::default();
     let (u, grad) = quadratic_field();
     let mut rng = Rng(0xD1B5_4A32_D192_ED03);
@@ -550,7 +550,7 @@ fn linear_basis_is_exact_only_for_affine_fields() {
 ///   strain. Tolerance 1e-4 relative to the largest entry (measured 6e-6).
 #[test]
 fn paper_strain_form_gives_its_hooke_law() {
-    use phyxel::material::StrainForm;
+    use phyxel::body::material::StrainForm;
     let mat = Material {
         young: 2.0e6,
         poisson: 0.35,

@@ -2,7 +2,7 @@
 //! counters (work items, not times).
 
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::timing::Phase;
+use phyxel::world::phase::Phase;
 
 fn run(name: &str, steps: usize, render: bool) -> phyxel::World {
     let scene = Scene::builtin(name).unwrap();

@@ -9,7 +9,7 @@
 //! off here, as in a run without `--out`.)
 
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::timing::Phase;
+use phyxel::world::phase::Phase;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -127,7 +127,7 @@ fn steady_state_steps_do_not_allocate() {
         .unwrap()
         .build(&big)
         .unwrap();
-    assert!(fine.objects[0].surfels.len() > phyxel::broad_phase::PARALLEL_CHUNK);
+    assert!(fine.objects[0].surfels.len() > phyxel::spatial::broad_phase::PARALLEL_CHUNK);
     allocations_over(&mut fine, 5);
     assert_eq!(
         allocations_over(&mut fine, 20),

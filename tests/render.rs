@@ -1,9 +1,9 @@
 //! The splat renderer: `phyxel run --png`, `phyxel render`, and the library API.
 
 use glam::Vec3;
-use phyxel::frame::Frame;
-use phyxel::import::read_frame;
-use phyxel::render::{BACKGROUND, Camera, Image, RenderOptions, render};
+use phyxel::app::render::{BACKGROUND, Camera, Image, RenderOptions, render};
+use phyxel::io::frame::Frame;
+use phyxel::io::import::read_frame;
 use std::path::Path;
 use std::process::Command;
 
@@ -397,7 +397,7 @@ fn degenerate_frames_are_drawn() {
         ("collinear points", collinear),
     ] {
         let img = render(&frame, &opts);
-        let cam = phyxel::render::camera_for(&frame, &opts);
+        let cam = phyxel::app::render::camera_for(&frame, &opts);
         let (x, y, _) = cam
             .project(centre(&frame), img.width, img.height)
             .unwrap_or_else(|| panic!("{name}: centre behind the camera"));
@@ -417,7 +417,7 @@ fn degenerate_frames_are_drawn() {
 /// sizes that fit keep the asked 2 × 2 (an 8192² image at 2 × 2 took 8.6 GB).
 #[test]
 fn large_images_take_fewer_samples() {
-    use phyxel::render::{MAX_SAMPLES, samples_per_axis};
+    use phyxel::app::render::{MAX_SAMPLES, samples_per_axis};
     assert_eq!(samples_per_axis(800, 600, 2), 2);
     assert_eq!(samples_per_axis(4096, 4096, 2), 2);
     assert_eq!(samples_per_axis(8192, 8192, 2), 1);

@@ -3,10 +3,10 @@
 //! its reference and tolerance.
 
 use glam::Vec3;
-use phyxel::columns::Vec3s;
+use phyxel::body::columns::Vec3s;
+use phyxel::body::fracture::components;
 use phyxel::scene::{BuildOptions, Scene};
-use phyxel::timing::Phase;
-use phyxel::topology::components;
+use phyxel::world::phase::Phase;
 use std::collections::{HashMap, HashSet};
 
 /// Brute-force connected components (O(n²) BFS), labels in order of first member.
@@ -81,7 +81,7 @@ fn components_match_brute_force() {
 /// piece, two pieces) must occur.
 #[test]
 fn connectivity_tree_check_matches_full_counts() {
-    use phyxel::connectivity::Connectivity;
+    use phyxel::body::connectivity::Connectivity;
     let mut seed = 777u32;
     let mut rnd = || {
         seed = seed.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
@@ -376,9 +376,9 @@ fn self_collision_keeps_arcs_apart() {
 ///   the per-phyxel sums round), and push B away from A.
 #[test]
 fn self_collision_is_equal_and_opposite() {
-    use phyxel::material::Material;
-    use phyxel::phyxels::Phyxels;
-    use phyxel::topology::SelfCollision;
+    use phyxel::body::material::Material;
+    use phyxel::body::phyxels::Phyxels;
+    use phyxel::body::self_collision::SelfCollision;
     let h = 0.01;
     let block = |o: Vec3| {
         (0..27).map(move |k| o + h * Vec3::new((k % 3) as f32, (k / 3 % 3) as f32, (k / 9) as f32))

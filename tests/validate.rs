@@ -3,7 +3,7 @@
 //! resolution where it is resolution-driven, every hard case stable or refused; the
 //! quick suite's wall time (budget: two minutes in release) is printed, not asserted.
 
-use phyxel::validate::{self, CASES, Row};
+use phyxel::app::validate::{self, CASES, Row};
 use std::time::Instant;
 
 /// The failing rows as a table (empty when none fails).

@@ -30,13 +30,13 @@
 //! material's damping time (default: damping ratio 0.1 on the fastest mode).
 
 use glam::Vec3;
-use phyxel::columns::Vec3s;
+use phyxel::body::columns::Vec3s;
+use phyxel::body::material::Material;
+use phyxel::body::phyxels::Phyxels;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
-use phyxel::grid::Grid;
-use phyxel::material::Material;
-use phyxel::phyxels::Phyxels;
+use phyxel::spatial::grid::Grid;
 use rayon::prelude::*;
 use std::sync::atomic::AtomicU8;
 use std::sync::atomic::Ordering::Relaxed;
@@ -282,6 +282,10 @@ impl Dynamics for LjDynamics {
     }
 
     /// Brittle: bonds past the cutoff break, so the body may fall apart.
+    fn fragment(&self, phyxels: &Phyxels, material: &Material) -> Option<Box<dyn Dynamics>> {
+        Some(Box::new(LjDynamics::new(phyxels, material)))
+    }
+
     fn can_fracture(&self, _material: &Material) -> bool {
         true
     }

@@ -17,9 +17,9 @@
 
 use super::Law;
 use glam::Mat3;
-use phyxel::columns::{LANES, Vec3s, load8, store8};
-use phyxel::gather::Rows;
-use phyxel::mls::MlsStencil;
+use phyxel::body::columns::{LANES, Vec3s, load8, store8};
+use phyxel::dynamics::mls::MlsStencil;
+use phyxel::spatial::gather::Rows;
 use wide::f32x8;
 
 /// Groups handled serially by one rayon task.
@@ -294,7 +294,7 @@ impl M3 {
         [self.c[3 * col], self.c[3 * col + 1], self.c[3 * col + 2]]
     }
 
-    /// Cofactor matrix, columns `[J₂×J₃, J₃×J₁, J₁×J₂]` (as [`phyxel::mls::cofactor`]).
+    /// Cofactor matrix, columns `[J₂×J₃, J₃×J₁, J₁×J₂]` (as [`phyxel::dynamics::mls::cofactor`]).
     #[inline(always)]
     fn cofactor(&self) -> Self {
         let cross = |a: [f32x8; 3], b: [f32x8; 3]| {

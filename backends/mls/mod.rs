@@ -11,14 +11,14 @@
 //! Since `d_i = −Σ_j d_j`, each phyxel's forces sum to zero: momentum is conserved.
 
 use glam::{Mat3, Vec3};
-use phyxel::columns::Vec3s;
+use phyxel::body::columns::Vec3s;
+use phyxel::body::material::{Material, StrainForm};
+use phyxel::body::phyxels::Phyxels;
+use phyxel::dynamics::kernel::poly6_shape;
+use phyxel::dynamics::mls::{MlsStencil, cofactor};
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
-use phyxel::kernel::poly6_shape;
-use phyxel::material::{Material, StrainForm};
-use phyxel::mls::{MlsStencil, cofactor};
-use phyxel::phyxels::Phyxels;
 use rayon::prelude::*;
 
 mod lanes;
@@ -84,8 +84,8 @@ impl MlsDynamics {
         let (in_off, incoming) = incoming_of(&stencil);
         let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
         let mut mls = Self {
-            stress_rows: vec![[0.0; 16]; phyxel::gather::fixed_rows(lanes.padded())],
-            state: vec![[0.0; 8]; phyxel::gather::fixed_rows(lanes.padded())],
+            stress_rows: vec![[0.0; 16]; phyxel::spatial::gather::fixed_rows(lanes.padded())],
+            state: vec![[0.0; 8]; phyxel::spatial::gather::fixed_rows(lanes.padded())],
             lanes,
             stencil,
             in_off,
@@ -593,6 +593,10 @@ impl Dynamics for MlsDynamics {
     }
 
     /// Materials with `fracture = true` (see [`Material::fracture`]).
+    fn fragment(&self, phyxels: &Phyxels, material: &Material) -> Option<Box<dyn Dynamics>> {
+        Some(Box::new(MlsDynamics::new(phyxels, material)))
+    }
+
     fn can_fracture(&self, material: &Material) -> bool {
         material.fracture
     }
@@ -654,7 +658,7 @@ impl Dynamics for MlsDynamics {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use phyxel::shape::Shape;
+    use phyxel::body::shape::Shape;
 
     /// `apply_stiffness` (parallel, gathered per phyxel) gives the bits of the serial
     /// scatter over the rows it replaced, on a rough vector: the own term sits at its
@@ -714,11 +718,14 @@ mod tests {
                 .set(i, x + glam::Vec3::new(0.02 * x.y, -0.01 * x.x, 0.03 * x.z));
             p.vel.set(i, glam::Vec3::new(x.z, 0.5 * x.x, -x.y));
         }
-        let stencil = phyxel::mls::MlsStencil::build(&p);
+        let stencil = phyxel::dynamics::mls::MlsStencil::build(&p);
         let (in_off, incoming) = incoming_of(&stencil);
         let st = LaneStencil::new(&stencil, &in_off, &incoming);
         let padded = st.padded();
-        assert!(padded < phyxel::gather::FIXED_ROWS, "{padded} phyxels");
+        assert!(
+            padded < phyxel::spatial::gather::FIXED_ROWS,
+            "{padded} phyxels"
+        );
         let law = Law::new(&mat, 1e-4, 1e-4);
         let run = |rows: usize| {
             let mut state = vec![[0.0f32; 8]; rows];
@@ -749,7 +756,7 @@ mod tests {
         };
         let reference = run(padded);
         assert!(reference.2[0].iter().any(|&v| v != 0.0), "no force");
-        for rows in [phyxel::gather::FIXED_ROWS, padded + 3] {
+        for rows in [phyxel::spatial::gather::FIXED_ROWS, padded + 3] {
             let got = run(rows);
             assert_eq!(got.0, reference.0, "{rows} rows: strain");
             assert!(

@@ -27,13 +27,13 @@
 //! body at rest has zero pressure also at its free surface (no particle deficiency).
 
 use glam::{Mat3, Quat, Vec3};
-use phyxel::columns::{LANES, Vec3s};
+use phyxel::body::columns::{LANES, Vec3s};
+use phyxel::body::material::Material;
+use phyxel::body::phyxels::Phyxels;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
-use phyxel::grid::Grid;
-use phyxel::material::Material;
-use phyxel::phyxels::Phyxels;
+use phyxel::spatial::grid::Grid;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 use wide::f32x8;

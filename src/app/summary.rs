@@ -1,11 +1,11 @@
 //! The run summary (`phyxel run --json`) and the loop that produces it.
 
-use crate::frame::Format;
-use crate::output;
-use crate::render::{self, RenderOptions};
+use crate::app::render::{self, RenderOptions};
+use crate::io::frame::Format;
+use crate::io::output;
 use crate::scene::{BuildOptions, Scene, SceneError};
-use crate::timing::Phase;
 use crate::world::World;
+use crate::world::phase::Phase;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::PathBuf;

@@ -1,7 +1,7 @@
 //! Frame output: binary little-endian PLY files of surfels and phyxels.
 
 use crate::contact::ContactSurfel;
-use crate::frame::{Format, Frame};
+use crate::io::frame::{Format, Frame};
 use crate::world::World;
 use std::fs::File;
 use std::io::{BufWriter, Write};

@@ -8,10 +8,10 @@
 
 use crate::World;
 use crate::backends;
-use crate::material::Material;
-use crate::phyxels::Phyxels;
+use crate::body::material::Material;
+use crate::body::phyxels::Phyxels;
+use crate::body::shape::Shape;
 use crate::scene::{BuildOptions, Scene};
-use crate::shape::Shape;
 use glam::{DMat3, DVec3, Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -617,7 +617,7 @@ pub fn case_hertz(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
 /// Hertz `δ = (9F²/(16E*²R*))^{1/3}` (as `hertz-indentation`, which averages over the
 /// last 0.1 s instead). `None` for other scenes, or when the run ended before the load
 /// ramp did.
-pub fn scene_error(scene: &Scene, summary: &crate::summary::RunSummary) -> Option<f64> {
+pub fn scene_error(scene: &Scene, summary: &crate::app::summary::RunSummary) -> Option<f64> {
     let [a, b] = &scene.objects[..] else {
         return None;
     };
@@ -895,7 +895,7 @@ pub fn stretch_energy(backend: &str, p: &Phyxels, m: &Material, stretch: DVec3) 
         "mls" => {
             let (lambda, mu) = (m.lame().0 as f64, m.lame().1 as f64);
             let c = f.transpose() * f - DMat3::IDENTITY;
-            let eps = if m.strain == crate::material::StrainForm::Paper {
+            let eps = if m.strain == crate::body::material::StrainForm::Paper {
                 c
             } else {
                 c * 0.5

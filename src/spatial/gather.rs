@@ -50,16 +50,16 @@ impl<T: Sync> Rows<T> for &[T] {
 }
 
 /// Evaluates `$body` with `$rows` bound to the slice `$buf` as a
-/// [`Rows`](crate::gather::Rows): a [`FixedRows`](crate::gather::FixedRows) view when
-/// it has [`FIXED_ROWS`](crate::gather::FIXED_ROWS) rows, the slice itself otherwise.
+/// [`Rows`](crate::spatial::gather::Rows): a [`FixedRows`](crate::spatial::gather::FixedRows) view when
+/// it has [`FIXED_ROWS`](crate::spatial::gather::FIXED_ROWS) rows, the slice itself otherwise.
 /// `$body` is compiled once for each, so keep it to the kernel.
 #[macro_export]
 macro_rules! with_rows {
     ($buf:expr, |$rows:ident| $body:expr) => {{
         let buf = $buf;
-        match <&[_; $crate::gather::FIXED_ROWS]>::try_from(buf) {
+        match <&[_; $crate::spatial::gather::FIXED_ROWS]>::try_from(buf) {
             Ok(b) => {
-                let $rows = $crate::gather::FixedRows(b);
+                let $rows = $crate::spatial::gather::FixedRows(b);
                 $body
             }
             Err(_) => {

@@ -61,7 +61,7 @@ pub struct Material {
     /// Strain measure of the MLS elasticity.
     pub strain: StrainForm,
     /// Basis of the MLS gradient fit (a method option of the MLS backend).
-    pub gradient: crate::mls::GradientBasis,
+    pub gradient: crate::dynamics::mls::GradientBasis,
 }
 
 impl Default for Material {
@@ -80,7 +80,7 @@ impl Default for Material {
             contact_stiffness: 4.0,
             contact_damping: 0.2,
             strain: StrainForm::Calibrated,
-            gradient: crate::mls::GradientBasis::Quadratic,
+            gradient: crate::dynamics::mls::GradientBasis::Quadratic,
         }
     }
 }

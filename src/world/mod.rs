@@ -1,16 +1,18 @@
 //! The world and its step, read like the paper's `animate` (Keiser et al. 2004, §8).
 
-use crate::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
+pub mod phase;
+
+use crate::body::fracture::{self, Components, SplitEvent};
+use crate::body::object::Object;
+use crate::contact::detect::{Candidates, DetectScratch, PairDetection, Volume, colliding_surfels};
+use crate::contact::implicit::{ImplicitSurface, SurfelRows, grid_cell, radius_range};
 use crate::contact::{
     self, ContactParams, ContactPatch, ContactSurfel, DistributeScratch, PairSurfaces, PatchScratch,
 };
-use crate::detect::{Candidates, DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::dynamics::{StepContext, damped_euler_limit};
-use crate::grid::{Grid, LazyGrid};
-use crate::implicit::{ImplicitSurface, SurfelRows, grid_cell, radius_range};
-use crate::object::Object;
-use crate::timing::{Phase, PhaseTimes};
-use crate::topology::{self, Components, SplitEvent};
+use crate::spatial::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
+use crate::spatial::grid::{Grid, LazyGrid};
+use crate::world::phase::{Phase, PhaseTimes};
 use bumpalo::Bump;
 use bumpalo::collections::Vec as BumpVec;
 use glam::Vec3;
@@ -150,7 +152,7 @@ impl Energy {
 }
 
 /// Energy gain, as a fraction of the run's energy scale, above which `run` warns
-/// ([`crate::summary::RunSummary::energy_warning`]): symplectic Euler's energy error
+/// ([`crate::app::summary::RunSummary::energy_warning`]): symplectic Euler's energy error
 /// is bounded and small at a stable dt (below 1% in the built-in scenes), a blow-up's
 /// gain is orders of magnitude.
 pub const ENERGY_GAIN_WARNING: f64 = 0.1;
@@ -340,7 +342,7 @@ struct SurfaceGrids {
 pub const DISTRIBUTION_SUPPORT: f32 = 1.0;
 
 /// Hertz compliance `(1 − ν²)/E` of a material: a pair's `E* = 1/(c_a + c_b)`.
-fn compliance(m: &crate::material::Material) -> f32 {
+fn compliance(m: &crate::body::material::Material) -> f32 {
     (1.0 - m.poisson * m.poisson) / m.young
 }
 
@@ -1091,7 +1093,7 @@ impl World {
     }
 
     /// Self-collision forces (objects with `self_collision`), then fracture of the objects
-    /// whose backend and material can break ([`crate::topology`]). Returns the work
+    /// whose backend and material can break ([`crate::body::fracture`]). Returns the work
     /// (phyxels checked) and the number of objects that split; both zero when no object
     /// uses either feature.
     #[inline(never)] // a named frame in flamegraphs
@@ -1103,15 +1105,15 @@ impl World {
                 sc.apply(&mut o.phyxels, &o.material, self.dt);
             }
         }
-        if !self.objects.iter().any(topology::may_fracture) {
+        if !self.objects.iter().any(fracture::may_fracture) {
             return (work, 0);
         }
         // Each object that may break counts its components (a spanning-tree check
-        // unless the tree broke: crate::connectivity), in parallel over objects.
+        // unless the tree broke: crate::body::connectivity), in parallel over objects.
         let (checked, breaking) = self
             .objects
             .par_iter_mut()
-            .filter(|o| topology::may_fracture(o))
+            .filter(|o| fracture::may_fracture(o))
             .map(|o| {
                 let p = &o.phyxels;
                 let count = o.connectivity.update(&p.pos, &p.radius);
@@ -1132,7 +1134,7 @@ impl World {
         let broken: Vec<(usize, Components)> = (0..self.objects.len())
             .filter(|&k| {
                 let o = &self.objects[k];
-                topology::may_fracture(o) && o.connectivity.count() > 1 && finite(o)
+                fracture::may_fracture(o) && o.connectivity.count() > 1 && finite(o)
             })
             .map(|k| (k, self.objects[k].connectivity.components()))
             .collect();
@@ -1146,7 +1148,7 @@ impl World {
         let mut splits = 0;
         for (k, comps) in broken {
             let o = objects[k].take().expect("each object splits once per step");
-            match topology::split(o, &comps, self.steps, &mut self.next_id) {
+            match fracture::split(o, &comps, self.steps, &mut self.next_id) {
                 Ok((pieces, event)) => {
                     let mut pieces = pieces.into_iter();
                     objects[k] = pieces.next();

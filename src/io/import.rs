@@ -2,7 +2,7 @@
 //! same PLY reader, triangle meshes and point clouds. Every error names the file and,
 //! where there is one, the element or line.
 
-use crate::frame::Frame;
+use crate::io::frame::Frame;
 use glam::Vec3;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{DefaultElement, Encoding, Header, Payload, Property};

@@ -10,14 +10,14 @@
 //! point `o` is the phyxels' rest centroid, so `c_i` stays small (no f32 cancellation) for
 //! objects far from the origin.
 
-use crate::broad_phase::{Aabb, BLOCK};
-use crate::columns::{LANES, load8, store8};
-use crate::gather::{Rows, fixed_rows};
-use crate::grid::Grid;
-use crate::kernel::poly6_shape;
-use crate::mls::cofactor;
-use crate::phyxels::Phyxels;
-use crate::surfels::Surfels;
+use crate::body::columns::{LANES, load8, store8};
+use crate::body::phyxels::Phyxels;
+use crate::body::surfels::Surfels;
+use crate::dynamics::kernel::poly6_shape;
+use crate::dynamics::mls::cofactor;
+use crate::spatial::broad_phase::{Aabb, BLOCK};
+use crate::spatial::gather::{Rows, fixed_rows};
+use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
 use wide::f32x8;
@@ -38,7 +38,7 @@ const CHUNK: usize = BLOCK;
 
 /// One phyxel's advection terms for this step, `[c_i, ∇u_i (columns), v_i, 0]`, as two
 /// 8-lane rows so a weighted sum over a row is two multiply-adds per entry (plain `f32`
-/// arrays, so that a zeroed table is allocated without writing it: `crate::gather`).
+/// arrays, so that a zeroed table is allocated without writing it: `crate::spatial::gather`).
 type AffineRow = [[f32; 8]; 2];
 
 /// Fixed binding of each surfel to nearby phyxels, with normalised weights, in lane
@@ -60,7 +60,7 @@ pub struct SurfelBinding {
     origin: Vec3,
     /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
     /// does not allocate; [`fixed_rows`] rows, so that the sums' gathers need no bounds
-    /// checks (`crate::gather`).
+    /// checks (`crate::spatial::gather`).
     table: Vec<AffineRow>,
     /// Surfel and phyxel counts of the rest shape it was built from.
     surfels: usize,
@@ -253,7 +253,7 @@ impl SurfelBinding {
                 );
                 // The sums of the eight surfels from `k` on (chunks are whole groups).
                 // The table through a view whose gathers need no bounds checks
-                // (`crate::gather`): the chunk's loops are compiled for each kind.
+                // (`crate::spatial::gather`): the chunk's loops are compiled for each kind.
                 crate::with_rows!(&table[..], |rows| {
                     let sums = |k: usize| {
                         let g = (first + k) / LANES;

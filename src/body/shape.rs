@@ -7,7 +7,7 @@
 
 use std::f32::consts::{PI, TAU};
 
-use crate::mesh::Surface;
+use crate::body::mesh::Surface;
 use glam::{Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -44,7 +44,7 @@ pub enum Shape {
         size: [f32; 2],
     },
     /// A closed triangle mesh from an OBJ or PLY file, `path` relative to the scene file,
-    /// scaled by `scale` and centred on its bounding box (see [`crate::mesh`]). Loaded by
+    /// scaled by `scale` and centred on its bounding box (see [`crate::body::mesh`]). Loaded by
     /// [`Shape::load_mesh`] (done by `Scene::load` and `ObjectSpec::build`).
     Mesh {
         path: String,

@@ -2,15 +2,19 @@
 //! intersecting objects, its resampling, penalty and friction forces on the contact
 //! surfels, and their distribution to the phyxels.
 
-use crate::brent::brent;
-use crate::columns::{LANES, lane_mask, load8, store8};
-use crate::detect::{Colliding, PairDetection};
-use crate::grid::Grid;
-use crate::implicit::{ImplicitSurface, NearHits, SurfaceSample};
-use crate::kernel::poly6_shape;
-use crate::mls::sym_eigen;
-use crate::phyxels::Phyxels;
-use crate::surfels::Surfels;
+pub mod brent;
+pub mod detect;
+pub mod implicit;
+
+use crate::body::columns::{LANES, lane_mask, load8, store8};
+use crate::body::phyxels::Phyxels;
+use crate::body::surfels::Surfels;
+use crate::contact::brent::brent;
+use crate::contact::detect::{Colliding, PairDetection};
+use crate::contact::implicit::{ImplicitSurface, NearHits, SurfaceSample};
+use crate::dynamics::kernel::poly6_shape;
+use crate::dynamics::mls::sym_eigen;
+use crate::spatial::grid::Grid;
 use glam::{DMat3, Vec3};
 use rayon::prelude::*;
 use wide::f32x8;

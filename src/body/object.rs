@@ -1,13 +1,13 @@
 //! A point-based object `Γ = (S, P)`: surfels, phyxels, a material and a backend.
 
-use crate::advect::SurfelBinding;
-use crate::connectivity::Connectivity;
+use crate::body::advect::SurfelBinding;
+use crate::body::connectivity::Connectivity;
+use crate::body::material::Material;
+use crate::body::phyxels::Phyxels;
+use crate::body::self_collision::SelfCollision;
+use crate::body::surfels::Surfels;
 use crate::dynamics::Dynamics;
-use crate::material::Material;
-use crate::mls::MlsStencil;
-use crate::phyxels::Phyxels;
-use crate::surfels::Surfels;
-use crate::topology::SelfCollision;
+use crate::dynamics::mls::MlsStencil;
 use glam::Mat3;
 
 /// One simulated object.
@@ -45,7 +45,7 @@ pub struct Object {
     /// whose scene asks for it (`self_collision = true`); `None`: no self-collision work.
     pub self_collision: Option<SelfCollision>,
     /// The fracture check's state (empty unless the object may break: see
-    /// [`crate::topology::may_fracture`]).
+    /// [`crate::body::fracture::may_fracture`]).
     pub connectivity: Connectivity,
     /// Unique per `Object::new` in the process: the world keeps a static object's box
     /// and grids for the object it computed them for, and an object replaced by another

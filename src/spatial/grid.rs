@@ -35,7 +35,7 @@
 //! those points, whatever the cell size, round-off at the boundary included: the cells
 //! searched cover `r` plus a margin larger than that round-off.
 
-use crate::columns::Vec3s;
+use crate::body::columns::Vec3s;
 use glam::Vec3;
 use std::sync::{Mutex, OnceLock};
 use wide::{f32x8, i32x8, u32x8};

@@ -1,14 +1,16 @@
 //! Scenes: a TOML description of a simulation (docs/SCENES.md), and the built-in ones.
 
+pub mod camera;
+
 use crate::backends;
-use crate::material::Material;
-use crate::morton;
-use crate::object::Object;
-use crate::phyxels::Phyxels;
-use crate::render::Camera;
-use crate::shape::Shape;
-use crate::surfels::Surfels;
-use crate::topology::SelfCollision;
+use crate::body::material::Material;
+use crate::body::object::Object;
+use crate::body::phyxels::Phyxels;
+use crate::body::self_collision::SelfCollision;
+use crate::body::shape::Shape;
+use crate::body::surfels::Surfels;
+use crate::scene::camera::Camera;
+use crate::spatial::morton;
 use crate::world::World;
 use glam::{EulerRot, Quat, Vec3};
 use serde::{Deserialize, Serialize};

@@ -4,9 +4,9 @@
 //! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
-use crate::broad_phase::Aabb;
-use crate::columns::{LANES, Vec3s, lane_mask, load8};
-use crate::grid::{Grid, LazyGrid};
+use crate::body::columns::{LANES, Vec3s, lane_mask, load8};
+use crate::spatial::broad_phase::Aabb;
+use crate::spatial::grid::{Grid, LazyGrid};
 use glam::Vec3;
 use wide::f32x8;
 

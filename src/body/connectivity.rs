@@ -11,8 +11,8 @@
 //! is the full count's in every step: the tree only skips searches whose result it
 //! already proves.
 
-use crate::columns::Vec3s;
-use crate::grid::Grid;
+use crate::body::columns::Vec3s;
+use crate::spatial::grid::Grid;
 
 /// Connected components of a phyxel set: `label[i]` in `0..count`, numbered in the order
 /// of their first phyxel (phyxel 0 is always in component 0).
@@ -23,7 +23,7 @@ pub struct Components {
 }
 
 /// Components of the graph joining points `i`, `j` with `|x_i − x_j| < max(h_i, h_j)`
-/// (`pos` and `radius` = `h`, as in [`crate::phyxels::Phyxels`]): one full count.
+/// (`pos` and `radius` = `h`, as in [`crate::body::phyxels::Phyxels`]): one full count.
 pub fn components(pos: &Vec3s, radius: &[f32]) -> Components {
     let mut c = Connectivity::default();
     c.count_components(pos, radius);

@@ -1,10 +1,10 @@
 //! Colliding surfels (Keiser et al. 2004, §5, eq. 2): the surfels of one object that lie
 //! in the pair's intersection box and inside the other object's implicit surface.
 
-use crate::broad_phase::{Aabb, Pair, points_in_blocks};
-use crate::grid::Grid;
-use crate::implicit::{FarHint, ImplicitSurface, SurfaceSample};
-use crate::surfels::Surfels;
+use crate::body::surfels::Surfels;
+use crate::contact::implicit::{FarHint, ImplicitSurface, SurfaceSample};
+use crate::spatial::broad_phase::{Aabb, Pair, points_in_blocks};
+use crate::spatial::grid::Grid;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -99,7 +99,7 @@ pub struct Candidates<'a> {
     /// Every surfel of the object.
     pub surfels: &'a Surfels,
     /// The boxes of the surfels' blocks when they bound the current positions
-    /// ([`crate::advect::SurfelBinding::block_boxes`]): the candidate scan skips the blocks
+    /// ([`crate::body::advect::SurfelBinding::block_boxes`]): the candidate scan skips the blocks
     /// outside the pair's box ([`points_in_blocks`]; the same candidates).
     pub blocks: Option<&'a [Aabb]>,
     /// When set, the surfels `s` with `only[s]` false are not tested (the force carriers

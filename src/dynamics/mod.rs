@@ -4,9 +4,12 @@
 //! plastic strain, ...) and moves the phyxels one step at a time. External forces
 //! (contact, user loads) arrive in `phyxels.force` and act during the next step.
 
-use crate::columns::{LANES, Vec3s, load8, store8};
-use crate::material::Material;
-use crate::phyxels::Phyxels;
+pub mod kernel;
+pub mod mls;
+
+use crate::body::columns::{LANES, Vec3s, load8, store8};
+use crate::body::material::Material;
+use crate::body::phyxels::Phyxels;
 use glam::{Mat3, Vec3};
 use wide::f32x8;
 
@@ -86,11 +89,11 @@ pub trait Dynamics: Send + Sync {
     }
 
     /// The backend of a piece that broke off, built for the piece's `phyxels` (their
-    /// rest state is the current one); `None` keeps the object whole. Default: the
-    /// built-in backend of [`Dynamics::name`] (`crate::backends::create`), `None` for
-    /// any other name: a user backend that may fracture overrides this.
-    fn fragment(&self, phyxels: &Phyxels, material: &Material) -> Option<Box<dyn Dynamics>> {
-        crate::backends::create(self.name(), phyxels, material).ok()
+    /// rest state is the current one); `None` keeps the object whole. Default: `None`
+    /// (the core does not know how to build a backend): a backend that may fracture
+    /// overrides this, as the built-in ones do.
+    fn fragment(&self, _phyxels: &Phyxels, _material: &Material) -> Option<Box<dyn Dynamics>> {
+        None
     }
 
     /// True when the backend's plastic flow asks for a new rest configuration (Desbrun–Cani

@@ -4,7 +4,7 @@
 //! triangles then thinned Poisson-disk to the target spacing, phyxels on the cubic lattice
 //! inside the surface by generalized winding number.
 
-use crate::import::read_ply;
+use crate::io::import::read_ply;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::collections::HashMap;

@@ -1,0 +1,7 @@
+//! The application layer (feature `app`, part of `cli`): the run loop and its summary
+//! (`phyxel run --json`), the validation suite (`phyxel validate`) and the software
+//! splat renderer. The engine does not depend on it.
+
+pub mod render;
+pub mod summary;
+pub mod validate;
