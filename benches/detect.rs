@@ -132,11 +132,11 @@ impl Bench {
             o.phyxels.clone_from(p);
             o.surfels.clone_from(s);
         }
-        let before: PhaseTimes = self.world.times.clone();
+        let before: PhaseTimes = self.world.record.times.clone();
         let t = Instant::now();
         self.world.step();
         let whole = t.elapsed();
-        let after = &self.world.times;
+        let after = &self.world.record.times;
         let secs = Phase::ALL.map(|p| after.seconds(p) - before.seconds(p));
         let tested = after.work(Phase::Detect) - before.work(Phase::Detect);
         let colliding = self

@@ -82,7 +82,7 @@ fn sphere_on_plane_settles_with_every_backend() {
         println!(
             "{b}: {steps} steps, |v| {v:.2e} m/s, resting penetration {pen:.2e} m, max over run \
              {:.2e} m, centre height {height:.4} m (Hertz {:.4} m)",
-            w.max_penetration,
+            w.record.max_penetration,
             radius - delta
         );
         assert!(v < 0.02, "{b}: still moving at {v} m/s");

@@ -314,7 +314,7 @@ fn pile_comes_to_rest_without_passing_through() {
     }
     println!(
         "pile: KE peak {peak:.3} J, at 1.5 s {last:.4} J, max penetration {:.4} m",
-        w.max_penetration
+        w.record.max_penetration
     );
     assert!(w.all_finite());
     for k in 1..w.objects.len() {
@@ -325,9 +325,9 @@ fn pile_comes_to_rest_without_passing_through() {
         );
     }
     assert!(
-        w.max_penetration < 0.03,
+        w.record.max_penetration < 0.03,
         "penetration {} m: something passed through",
-        w.max_penetration
+        w.record.max_penetration
     );
     assert!(
         last < 0.1 * peak,
@@ -643,7 +643,10 @@ fn a_ball_smaller_than_the_grounds_surfels_is_caught() {
         w.step();
         lowest = lowest.min(w.objects[1].phyxels.centre_of_mass()[1]);
     }
-    assert!(w.max_penetration > 0.0, "the contact was never detected");
+    assert!(
+        w.record.max_penetration > 0.0,
+        "the contact was never detected"
+    );
     assert!(lowest > 0.0, "the ball's centre sank to y = {lowest} m");
     let y = w.objects[1].phyxels.centre_of_mass()[1];
     assert!(y > 0.0, "the ball ended at y = {y} m");
@@ -1223,6 +1226,7 @@ fn a_body_under_a_heavy_stack_warns() {
         .expect("parses")
         .build(&BuildOptions::default())
         .expect("builds")
+        .record
         .warnings
     };
     let stacked = scene(0.0, 1e4);

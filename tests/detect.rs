@@ -499,9 +499,9 @@ fn overlapping_spheres_give_the_analytic_colliding_set() {
     }
     // The deepest surfel is the pole of one sphere, 3 cm inside the other.
     assert!(
-        (world.max_penetration - 0.03).abs() < 0.002,
+        (world.record.max_penetration - 0.03).abs() < 0.002,
         "max penetration {}",
-        world.max_penetration
+        world.record.max_penetration
     );
 }
 
@@ -515,9 +515,9 @@ fn disjoint_objects_cost_no_narrow_phase() {
     }
     assert!(world.pairs.is_empty());
     assert!(world.detections.is_empty());
-    assert_eq!(world.times.work(Phase::Detect), 0);
-    assert_eq!(world.times.work(Phase::SurfelGrid), 0);
-    assert_eq!(world.max_penetration, 0.0);
+    assert_eq!(world.record.times.work(Phase::Detect), 0);
+    assert_eq!(world.record.times.work(Phase::SurfelGrid), 0);
+    assert_eq!(world.record.max_penetration, 0.0);
 }
 
 /// The SIMD kernel sums of the implicit surface (each lane group of the grid query

@@ -22,17 +22,17 @@ fn run(name: &str, steps: usize, render: bool) -> phyxel::World {
 fn unused_features_do_no_work() {
     let w = run("two-spheres", 150, false);
     assert!(
-        w.times.work(Phase::Forces) > 0,
+        w.record.times.work(Phase::Forces) > 0,
         "the spheres must touch for this test"
     );
-    assert_eq!(w.friction_work, 0, "friction work with μ = 0");
+    assert_eq!(w.record.friction_work, 0, "friction work with μ = 0");
     assert_eq!(
-        w.times.work(Phase::Resample),
+        w.record.times.work(Phase::Resample),
         0,
         "render resampling without frames"
     );
     assert_eq!(
-        w.times.work(Phase::Topology),
+        w.record.times.work(Phase::Topology),
         0,
         "topology work (fracture check, self-collision) though no object can break or needs it"
     );
@@ -52,8 +52,8 @@ fn unused_features_do_no_work() {
 #[test]
 fn used_features_do_work() {
     let w = run("incline", 200, true);
-    assert!(w.friction_work > 0);
-    assert!(w.times.work(Phase::Resample) > 0);
+    assert!(w.record.friction_work > 0);
+    assert!(w.record.times.work(Phase::Resample) > 0);
 }
 
 /// The plastic-state check above is live: in `plastic-pile` (plastic blobs thrown onto
@@ -83,7 +83,7 @@ fn static_objects_have_no_dynamics() {
     let w = run("sphere-on-plane", steps, false);
     let ball = w.objects.iter().find(|o| !o.is_static()).unwrap();
     assert_eq!(
-        w.times.work(Phase::Dynamics),
+        w.record.times.work(Phase::Dynamics),
         (ball.phyxels.len() * steps) as u64
     );
 }
@@ -138,20 +138,20 @@ fn surfels_finer_than_the_carriers_are_tested_only_for_frames() {
     );
     assert_eq!(non_carriers(&lean), 0);
     let (tested, tested_full) = (
-        lean.times.work(Phase::Detect),
-        full.times.work(Phase::Detect),
+        lean.record.times.work(Phase::Detect),
+        full.record.times.work(Phase::Detect),
     );
     println!(
         "{carriers} carriers of {surfels} surfels; candidates tested: {tested} without frames, {tested_full} with"
     );
     assert!(2 * tested < tested_full);
     assert_eq!(
-        lean.times.work(Phase::ContactSurface),
-        full.times.work(Phase::ContactSurface)
+        lean.record.times.work(Phase::ContactSurface),
+        full.record.times.work(Phase::ContactSurface)
     );
     assert_eq!(
-        lean.max_penetration.to_bits(),
-        full.max_penetration.to_bits()
+        lean.record.max_penetration.to_bits(),
+        full.record.max_penetration.to_bits()
     );
     for (a, b) in lean.objects.iter().zip(&full.objects) {
         assert_eq!(a.phyxels.pos, b.phyxels.pos);

@@ -67,10 +67,10 @@ fn built(name: &str) -> phyxel::World {
 /// topology phase (self-collision or the fracture check) did work meanwhile.
 fn topology_allocations(world: &mut phyxel::World, warm_up: usize, n: usize) -> u64 {
     allocations_over(world, warm_up);
-    let checked = world.times.work(Phase::Topology);
+    let checked = world.record.times.work(Phase::Topology);
     let allocs = allocations_over(world, n);
     assert!(
-        world.times.work(Phase::Topology) > checked,
+        world.record.times.work(Phase::Topology) > checked,
         "the topology phase ran"
     );
     allocs
@@ -89,10 +89,10 @@ fn steady_state_steps_do_not_allocate() {
 
     let mut resting = built("sphere-on-plane");
     allocations_over(&mut resting, 1500);
-    let forced = resting.times.work(Phase::Forces);
+    let forced = resting.record.times.work(Phase::Forces);
     let n = 200;
     let allocs = allocations_over(&mut resting, n);
-    let per_step = (resting.times.work(Phase::Forces) - forced) / n as u64;
+    let per_step = (resting.record.times.work(Phase::Forces) - forced) / n as u64;
     assert!(
         per_step > 50,
         "the ball must rest on the plane ({per_step} contact surfels/step)"

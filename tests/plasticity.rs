@@ -208,8 +208,8 @@ fn plastic_flow_that_stiffens_lowers_dt() {
         let drift = p.iter().map(|c| c.abs()).fold(0.0, f64::max);
         assert!(drift < 1e-4 * mv, "step {}: momentum {p:?}", world.steps);
     }
-    assert!(world.rest_renewals > 0, "no rest shape was renewed");
-    assert!(!world.dt_changes.is_empty(), "dt was never lowered");
+    assert!(world.record.rest_renewals > 0, "no rest shape was renewed");
+    assert!(!world.record.dt_changes.is_empty(), "dt was never lowered");
     assert!(
         world.dt <= world.stable_dt().0,
         "dt above the bound at the end"

@@ -47,7 +47,10 @@ fn bits(w: &World) -> Vec<u32> {
 /// Both runs end in the same bits: the largest penetration and every phyxel and surfel
 /// position and velocity.
 fn assert_same_state(one: &World, two: &World) {
-    assert_eq!(one.max_penetration.to_bits(), two.max_penetration.to_bits());
+    assert_eq!(
+        one.record.max_penetration.to_bits(),
+        two.record.max_penetration.to_bits()
+    );
     let (a, b) = (bits(one), bits(two));
     assert_eq!(a.len(), b.len());
     let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
@@ -61,7 +64,7 @@ fn one_and_two_threads_agree_bitwise() {
     let steps = 160;
     let one = run_on(1, "two-spheres", steps);
     let two = run_on(2, "two-spheres", steps);
-    assert!(one.max_penetration > 0.0, "the spheres must collide");
+    assert!(one.record.max_penetration > 0.0, "the spheres must collide");
     assert_same_state(&one, &two);
 }
 
@@ -81,9 +84,9 @@ fn deep_contact_agrees_bitwise_on_one_and_two_threads() {
     let (_, r_max) = phyxel::contact::implicit::radius_range(&one.objects[0].surfels.radius);
     let reach = phyxel::contact::implicit::grid_cell(r_max);
     assert!(
-        one.max_penetration > 2.0 * reach,
+        one.record.max_penetration > 2.0 * reach,
         "penetration {} m must exceed two kernel reaches ({reach} m)",
-        one.max_penetration
+        one.record.max_penetration
     );
     assert_same_state(&one, &two);
 }

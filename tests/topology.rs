@@ -196,7 +196,7 @@ fn plastic_bar_breaks_and_conserves() {
                     w.steps
                 );
             }
-            for e in &w.splits[w.splits.len() - splits..] {
+            for e in &w.record.splits[w.record.splits.len() - splits..] {
                 broken.insert(e.parent);
                 let mut seen: HashMap<[u32; 3], usize> = HashMap::new();
                 for o in w.objects.iter().filter(|o| e.pieces.contains(&o.id)) {
@@ -229,10 +229,10 @@ fn plastic_bar_breaks_and_conserves() {
         );
         assert!(w.all_finite());
     }
-    assert!(!w.splits.is_empty(), "the plastic bar never broke");
+    assert!(!w.record.splits.is_empty(), "the plastic bar never broke");
     eprintln!(
         "splits at steps {:?}; objects at the end {}",
-        w.splits.iter().map(|e| e.step).collect::<Vec<_>>(),
+        w.record.splits.iter().map(|e| e.step).collect::<Vec<_>>(),
         w.objects.len()
     );
     // The biggest piece that fell is the one holding the bar's lowest phyxel at rest.
@@ -265,8 +265,15 @@ fn elastic_bar_does_not_split() {
     for _ in 0..1500 {
         w.step();
     }
-    assert!(w.times.work(Phase::Topology) > 0, "the fracture check ran");
-    assert!(w.splits.is_empty(), "elastic bar split: {:?}", w.splits);
+    assert!(
+        w.record.times.work(Phase::Topology) > 0,
+        "the fracture check ran"
+    );
+    assert!(
+        w.record.splits.is_empty(),
+        "elastic bar split: {:?}",
+        w.record.splits
+    );
     assert_eq!(w.objects.len(), 2);
     assert!(w.all_finite());
 }
@@ -554,5 +561,5 @@ fn a_breakable_body_gone_non_finite_is_reported_not_split() {
     w.step();
     let bad = w.non_finite.as_ref().expect("the NaN is reported");
     assert_eq!((bad.object.as_str(), w.objects.len()), ("ball", 1));
-    assert!(w.splits.is_empty());
+    assert!(w.record.splits.is_empty());
 }

@@ -268,7 +268,7 @@ pub fn summarize(
         steps,
         dt: world.dt,
         time: world.time,
-        dt_changes: world.dt_changes.clone(),
+        dt_changes: world.record.dt_changes.clone(),
         stable_dt: world.stable_dt().0,
         objects: world.objects.len(),
         surfels: world.objects.iter().map(|o| o.surfels.len()).sum(),
@@ -277,11 +277,11 @@ pub fn summarize(
         steps_per_second: if wall > 0.0 { steps as f64 / wall } else { 0.0 },
         phase_seconds: Phase::ALL
             .iter()
-            .map(|&p| (p.name().to_string(), world.times.seconds(p)))
+            .map(|&p| (p.name().to_string(), world.record.times.seconds(p)))
             .collect(),
         phase_work: Phase::ALL
             .iter()
-            .map(|&p| (p.name().to_string(), world.times.work(p)))
+            .map(|&p| (p.name().to_string(), world.record.times.work(p)))
             .collect(),
         finite,
         non_finite: world.non_finite.as_ref().map(|e| e.to_string()),
@@ -289,12 +289,12 @@ pub fn summarize(
         energy_initial,
         energy_final,
         energy_warning: energy_warning(world, energy_initial, energy_final),
-        warnings: world.warnings.clone(),
+        warnings: world.record.warnings.clone(),
         momentum_final,
         kinetic_energy,
-        max_penetration: world.max_penetration,
+        max_penetration: world.record.max_penetration,
         frames_written: frames,
-        fractures: world.splits.len(),
+        fractures: world.record.splits.len(),
         bodies,
     }
 }

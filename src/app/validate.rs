@@ -1356,7 +1356,7 @@ fn run_hard(
         finite = w.all_finite();
         finite
     });
-    let pen = w.max_penetration as f64;
+    let pen = w.record.max_penetration as f64;
     let (status, note) = if !finite {
         let first = w
             .non_finite

@@ -5,6 +5,7 @@
 pub mod brent;
 pub mod detect;
 pub mod implicit;
+pub mod params;
 
 use crate::body::columns::{LANES, lane_mask, load8, store8};
 use crate::body::phyxels::Phyxels;

@@ -637,7 +637,7 @@ impl Scene {
         };
         world.dt = dt;
         world.keep_stable = !opts.allow_unstable;
-        world.warnings = warnings;
+        world.record.warnings = warnings;
         Ok(world)
     }
 }
@@ -1383,7 +1383,11 @@ mod tests {
                 .expect("builtin")
                 .build(&BuildOptions::default())
                 .expect("builds");
-            assert!(world.warnings.is_empty(), "{name}: {:?}", world.warnings);
+            assert!(
+                world.record.warnings.is_empty(),
+                "{name}: {:?}",
+                world.record.warnings
+            );
         }
     }
 
@@ -1410,6 +1414,7 @@ mod tests {
             .expect("parses")
             .build(&BuildOptions::default())
             .expect("builds")
+            .record
             .warnings
         };
         let fast = scene(-100.0);
@@ -1433,7 +1438,12 @@ mod tests {
         let scene = Scene::builtin("sphere-on-plane").expect("builtin");
         let mut soft = scene.clone();
         soft.objects[1].material.young = 1e3;
-        let warnings = |s: &Scene| s.build(&BuildOptions::default()).expect("builds").warnings;
+        let warnings = |s: &Scene| {
+            s.build(&BuildOptions::default())
+                .expect("builds")
+                .record
+                .warnings
+        };
         let w = warnings(&soft);
         let [w] = w.as_slice() else { panic!("{w:?}") };
         assert!(
@@ -1469,7 +1479,7 @@ mod tests {
                 backend: Some(backend.into()),
                 ..BuildOptions::default()
             };
-            scene.build(&opts).expect("builds").warnings
+            scene.build(&opts).expect("builds").record.warnings
         };
         let thin = warnings(&plate(0.005), "mls");
         let [w] = thin.as_slice() else {
@@ -1503,10 +1513,16 @@ mod tests {
             };
             let world = scene.build(&opts).expect("builds");
             let warned = world
+                .record
                 .warnings
                 .iter()
                 .filter(|w| w.contains("no plastic flow"));
-            assert_eq!(warned.count(), plastic, "{backend}: {:?}", world.warnings);
+            assert_eq!(
+                warned.count(),
+                plastic,
+                "{backend}: {:?}",
+                world.record.warnings
+            );
             let mut named = scene.clone();
             let k = named
                 .objects
@@ -1530,7 +1546,11 @@ mod tests {
             }
         });
         let world = on_mls.build(&BuildOptions::default()).expect("builds");
-        assert!(world.warnings.is_empty(), "{:?}", world.warnings);
+        assert!(
+            world.record.warnings.is_empty(),
+            "{:?}",
+            world.record.warnings
+        );
     }
 
     /// A sphere (r = 0.1 m) sampled by 20 phyxels holds 52% more lattice volume than
@@ -1541,7 +1561,11 @@ mod tests {
     fn a_coarse_body_warns_of_its_mass() {
         let mut scene = Scene::builtin("falling-sphere").expect("builtin");
         let fine = scene.build(&BuildOptions::default()).expect("builds");
-        assert!(fine.warnings.is_empty(), "{:?}", fine.warnings);
+        assert!(
+            fine.record.warnings.is_empty(),
+            "{:?}",
+            fine.record.warnings
+        );
         scene.objects[0].spacing = 0.0;
         scene.objects[0].phyxels = Some(20);
         let world = scene.build(&BuildOptions::default()).expect("builds");
@@ -1552,8 +1576,8 @@ mod tests {
             sampled / analytic - 1.0 > MASS_WARNING as f32,
             "{sampled} m³"
         );
-        let [w] = world.warnings.as_slice() else {
-            panic!("{:?}", world.warnings)
+        let [w] = world.record.warnings.as_slice() else {
+            panic!("{:?}", world.record.warnings)
         };
         assert!(
             w.contains("objects[0] 'sphere'") && w.contains("4.189e-3 m³"),
@@ -1574,6 +1598,7 @@ mod tests {
             scene
                 .build(&BuildOptions::default())
                 .expect("builds")
+                .record
                 .warnings
         };
         let c = Material::default().wave_speed();
@@ -1602,7 +1627,7 @@ mod tests {
                 surfels,
                 ..Default::default()
             };
-            scene.build(&opts).expect("builds").warnings
+            scene.build(&opts).expect("builds").record.warnings
         };
         let sparse = warnings(Some(20));
         assert_eq!(sparse.len(), 2, "{sparse:?}");
