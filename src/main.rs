@@ -75,7 +75,7 @@ enum Command {
         /// Profile the run (sampling at 997 Hz of CPU time, or at the kernel's timer tick
         /// where that is coarser: 250 Hz on the CI machine) and write a flamegraph SVG; the
         /// phases appear as frames named like the timing table
-        /// (`phyxel::world::World::detect`, ...), and the five frames of most own time are
+        /// (`phyxel::world::step::detect`, ...), and the five frames of most own time are
         /// listed on stderr.
         #[arg(long, value_name = "FILE.svg")]
         flamegraph: Option<PathBuf>,

@@ -94,7 +94,7 @@ pub struct RunSummary {
     /// the run's energy scale in a scene without loads (which alone could add energy):
     /// a numerical failure, often without a NaN. `null` otherwise.
     pub energy_warning: Option<String>,
-    /// What the scene's build found suspect but legal ([`World::warnings`]: a body too
+    /// What the scene's build found suspect but legal ([`RunRecord::warnings`](crate::world::RunRecord::warnings): a body too
     /// coarsely sampled for its mass, a faster-than-sound approach).
     pub warnings: Vec<String>,
     /// Kinetic energy at the end (J).

@@ -228,7 +228,7 @@ impl World {
         self.cache.arena.reset();
         let mut blocks_current = false;
         for phase in Phase::ALL.into_iter().filter(|&p| p != Phase::Topology) {
-            let work = t.time(phase, || self.run(phase, blocks_current));
+            let work = t.time(phase, || step::run(self, phase, blocks_current));
             t.add_work(phase, work);
             // From the advection on, the block boxes bound every moving surfel.
             blocks_current |= phase == Phase::Advect;
@@ -244,7 +244,7 @@ impl World {
     pub fn step_topology(&mut self) -> usize {
         let mut t = std::mem::take(&mut self.record.times);
         let before = self.record.splits.len();
-        let work = t.time(Phase::Topology, || self.run(Phase::Topology, true));
+        let work = t.time(Phase::Topology, || step::run(self, Phase::Topology, true));
         t.add_work(Phase::Topology, work);
         self.record.times = t;
         let splits = self.record.splits.len() - before;
@@ -286,7 +286,7 @@ impl World {
              whose pairs this phase reads: run Phase::BroadPhase (or a step) first"
         );
         self.cache.arena.reset();
-        self.run(phase, false);
+        step::run(self, phase, false);
     }
 
     /// The object with id `id`, wherever it is in [`World::objects`] (which a fracture

@@ -32,7 +32,7 @@ pub struct RunRecord {
 /// explicit step above its bound gains energy without bound, often with no NaN.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DtChange {
-    /// Step after which `dt` changed (1-based, as [`World::steps`]).
+    /// Step after which `dt` changed (1-based, as [`World::steps`](super::World::steps)).
     pub step: u64,
     /// The old and the new `dt` (s).
     pub from: f32,

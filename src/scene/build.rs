@@ -1,0 +1,476 @@
+//! Building a world from a scene: each object sampled and given its backend, the
+//! overlap check, the warnings, and the time step.
+
+use super::check::{phyxel_estimate, sample_count};
+use super::warnings::{
+    Footprint, flat_warning, footprint, load_above, mass_warning, surface_warning, weight_warning,
+};
+use super::*;
+
+impl Scene {
+    /// Samples every object and assembles the world. The scene is checked first
+    /// ([`Scene::validate`]): its fields are public, and a scene changed in code must
+    /// get the same errors as one read from a file, not a panic or a NaN world.
+    pub fn build(&self, opts: &BuildOptions) -> Result<World, SceneError> {
+        let origin = if self.name.is_empty() {
+            "scene"
+        } else {
+            &self.name
+        };
+        self.validate(origin)?;
+        check_overrides(opts, origin)?;
+        let (objects, warnings) = self.build_objects(opts, origin)?;
+        let mut world = World::new(objects, Vec3::from(self.gravity), 0.0);
+        world.dt = self.choose_dt(&world, opts, origin)?;
+        world.keep_stable = !opts.allow_unstable;
+        world.record.warnings = warnings;
+        Ok(world)
+    }
+
+    /// Samples each object with its backend (overrides applied), then checks that no two
+    /// start overlapping; returns them with the build's warnings.
+    fn build_objects(
+        &self,
+        opts: &BuildOptions,
+        origin: &str,
+    ) -> Result<(Vec<Object>, Vec<String>), SceneError> {
+        let mut objects = Vec::with_capacity(self.objects.len());
+        let mut placed = Vec::with_capacity(self.objects.len());
+        let mut warnings = Vec::new();
+        // A per-object warning as the build reports it.
+        let tagged = |k: usize, obj: &Object, w: String| {
+            format!("{origin}: objects[{k}] '{}': {w}", obj.name)
+        };
+        let gravity = Vec3::from(self.gravity);
+        let grounded = self.objects.iter().any(|o| o.is_static);
+        for (k, spec) in self.objects.iter().enumerate() {
+            let mut spec = spec.clone();
+            // Loaded here once (a no-op if `Scene::load` did), for the overlap check too.
+            spec.shape
+                .load_mesh(Path::new(""))
+                .map_err(|m| SceneError(format!("{origin}: objects[{k}].shape: {m}")))?;
+            placed.push((spec.shape.clone(), spec.placement()));
+            if !spec.is_static {
+                spec.surfels = opts.surfels.or(spec.surfels);
+                spec.phyxels = opts.phyxels.or(spec.phyxels);
+            }
+            let backend = match (&opts.backend, spec.is_static) {
+                (_, true) => "static".to_string(),
+                (Some(b), false) => b.clone(),
+                (None, false) => spec.backend_name().to_string(),
+            };
+            let obj = spec
+                .build(k as u32, &backend)
+                .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
+            // Only an override can get here with a plastic material on such a backend
+            // (the scene's own `backend` is checked above): compared backends run it.
+            let inelastic = (spec.material.is_plastic()
+                && !spec.is_static
+                && !backends::PLASTIC.contains(&backend.as_str()))
+            .then(|| {
+                format!(
+                    "backend {backend} models no plastic flow: plastic_yield and \
+                     plastic_creep are ignored, the body is elastic (plastic flow: {})",
+                    backends::PLASTIC.join(", ")
+                )
+            });
+            for w in [
+                mass_warning(&spec, &obj),
+                surface_warning(&spec, &obj),
+                flat_warning(&obj),
+                inelastic,
+            ]
+            .into_iter()
+            .flatten()
+            {
+                warnings.push(tagged(k, &obj, w));
+            }
+            objects.push(obj);
+        }
+        // After every object is built: the weight check counts the bodies stacked above.
+        // (None without gravity: nothing stacks, and `load_above` reads none.)
+        let footprints: Vec<Footprint> = if gravity == Vec3::ZERO {
+            Vec::new()
+        } else {
+            objects.iter().map(|o| footprint(o, gravity)).collect()
+        };
+        for (k, obj) in objects.iter().enumerate() {
+            let supported = grounded || obj.phyxels.fixed.iter().any(|&f| f != 0);
+            let load = load_above(&objects, &footprints, k, gravity);
+            if let Some(w) = weight_warning(obj, gravity, supported, load) {
+                warnings.push(tagged(k, obj, w));
+            }
+        }
+        start_overlap(&objects, &placed).map_err(|m| SceneError(format!("{origin}: {m}")))?;
+        warnings.extend(
+            self.fast_approaches()
+                .into_iter()
+                .chain(self.deep_impacts(&objects))
+                .map(|w| format!("{origin}: {w}")),
+        );
+        Ok((objects, warnings))
+    }
+
+    /// The time step: the scene's or the override, checked against the stable bound,
+    /// else [`DT_FRACTION`](crate::world::DT_FRACTION) of the bound (at most
+    /// [`MAX_DEFAULT_DT`](crate::world::MAX_DEFAULT_DT)).
+    fn choose_dt(
+        &self,
+        world: &World,
+        opts: &BuildOptions,
+        origin: &str,
+    ) -> Result<f32, SceneError> {
+        let (stable, limiter_object) = world.stable_dt();
+        let limiter = limiter_object.map(|o| o.name.clone()).unwrap_or_default();
+        if stable.is_nan() || stable <= 0.0 {
+            // Values each in range whose combination leaves f32's range: name them all.
+            let what = limiter_object.map_or(String::new(), |o| {
+                let m = &o.material;
+                format!(
+                    " (young = {:e} Pa, density = {:e} kg/m³, volume_stiffness = {:e} Pa, \
+                     damping = {:e}, contact_stiffness = {:e}, phyxel spacing r_i = {:e} m)",
+                    m.young,
+                    m.density,
+                    m.k_volume(),
+                    m.damping,
+                    m.contact_stiffness,
+                    o.phyxel_spacing
+                )
+            });
+            return Err(SceneError(format!(
+                "{origin}: object '{limiter}' has no stable time step (bound {stable} s): its \
+                 material and spacing{what} leave f32's range together; check them"
+            )));
+        }
+        let dt = match opts.dt.or(self.dt) {
+            Some(dt) => {
+                if !(dt.is_finite() && dt > 0.0) {
+                    return Err(SceneError(format!(
+                        "{origin}: dt = {dt}: must be a finite number > 0"
+                    )));
+                }
+                if dt > stable && !opts.allow_unstable {
+                    // Full precision: rounded to a few digits, dt and the bound can print equal.
+                    // The suggestion (the default dt) rounds to a value still below the bound.
+                    let suggest = crate::world::DT_FRACTION * stable;
+                    return Err(SceneError(format!(
+                        "{origin}: dt = {dt} s exceeds the stable bound {stable} s of object '{limiter}' \
+                         (explicit integration would blow up); use --dt {suggest:.3e} (90% of the bound, \
+                         the default) or smaller, a coarser spacing or a softer material, or --allow-unstable"
+                    )));
+                }
+                dt
+            }
+            None => (crate::world::DT_FRACTION * stable).min(crate::world::MAX_DEFAULT_DT),
+        };
+        Ok(dt)
+    }
+}
+
+/// The command line's overrides: sample counts within the limits, a known backend.
+fn check_overrides(opts: &BuildOptions, origin: &str) -> Result<(), SceneError> {
+    for (flag, name, n, limit) in [
+        ("--surfels", "surfels", opts.surfels, MAX_SURFELS),
+        ("--phyxel-count", "phyxels", opts.phyxels, MAX_PHYXELS),
+    ] {
+        if n == Some(0) {
+            return Err(SceneError(format!(
+                "{origin}: {flag} 0: an object needs at least one sample"
+            )));
+        }
+        sample_count(name, n, limit).map_err(|m| SceneError(format!("{origin}: {flag}: {m}")))?;
+    }
+    if let Some(b) = opts.backend.as_deref()
+        && !backends::NAMES.contains(&b)
+    {
+        return Err(SceneError(format!(
+            "{origin}: backend override \"{b}\": unknown (available: {})",
+            backends::NAMES.join(", ")
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses objects that start inside one another: a phyxel of one more than a phyxel
+/// spacing (the coarser of the two objects') inside another's shape (`placed`: each
+/// object's shape and placement). Contact handling pushes apart surfaces that overlap by
+/// about a spacing (the built-in `pile` starts with 2 mm); interpenetrating bodies it
+/// cannot untangle (deep surfels project onto the wrong side: pairs stay stuck or pass
+/// through). A plane counts below its patch only (its `size`, widened by that spacing):
+/// its contact acts where its surfels are, and a body beside the patch falls past it (a
+/// ball beside a 0.6 m ground patch, level with it, was refused as 9 cm inside it).
+pub(super) fn start_overlap(
+    objects: &[Object],
+    placed: &[(Shape, (Quat, Vec3))],
+) -> Result<(), String> {
+    for (i, a) in objects.iter().enumerate() {
+        for (j, (shape, (rot, centre))) in placed.iter().enumerate() {
+            if i == j {
+                continue;
+            }
+            let (inv, reach) = (rot.inverse(), shape.half_extents().length());
+            let plane = match shape {
+                Shape::Plane { size } => Some(*size),
+                _ => None,
+            };
+            let slack = a.phyxel_spacing.max(objects[j].phyxel_spacing);
+            let (mut inside, mut deepest) = (0usize, 0.0f32);
+            for p in a.phyxels.pos.iter() {
+                let local = inv * (p - *centre);
+                // Beyond the bounding sphere nothing is inside; a plane's sdf is the
+                // infinite plane's, so it is bounded by its patch (any depth below it).
+                let outside = match plane {
+                    Some([x, z]) => {
+                        local.x.abs() > 0.5 * x + slack || local.z.abs() > 0.5 * z + slack
+                    }
+                    None => local.length() > reach,
+                };
+                if outside {
+                    continue;
+                }
+                let d = shape.sdf(local);
+                if d < -slack {
+                    inside += 1;
+                    deepest = deepest.max(-d);
+                }
+            }
+            if inside > 0 {
+                let b = &objects[j];
+                return Err(format!(
+                    "objects[{i}] ('{}') starts inside objects[{j}] ('{}'): {inside} of its \
+                     phyxels lie more than a phyxel spacing r_i (their mean neighbour distance, {slack} m) within it, up to {deepest:.3e} m \
+                     deep; place them apart (contact resolves touching surfaces, not bodies \
+                     inside one another)",
+                    a.name, b.name
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The lattice spacing whose phyxel count is closest to `target`: starts from
+/// `(volume/target)^(1/3)` (widened for thin shapes) and corrects a few times by the
+/// cube root of the count ratio, since a small lattice's count jumps with the rounding
+/// at the boundary. Never samples a lattice past the limits (it then returns the best
+/// spacing so far, which `ObjectSpec::spacings` and the build check).
+pub(super) fn lattice_spacing_for(shape: &Shape, target: u32) -> f32 {
+    let target = target as f32;
+    let mut s = (shape.volume() / target).cbrt();
+    // A shape thinner than that spacing (a needle, a thin ring) gets far more phyxels
+    // than its volume says: widen the first guess until the estimate is within a factor
+    // the boundary layer of a compact body stays under (a sphere of 20 phyxels: 3), so
+    // the search never samples a lattice of billions.
+    for _ in 0..64 {
+        if !(s.is_finite() && s > 0.0) || phyxel_estimate(shape, s) <= 8.0 * target as f64 {
+            break;
+        }
+        s *= 1.25;
+    }
+    let mut best = (f32::INFINITY, s);
+    for _ in 0..8 {
+        let affordable = phyxel_estimate(shape, s) <= 2.0 * MAX_PHYXELS as f64
+            && shape.lattice_points(s) <= MAX_LATTICE_POINTS;
+        if !(s.is_finite() && s > 0.0 && affordable) {
+            break;
+        }
+        let n = shape.sample_volume(s).positions.len() as f32;
+        let err = (n / target - 1.0).abs();
+        if err < best.0 {
+            best = (err, s);
+        }
+        if err < 0.01 {
+            break;
+        }
+        s *= (n / target).cbrt();
+    }
+    best.1
+}
+
+impl ObjectSpec {
+    /// The rigid placement: local → world.
+    pub fn placement(&self) -> (Quat, Vec3) {
+        let r = self.rotation.map(f32::to_radians);
+        (
+            Quat::from_euler(EulerRot::XYZ, r[0], r[1], r[2]),
+            Vec3::from(self.position),
+        )
+    }
+
+    /// Phyxel and surfel spacing (m): given, or from the target counts `phyxels` and
+    /// `surfels` and the shape's volume and area.
+    pub fn spacings(&self, shape: &Shape) -> Result<(f32, f32), String> {
+        let spacing = match self.phyxels {
+            Some(n) => lattice_spacing_for(shape, n),
+            None => self.spacing,
+        };
+        let surfel = match (self.surfels, self.surfel_spacing) {
+            (Some(n), _) => (shape.area() / n as f32).sqrt(),
+            (None, Some(s)) => s,
+            (None, None) => 0.5 * spacing,
+        };
+        if let Some(n) = self
+            .phyxels
+            .filter(|_| !(spacing.is_finite() && spacing > 0.0))
+        {
+            return Err(format!(
+                "phyxels = {n}: the shape has no volume to divide (give `spacing` instead)"
+            ));
+        }
+        if let Some(n) = self
+            .surfels
+            .filter(|_| !(surfel.is_finite() && surfel > 0.0))
+        {
+            return Err(format!(
+                "surfels = {n}: the shape has no area to divide (give `surfel_spacing` instead)"
+            ));
+        }
+        // Counts a given spacing leads to (the lattice's boundary layer included), so that
+        // a spacing orders of magnitude too small is refused before sampling exhausts
+        // memory. (Target counts are checked against the limits as they are.)
+        let t = surfel as f64;
+        let estimates = [
+            (
+                self.phyxels.is_none(),
+                "spacing",
+                spacing,
+                phyxel_estimate(shape, spacing),
+                MAX_PHYXELS,
+                "phyxels",
+            ),
+            (
+                self.surfels.is_none(),
+                "surfel_spacing",
+                surfel,
+                shape.area() as f64 / t.powi(2),
+                MAX_SURFELS,
+                "surfels",
+            ),
+        ];
+        for (given, key, value, n, limit, what) in estimates {
+            if given && n > limit as f64 {
+                let key = match key {
+                    "surfel_spacing" if self.surfel_spacing.is_none() => "spacing / 2",
+                    k => k,
+                };
+                return Err(format!(
+                    "{key} = {value}: gives about {n:.2e} {what}, more than the limit of \
+                     {limit} per object (a coarser spacing, or a count: `{what} = N`)"
+                ));
+            }
+        }
+        let scan = shape.lattice_points(spacing);
+        if scan > MAX_LATTICE_POINTS {
+            let key = self.spacing_key(spacing);
+            return Err(format!(
+                "{key}: the shape's bounding box holds {scan:.2e} lattice points to test, more \
+                 than the limit of {MAX_LATTICE_POINTS:e} (the shape is thin for its extent): \
+                 a coarser spacing"
+            ));
+        }
+        Ok((spacing, surfel))
+    }
+
+    /// What set the phyxel spacing, for errors: the count asked for, or the spacing.
+    pub(super) fn spacing_key(&self, spacing: f32) -> String {
+        match self.phyxels {
+            Some(n) => format!("phyxels = {n} (spacing {spacing} m)"),
+            None => format!("spacing = {spacing}"),
+        }
+    }
+
+    /// The backend this object asks for: `backend`, else [`DEFAULT_BACKEND`].
+    pub fn backend_name(&self) -> &str {
+        self.backend.as_deref().unwrap_or(DEFAULT_BACKEND)
+    }
+
+    /// Samples the shape and creates the object with backend `backend`.
+    pub fn build(&self, id: u32, backend: &str) -> Result<Object, String> {
+        let (rot, pos) = self.placement();
+        // A mesh not loaded by `Scene::load`: its path is relative to the working directory.
+        let mut shape = self.shape.clone();
+        shape.load_mesh(Path::new(""))?;
+        let (spacing, surfel_spacing) = self.spacings(&shape)?;
+        let vol = shape.sample_volume(spacing);
+        // The estimates bound the sampling's cost; the count itself is known only now.
+        if vol.positions.len() > MAX_PHYXELS {
+            let key = self.spacing_key(spacing);
+            return Err(format!(
+                "{key}: gives {} phyxels, more than the limit of {MAX_PHYXELS} per object \
+                 (a coarser spacing, or a smaller count: `phyxels = N`)",
+                vol.positions.len()
+            ));
+        }
+        // Each phyxel's mass is its lattice cell's volume times the density: both in range
+        // can still overflow or underflow f32 together.
+        let mass = vol.cell_volume * self.material.density;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(format!(
+                "material.density = {:e} kg/m³ at spacing = {spacing} m gives each phyxel a \
+                 mass of {mass:e} kg ({:e} m³ × density), outside f32's range: change the \
+                 density or the spacing",
+                self.material.density, vol.cell_volume
+            ));
+        }
+        let surf = shape.sample_surface(surfel_spacing);
+        let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
+        let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
+        let v = Vec3::from(self.velocity);
+        let mut anchored = vec![0usize; self.fixed.len()];
+        for (i, local) in vol.positions.iter().enumerate() {
+            let inside = |r: &Region| (0..3).all(|c| local[c] >= r.min[c] && local[c] <= r.max[c]);
+            for (count, r) in anchored.iter_mut().zip(&self.fixed) {
+                *count += inside(r) as usize;
+            }
+            if self.fixed.iter().any(inside) {
+                phyxels.fixed[i] = 1;
+            } else if !self.is_static {
+                phyxels.vel.set(i, v);
+            }
+        }
+        // A box that anchors nothing leaves the body free: a mistake, not a setting.
+        if let Some(r) = anchored.iter().position(|&n| n == 0) {
+            let b = &self.fixed[r];
+            return Err(format!(
+                "fixed[{r}]: the box min = {:?}, max = {:?} holds no phyxel at spacing {spacing} \
+                 (object-local coordinates, before rotation): widen it or refine the spacing",
+                b.min, b.max
+            ));
+        }
+        // A body anchored whole never moves: its velocity and load would be ignored.
+        if phyxels.fixed[..phyxels.len()].iter().all(|&f| f != 0) {
+            for (key, v) in [("velocity", self.velocity), ("load", self.load)] {
+                if v != [0.0; 3] {
+                    return Err(format!(
+                        "{key} = {v:?}: has no effect: the `fixed` boxes anchor every phyxel \
+                         of the body (for a body that never moves, use `static = true`)"
+                    ));
+                }
+            }
+        }
+        let s_pos: Vec<Vec3> = surf.positions.iter().map(|&p| rot * p + pos).collect();
+        let s_nrm: Vec<Vec3> = surf.normals.iter().map(|&n| rot * n).collect();
+        // Stored in Morton order of cells a few surfels wide: neighbours sit together in
+        // memory, whatever order the sampler emitted them in.
+        let order = morton::order(&s_pos, SURFEL_ORDER_CELL * surfel_spacing);
+        let mut surfels = Surfels::at_rest(&s_pos, &s_nrm, &surf.radii).gather(&order);
+        if !self.is_static {
+            for s in 0..surfels.len() {
+                surfels.vel.set(s, v);
+            }
+        }
+        let dynamics = backends::create(backend, &phyxels, &self.material)?;
+        let name = if self.name.is_empty() {
+            format!("object{id}")
+        } else {
+            self.name.clone()
+        };
+        let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
+        object.load = Vec3::from(self.load);
+        object.load_ramp = self.load_ramp;
+        if self.self_collision && !self.is_static {
+            object.self_collision = Some(SelfCollision::new(&object.phyxels));
+        }
+        Ok(object)
+    }
+}
