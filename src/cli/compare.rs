@@ -1,0 +1,180 @@
+//! `phyxel compare`: one scene once per backend, side by side.
+
+use super::run::{note_run, resolve_scene, step_bar};
+use crate::*;
+
+/// `phyxel compare`: the scene once per backend, like `run --backend B`.
+/// Runs `arg` once per backend of `names`; `(dt, allow_unstable)` are `--dt` and
+/// `--allow-unstable`, as for `run`.
+pub(crate) fn compare(
+    arg: &str,
+    names: &[String],
+    steps: Option<u64>,
+    json: bool,
+    (dt, allow_unstable): (Option<f32>, bool),
+) -> ExitCode {
+    // "mls, sph" is meant as "mls,sph".
+    let names: Vec<String> = names.iter().map(|b| b.trim().to_string()).collect();
+    for (k, b) in names.iter().enumerate() {
+        if !backends::NAMES.contains(&b.as_str()) {
+            eprintln!(
+                "error: --backends: unknown backend '{b}' (available: {})",
+                backends::NAMES.join(", ")
+            );
+            return ExitCode::FAILURE;
+        }
+        if names[..k].contains(b) {
+            eprintln!("error: --backends: '{b}' is listed twice");
+            return ExitCode::FAILURE;
+        }
+    }
+    let names = &names[..];
+    if names.is_empty() {
+        eprintln!("error: --backends: give at least one backend");
+        return ExitCode::FAILURE;
+    }
+    let Some((scene, file_prefix)) = resolve_scene(arg) else {
+        return ExitCode::FAILURE;
+    };
+    // Backends move only the moving objects: with none, every row would be the same.
+    if scene.objects.iter().all(|o| o.is_static) {
+        eprintln!(
+            "error: {file_prefix}every object is static (`static = true`): the backends have \
+             nothing to move, so there is nothing to compare; run it with `phyxel run`"
+        );
+        return ExitCode::FAILURE;
+    }
+    let total = steps.unwrap_or(scene.steps);
+    let mut summaries = Vec::with_capacity(names.len());
+    for (k, b) in names.iter().enumerate() {
+        eprintln!(
+            "[{}/{}] {} with backend {b}: {total} steps",
+            k + 1,
+            names.len(),
+            scene.name
+        );
+        let opts = RunOptions {
+            build: BuildOptions {
+                backend: Some(b.clone()),
+                dt,
+                allow_unstable,
+                ..Default::default()
+            },
+            steps,
+            ..Default::default()
+        };
+        let bar = step_bar(total, b);
+        let result = run(&scene, &opts, |s| {
+            if s % 16 == 0 {
+                bar.set_position(s);
+            }
+        });
+        bar.finish_and_clear();
+        match result {
+            Ok((_, summary)) => summaries.push(summary),
+            Err(e) => {
+                eprintln!("error: backend {b}: {file_prefix}{e}");
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summaries).expect("summaries serialise")
+        );
+    } else {
+        print_comparison(&scene, &summaries);
+    }
+    let blown: Vec<&str> = summaries
+        .iter()
+        .filter(|s| !s.finite)
+        .map(|s| s.backend.as_str())
+        .collect();
+    for s in &summaries {
+        note_run(&format!("backend {}: ", s.backend), s);
+    }
+    for e in summaries.iter().filter_map(|s| s.non_finite.as_ref()) {
+        eprintln!("error: {e}; that run stopped there");
+    }
+    if blown.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        eprintln!(
+            "error: the state became non-finite (NaN or infinity) with backend(s) {}",
+            blown.join(", ")
+        );
+        ExitCode::FAILURE
+    }
+}
+
+/// Total energy at the end of a run (J): kinetic plus the elastic energy the backends
+/// report.
+pub(crate) fn end_energy(s: &RunSummary) -> f64 {
+    s.kinetic_energy
+        + s.bodies
+            .iter()
+            .filter_map(|b| b.elastic_energy)
+            .sum::<f64>()
+}
+
+/// Momentum drift `|p_end − p_start|` (kg·m/s).
+pub(crate) fn momentum_drift(s: &RunSummary) -> f64 {
+    (0..3)
+        .map(|k| (s.momentum_final[k] - s.momentum_initial[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+}
+
+pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
+    let Some(first) = runs.first() else {
+        return;
+    };
+    println!(
+        "scene {}  objects {}  phyxels {}  surfels {}  steps {}",
+        first.scene, first.objects, first.phyxels, first.surfels, first.steps
+    );
+    println!(
+        "{:<8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>9}",
+        "backend",
+        "dt (s)",
+        "time (s)",
+        "steps/s",
+        "max pen. (m)",
+        "|dp| (kg m/s)",
+        "energy (J)",
+        "finite",
+        "error"
+    );
+    for s in runs {
+        // The scene's error against its reference, where it has one (Hertz).
+        let error = phyxel::app::validate::scene_error(scene, s)
+            .map_or_else(|| "-".to_string(), |e| format!("{e:.3e}"));
+        println!(
+            "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
+            s.backend,
+            s.dt,
+            // Each backend runs at its own stable dt: the same steps cover different times.
+            s.dt as f64 * s.steps as f64,
+            s.steps_per_second,
+            s.max_penetration,
+            momentum_drift(s),
+            end_energy(s),
+            s.finite,
+            error
+        );
+    }
+    print!("{:<16}", "ms/step");
+    for s in runs {
+        print!(" {:>10}", s.backend);
+    }
+    println!();
+    for p in Phase::ALL {
+        print!("{:<16}", p.name());
+        for s in runs {
+            let t = s.phase_seconds.get(p.name()).copied().unwrap_or(0.0);
+            print!(" {:>10.4}", 1e3 * t / s.steps.max(1) as f64);
+        }
+        println!();
+    }
+}

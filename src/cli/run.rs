@@ -1,0 +1,230 @@
+//! `phyxel run`: one scene with a progress bar, its summary as a table or JSON, frames
+//! and a flamegraph on request.
+
+use super::profile::{start_profiler, write_flamegraph};
+use crate::*;
+
+/// Creates the output directory `dir` (and its parents). A path that exists as a file
+/// is said to be one: `create_dir_all` reported "File exists", as if the trouble were
+/// that something was there at all.
+pub(crate) fn make_dir(dir: &Path) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err("a file, not a directory: give a directory for the output".to_string());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))
+}
+
+pub(crate) fn run_scene(
+    arg: &str,
+    opts: &RunOptions,
+    json: bool,
+    flamegraph: Option<&Path>,
+) -> ExitCode {
+    // Command-line overrides are checked here so the error names the option, not the scene.
+    if let Some(b) = &opts.build.backend
+        && !backends::NAMES.contains(&b.as_str())
+    {
+        eprintln!(
+            "error: --backend {b}: unknown backend (available: {})",
+            backends::NAMES.join(", ")
+        );
+        return ExitCode::FAILURE;
+    }
+    if let Some(dir) = &opts.out
+        && let Err(e) = make_dir(dir)
+    {
+        eprintln!("error: --out {}: {e}", dir.display());
+        return ExitCode::FAILURE;
+    }
+    let Some((scene, file_prefix)) = resolve_scene(arg) else {
+        return ExitCode::FAILURE;
+    };
+    let steps = opts.steps.unwrap_or(scene.steps);
+    let bar = step_bar(steps, &scene.name);
+    let profiler = match flamegraph.map(start_profiler).transpose() {
+        Ok(p) => p,
+        Err(e) => {
+            let path = flamegraph.expect("a profiler only for --flamegraph");
+            eprintln!("error: --flamegraph {}: {e}", path.display());
+            return ExitCode::FAILURE;
+        }
+    };
+    let result = run(&scene, opts, |s| {
+        if s % 16 == 0 {
+            bar.set_position(s);
+        }
+    });
+    bar.finish_and_clear();
+    if let (Some((guard, file)), Some(path)) = (profiler, flamegraph) {
+        match write_flamegraph(&guard, file) {
+            Ok(Some(own)) => {
+                eprintln!(
+                    "flamegraph {}: {} samples; top frames by own time:",
+                    path.display(),
+                    own.samples
+                );
+                for (frame, percent) in &own.top {
+                    eprintln!("  {percent:5.1}%  {frame}");
+                }
+            }
+            Ok(None) => {
+                // The file was created up front (to fail early on a bad path).
+                let _ = std::fs::remove_file(path);
+                eprintln!(
+                    "warning: --flamegraph {}: no samples (the run was shorter than the \
+                     profiler's 1 ms period); no file written: run more --steps",
+                    path.display()
+                );
+            }
+            Err(e) => {
+                eprintln!("error: --flamegraph {}: {e}", path.display());
+                return ExitCode::FAILURE;
+            }
+        }
+    }
+    let (world, summary) = match result {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {file_prefix}{e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&summary).expect("summary serialises")
+        );
+    } else {
+        print_table(&summary);
+    }
+    note_run("", &summary);
+    if summary.finite {
+        ExitCode::SUCCESS
+    } else {
+        match &summary.non_finite {
+            // A blow-up in the very first step is rarely the time step: a scene whose
+            // sizes and material leave f32's range fails at once, at any dt.
+            Some(e) if world.non_finite.as_ref().is_some_and(|n| n.step <= 1) => eprintln!(
+                "error: {e}; the run stopped there, in its first step: check the scene's \
+                 sizes and material for values far outside everyday ones (f32 range), or \
+                 try a smaller --dt"
+            ),
+            Some(e) => eprintln!("error: {e}; the run stopped there (try a smaller --dt)"),
+            None => eprintln!(
+                "error: the state became non-finite (NaN or infinity); try a smaller --dt"
+            ),
+        }
+        ExitCode::FAILURE
+    }
+}
+
+/// Warns on stderr of the build's `warnings` and of an energy gain (`energy_warning`),
+/// and tells that the run lowered its dt (`dt_changes`): the first change, and how many
+/// there were in all.
+pub(crate) fn note_run(prefix: &str, s: &RunSummary) {
+    for w in &s.warnings {
+        eprintln!("warning: {prefix}{w}");
+    }
+    if let Some(w) = &s.energy_warning {
+        eprintln!("warning: {prefix}{w}");
+    }
+    let Some(first) = s.dt_changes.first() else {
+        return;
+    };
+    eprintln!("note: {prefix}{first}");
+    if s.dt_changes.len() > 1 {
+        eprintln!(
+            "note: {prefix}dt was lowered {} times in all, to {:.3e} s",
+            s.dt_changes.len(),
+            s.dt
+        );
+    }
+    eprintln!(
+        "note: {prefix}the {} steps cover {:.4e} s of simulated time",
+        s.steps, s.time
+    );
+}
+
+pub(crate) fn print_table(s: &RunSummary) {
+    println!(
+        "scene {}  backend {}  objects {}  phyxels {}  surfels {}",
+        s.scene, s.backend, s.objects, s.phyxels, s.surfels
+    );
+    let bound = if s.stable_dt.is_finite() {
+        format!("stable bound {:.3e} s", s.stable_dt)
+    } else {
+        "no stable bound: no object has elastic forces".to_string()
+    };
+    println!(
+        "{} steps of dt {:.3e} s ({bound}) in {:.3} s: {:.1} steps/s",
+        s.steps, s.dt, s.wall_seconds, s.steps_per_second
+    );
+    let total: f64 = s.phase_seconds.values().sum();
+    println!(
+        "{:<16} {:>10} {:>8} {:>12}",
+        "phase", "seconds", "share", "ms/step"
+    );
+    for p in Phase::ALL {
+        let t = s.phase_seconds[p.name()];
+        println!(
+            "{:<16} {:>10.4} {:>7.1}% {:>12.4}",
+            p.name(),
+            t,
+            if total > 0.0 { 100.0 * t / total } else { 0.0 },
+            1e3 * t / s.steps.max(1) as f64
+        );
+    }
+    println!(
+        "momentum {:?} -> {:?}  finite {}  max penetration {:.3e} m",
+        s.momentum_initial, s.momentum_final, s.finite, s.max_penetration
+    );
+    for b in &s.bodies {
+        println!(
+            "  body {} '{}' ({}) mass {:.4} kg  com [{:.4}, {:.4}, {:.4}]  v [{:.4}, {:.4}, {:.4}]",
+            b.id,
+            b.name,
+            b.backend,
+            b.mass,
+            b.com[0],
+            b.com[1],
+            b.com[2],
+            b.velocity[0],
+            b.velocity[1],
+            b.velocity[2]
+        );
+    }
+}
+
+/// The scene `arg` names (built-in or file) and the prefix for errors from building it:
+/// errors from a scene file name the scene, so the file is prefixed to name it too.
+/// `None` after printing the error.
+pub(crate) fn resolve_scene(arg: &str) -> Option<(Scene, String)> {
+    let file_prefix = if Scene::builtin(arg).is_some() {
+        String::new()
+    } else {
+        format!("{arg}: ")
+    };
+    match Scene::resolve(arg) {
+        Ok(s) => Some((s, file_prefix)),
+        Err(e) => {
+            eprintln!("error: {e}");
+            None
+        }
+    }
+}
+
+/// A progress bar over `steps` steps labelled `label`, on stderr when it is a terminal
+/// (hidden otherwise, so that piped output stays clean).
+pub(crate) fn step_bar(steps: u64, label: &str) -> ProgressBar {
+    if !std::io::stderr().is_terminal() {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new(steps);
+    bar.set_style(
+        ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} steps ({per_sec}, eta {eta})")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    bar.set_message(label.to_string());
+    bar
+}
