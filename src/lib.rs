@@ -78,11 +78,11 @@ pub mod backends {
     use crate::dynamics::{Dynamics, StaticDynamics};
 
     /// Names accepted by `backend = "..."` in scenes and `--backend`.
-    pub const NAMES: &[&str] = &["mls", "sph", "lj"];
+    pub const NAMES: &[&str] = &[mls::NAME, sph::NAME, lj::NAME];
 
     /// The backends that model plastic flow (`plastic_yield`, `plastic_creep`,
     /// `plastic_max`); the others treat a plastic material as elastic.
-    pub const PLASTIC: &[&str] = &["mls"];
+    pub const PLASTIC: &[&str] = &[mls::NAME];
 
     /// Creates backend `name` for `phyxels`, or explains which names exist.
     pub fn create(
@@ -91,9 +91,9 @@ pub mod backends {
         material: &Material,
     ) -> Result<Box<dyn Dynamics>, String> {
         match name {
-            "mls" => Ok(Box::new(mls::MlsDynamics::new(phyxels, material))),
-            "sph" => Ok(Box::new(sph::SphDynamics::new(phyxels, material))),
-            "lj" => Ok(Box::new(lj::LjDynamics::new(phyxels, material))),
+            mls::NAME => Ok(Box::new(mls::MlsDynamics::new(phyxels, material))),
+            sph::NAME => Ok(Box::new(sph::SphDynamics::new(phyxels, material))),
+            lj::NAME => Ok(Box::new(lj::LjDynamics::new(phyxels, material))),
             "static" => Ok(Box::new(StaticDynamics)),
             other => Err(format!(
                 "unknown backend '{other}' (available: {})",

@@ -41,6 +41,9 @@ use rayon::prelude::*;
 use std::sync::atomic::AtomicU8;
 use std::sync::atomic::Ordering::Relaxed;
 
+/// The backend's name in scenes and on the command line (`backend = "lj"`).
+pub const NAME: &str = "lj";
+
 /// Rest distance (in lattice spacings) below which two phyxels are bonded: between the
 /// face diagonal `√2` and the body diagonal `√3` of a cubic lattice.
 pub const BOND_RADIUS: f32 = 1.5;
@@ -253,7 +256,7 @@ fn lattice_spacing(p: &Phyxels) -> f32 {
 
 impl Dynamics for LjDynamics {
     fn name(&self) -> &str {
-        "lj"
+        NAME
     }
 
     fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) {
