@@ -4,6 +4,13 @@
 //! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
+mod lanes;
+mod project;
+
+use lanes::LaneSums;
+pub use lanes::{SurfelRows, exp_neg};
+pub use project::Projection;
+
 use crate::body::columns::{LANES, Vec3s, lane_mask, load8};
 use crate::spatial::broad_phase::Aabb;
 use crate::spatial::grid::{Grid, LazyGrid};
@@ -41,115 +48,6 @@ const FAR_HINT_SLACK: f32 = 1.05;
 /// not the result ([`Grid::k_nearest_from`] is exact from any start).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FarHint(pub f32);
-/// `exp(−q)` lane-wise for `q ≥ 0` (lanes beyond ~87 give 0 or garbage that the caller
-/// masks): `n = round(−q log₂e)`, `r = −q − n ln2` with ln2 split in two (Cody–Waite, so
-/// r carries no rounding of the product), `e^r` by a degree-6 Taylor polynomial
-/// (|r| ≤ ln2/2: relative error < 2e-7) and `2ⁿ` from the exponent bits. Only adds,
-/// multiplies and bit operations: fast without SSE4.1 or FMA.
-#[inline(always)]
-pub fn exp_neg(q: f32x8) -> f32x8 {
-    use wide::bytemuck::cast;
-    use wide::i32x8;
-    const MAGIC: f32 = 12_582_912.0; // 1.5 · 2²³: adding it rounds to an integer
-    const LN2_HI: f32 = 0.693_359_4; // few mantissa bits: n · LN2_HI is exact
-    const LN2_LO: f32 = -2.121_944_4e-4;
-    let c = f32x8::splat;
-    let x = (-q).max(c(-87.0));
-    let t = x * c(std::f32::consts::LOG2_E) + c(MAGIC);
-    let n = t - c(MAGIC);
-    let r = (x - n * c(LN2_HI)) - n * c(LN2_LO);
-    let p = c(1.0)
-        + r * (c(1.0)
-            + r * (c(0.5)
-                + r * (c(1.0 / 6.0)
-                    + r * (c(1.0 / 24.0) + r * (c(1.0 / 120.0) + r * c(1.0 / 720.0))))));
-    // n sits in the low mantissa bits of t; 2ⁿ has the exponent field n + 127.
-    let n_bits = cast::<f32x8, i32x8>(t) - cast::<f32x8, i32x8>(c(MAGIC));
-    let scale: f32x8 = cast((n_bits + i32x8::splat(127)) << 23);
-    p * scale
-}
-
-/// The surfels' normals and kernel widths σ (as `1/σ²`) in a grid's sorted order, as columns
-/// padded by `LANES − 1` like the grid's own sorted positions: the kernel sums then
-/// read every surfel datum in whole lane groups, next to the grid's distance test, with
-/// no gather per hit. Rebuilt after each grid rebuild (surfels move); keeps its buffers.
-#[derive(Clone, Debug, Default)]
-pub struct SurfelRows {
-    normal: [Vec<f32>; 3],
-    /// `1/σ²`: the weight's exponent is a product, not a division (∞ for a zero radius).
-    inv_sigma2: Vec<f32>,
-}
-
-impl SurfelRows {
-    /// Columns of `grid`'s points (`pos`, the positions it was built over, whose
-    /// `normal` and `radius` these are) in its sorted order.
-    pub fn rebuild(&mut self, grid: &Grid, pos: &Vec3s, normal: &Vec3s, radius: &[f32]) {
-        debug_assert_eq!(grid.len(), pos.len());
-        let sorted = grid.sorted();
-        // One pass over the sorted order, the four columns side by side: each surfel's
-        // data is read once, and nothing is called through a pointer per element.
-        let len = sorted.len() + LANES - 1;
-        let [nx, ny, nz] = &mut self.normal;
-        for col in [&mut *nx, &mut *ny, &mut *nz, &mut self.inv_sigma2] {
-            col.clear();
-            col.resize(len, 0.0);
-        }
-        let columns = nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut());
-        for ((((x, y), z), w), &i) in columns.zip(self.inv_sigma2.iter_mut()).zip(sorted) {
-            let i = i as usize;
-            (*x, *y, *z) = (normal.x[i], normal.y[i], normal.z[i]);
-            let sigma = SIGMA_PER_RADIUS * radius[i];
-            *w = 1.0 / (sigma * sigma);
-        }
-    }
-}
-
-/// `Σθ`, `Σθ s` and `Σθ n` as lane sums: each lane group of a query adds its eight
-/// weights (zero outside its mask and beyond the cutoff) times the eight surfels'
-/// data, and the lanes are added up once at the end.
-#[derive(Clone, Copy, Default)]
-struct LaneSums {
-    w: f32x8,
-    s: [f32x8; 3],
-    n: [f32x8; 3],
-}
-
-impl LaneSums {
-    /// Adds the surfels at sorted positions `k..k + 8` whose bit is set in `mask`,
-    /// with squared distances `d2` (the grid's sorted positions `points`).
-    #[inline(always)]
-    fn add(&mut self, points: [&[f32]; 3], rows: &SurfelRows, k: usize, mask: u32, d2: f32x8) {
-        let q = d2 * load8(&rows.inv_sigma2, k);
-        // Beyond the cutoff (and ∞ or NaN from a zero radius) weigh 0.
-        let on = lane_mask(mask) & q.simd_lt(f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS));
-        let w = on.select(exp_neg(q), f32x8::ZERO);
-        self.w += w;
-        for ((s, n), (p, nc)) in self
-            .s
-            .iter_mut()
-            .zip(&mut self.n)
-            .zip(points.iter().zip(&rows.normal))
-        {
-            *s = w.mul_add(load8(p, k), *s);
-            *n = w.mul_add(load8(nc, k), *n);
-        }
-    }
-
-    /// The squared distances to `x` of the points at sorted positions `k..k + 8` (the
-    /// grid's f32 operations, hence its values).
-    #[inline(always)]
-    fn d2(points: [&[f32]; 3], k: usize, x: Vec3) -> f32x8 {
-        let d = |a: usize, c: f32| load8(points[a], k) - f32x8::splat(c);
-        let (dx, dy, dz) = (d(0, x.x), d(1, x.y), d(2, x.z));
-        dx * dx + dy * dy + dz * dz
-    }
-
-    /// `(Σθ, Σθ s, Σθ n)`.
-    fn totals(&self) -> (f32, Vec3, Vec3) {
-        let v = |l: [f32x8; 3]| Vec3::new(l[0].reduce_add(), l[1].reduce_add(), l[2].reduce_add());
-        (self.w.reduce_add(), v(self.s), v(self.n))
-    }
-}
 
 /// Most lane groups [`NearHits`] keeps (a kernel query meets about 10 at the paper's
 /// sampling).
@@ -245,42 +143,6 @@ pub struct SurfaceSample {
     pub f: f32,
     pub normal: Vec3,
     pub average: Vec3,
-}
-
-/// Result of projecting a point onto the surface.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Projection {
-    /// The projected point `x_proj` on the surface.
-    pub point: Vec3,
-    /// `n(x_proj)`.
-    pub normal: Vec3,
-    /// `(x − x_proj)·n(x_proj)`: negative inside (m).
-    pub signed_distance: f32,
-    pub iterations: u32,
-    pub converged: bool,
-    /// [`ImplicitSurface::sample_near`] at `point` (the projection's last sample; `None`
-    /// when no kernel reaches `point`): callers that sample there again reuse it.
-    pub near: Option<SurfaceSample>,
-}
-
-/// Length of the projection's next step along `−s.normal` from the sample `s`, given
-/// the last step `(t, s0)`: the secant (Newton) step `f/g` with the slope
-/// `g = (f0 − f)/t` when the normal held still and `g` is plausible, else `f`. Where
-/// the kernels make `f` change slower than the distance along the normal (curved or
-/// unevenly sampled surfaces, `g` about 0.5), plain steps shrink the residual only by
-/// `1 − g` each; the secant step removes that linear part.
-#[inline]
-fn projection_step(s: &SurfaceSample, last: Option<(f32, SurfaceSample)>) -> f32 {
-    let Some((t, s0)) = last else {
-        return s.f;
-    };
-    let g = (s0.f - s.f) / t;
-    let (lo, hi) = PROJECTION_SLOPE_RANGE;
-    if t != 0.0 && s0.normal.dot(s.normal) > PROJECTION_SLOPE_COS && (lo..=hi).contains(&g) {
-        s.f / g
-    } else {
-        s.f
-    }
 }
 
 /// `a = Σw s / Σw`, `n = normalize(Σw n)`, `f = n·(x − a)` from the weighted sums.
@@ -587,102 +449,5 @@ impl<'a> ImplicitSurface<'a> {
             }
             finish(x, w_sum, ws, wn)
         })
-    }
-
-    /// Orthogonal projection onto the surface: `x ← x − t n(x)` until `|f| < tolerance`
-    /// ([`PROJECTION_TOLERANCE`] σ, at least [`PROJECTION_ROUNDOFF_EPS`] epsilons of
-    /// `x`'s largest coordinate) or [`MAX_PROJECTION_ITERATIONS`], with `t = f(x)` on the
-    /// first step and the secant step of [`PROJECTION_SLOPE_RANGE`] after a step between
-    /// two kernel samples (far-field samples take the plain step); a step from within
-    /// the kernels' reach that leaves it is halved, up to [`MAX_STEP_HALVINGS`] times.
-    pub fn project(&self, x: Vec3) -> Option<Projection> {
-        self.project_given(x, self.sample_near(x))
-    }
-
-    /// [`ImplicitSurface::project`] where [`ImplicitSurface::sample_near`] at `x` gave
-    /// `near`: the same result without sampling `x` again.
-    pub fn project_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<Projection> {
-        self.project_hinted(x, near, &mut FarHint::default())
-    }
-
-    /// [`ImplicitSurface::project_given`] whose far-field sample at `x` (if `x` is far
-    /// from every kernel) starts its search from `hint` and leaves its radius there: the
-    /// same result with less work when the hint is close.
-    pub fn project_hinted(
-        &self,
-        x: Vec3,
-        near: Option<SurfaceSample>,
-        hint: &mut FarHint,
-    ) -> Option<Projection> {
-        let mut p = x;
-        let mut near = near;
-        let mut s = match near {
-            Some(s) => s,
-            None => self.sample_far_hinted(x, hint)?,
-        };
-        let tolerance = self
-            .tolerance
-            .max(PROJECTION_ROUNDOFF_EPS * f32::EPSILON * x.abs().max_element());
-        let mut iterations = 0;
-        let mut converged = s.f.abs() < tolerance;
-        // The last steps are short: their samples read the previous query's hits.
-        let mut kept = NearHits::default();
-        // The last step's length and the sample it started from.
-        let mut last: Option<(f32, SurfaceSample)> = None;
-        while !converged && iterations < MAX_PROJECTION_ITERATIONS {
-            let mut t = projection_step(&s, last);
-            let mut next = p - t * s.normal;
-            let from_near = near.is_some();
-            near = self.sample_near_kept(next, &mut kept);
-            // A step from within the kernels' reach that lands beyond all of them
-            // overshot (a secant slope near its floor): shorten it rather than sample
-            // the far field out there (a nearest-surfel search, the costliest sample).
-            let mut halvings = 0;
-            while from_near && near.is_none() && halvings < MAX_STEP_HALVINGS {
-                t *= 0.5;
-                next = p - t * s.normal;
-                near = self.sample_near_kept(next, &mut kept);
-                halvings += 1;
-            }
-            // Far-field samples (no kernel in reach) fit a plane to the nearest surfels,
-            // which moves from one point to the next: their difference is no slope of
-            // f, and a secant through it can throw the next step millimetres past the
-            // surface. Only a step between two kernel samples gives the next a slope.
-            last = (from_near && near.is_some()).then_some((t, s));
-            p = next;
-            s = self.sample_given(p, near)?;
-            iterations += 1;
-            converged = s.f.abs() < tolerance;
-        }
-        Some(Projection {
-            point: p,
-            normal: s.normal,
-            signed_distance: (x - p).dot(s.normal),
-            iterations,
-            converged,
-            near,
-        })
-    }
-
-    /// Eq. (2): is `x` inside the surface? Also returns the projection.
-    pub fn inside(&self, x: Vec3) -> Option<(bool, Projection)> {
-        self.inside_given(x, self.sample_near(x))
-    }
-
-    /// [`ImplicitSurface::inside`] given [`ImplicitSurface::sample_near`] at `x`.
-    pub fn inside_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<(bool, Projection)> {
-        self.inside_hinted(x, near, &mut FarHint::default())
-    }
-
-    /// [`ImplicitSurface::inside_given`] with the far-field search of
-    /// [`ImplicitSurface::project_hinted`].
-    pub fn inside_hinted(
-        &self,
-        x: Vec3,
-        near: Option<SurfaceSample>,
-        hint: &mut FarHint,
-    ) -> Option<(bool, Projection)> {
-        let p = self.project_hinted(x, near, hint)?;
-        Some((p.signed_distance < 0.0, p))
     }
 }
