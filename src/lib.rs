@@ -17,6 +17,29 @@
 //! }
 //! println!("momentum {:?}", world.momentum());
 //! ```
+//!
+//! ## The paper, step by step
+//!
+//! | step (Keiser et al. 2004 unless noted) | module |
+//! |---|---|
+//! | object `Γ = (S, P)`: surfels, phyxels, SoA columns (§3) | [`body::object`], [`body::surfels`], [`body::phyxels`], [`body::columns`] |
+//! | sampling shapes and meshes | [`body::shape`], [`body::mesh`], [`scene`] |
+//! | dynamics of the phyxels (Müller et al. 2004; pluggable) | [`dynamics`] ([`Dynamics`]), `backends/` ([`backends`]) |
+//! | MLS displacement gradient (Müller et al. 2004, §4.2) | [`dynamics::mls`], [`dynamics::kernel`] |
+//! | surfels follow the phyxels (Müller et al. 2004, §5) | [`body::advect`] |
+//! | the step, `animate` (§8), its phases and guards | [`world`], [`world::phase`] |
+//! | broad phase: object boxes and pairs (§5) | [`spatial::broad_phase`] |
+//! | spatial hashing (Teschner et al. 2003) | [`spatial::grid`], [`spatial::morton`] |
+//! | implicit surface of a surfel set (§5, eq. 1) | [`contact::implicit`] |
+//! | colliding surfels (§5, eq. 2) | [`contact::detect`] |
+//! | contact surface Φ (§6) and its resampling | [`contact::contact_surface`], [`contact::resample`] |
+//! | penalty and friction forces (§7) | [`contact::forces`], [`contact::params`] |
+//! | distribution to the phyxels (§7, eqs. 8–9) | [`contact::distribute`] |
+//! | fracture and self-collision (§4, §8) | [`body::fracture`], [`body::connectivity`], [`body::self_collision`] |
+//!
+//! Around the engine: [`scene`] (the TOML format, checks, building a [`World`]), [`io`]
+//! (frames in and out), and, with the `app` feature, [`app`] (the run loop and its
+//! summary, the validation suite, the renderer) that the `phyxel` command line uses.
 
 // Lets the backends under `backends/` name the engine `phyxel::...` exactly as an
 // outside crate would.
