@@ -1,7 +1,8 @@
 //! SIMD kernels against their scalar references, single-threaded, same inputs:
 //! implicit-surface kernel sums, contact-force distribution and the MLS forces.
 //! Run: `cargo bench --bench kernels -- --warm-up-time 1 --measurement-time 3 --noplot`;
-//! the ratios go to docs/PERFORMANCE.md.
+//! the scalar versions are the SIMD kernels' test oracles; their speed ratio is not a
+//! target (docs/PERFORMANCE.md, "Rules").
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;

@@ -5,7 +5,7 @@
 //! neighbours' data from all over memory: the advection's phyxel rows, the grid build's
 //! slots, the contact surface's patches. Stored in Morton order of cells a few surfels
 //! wide, neighbouring surfels sit next to each other in the columns, so those reads hit
-//! the cache (docs/PERFORMANCE_HISTORY.md, tenth round). Only the storage order
+//! the cache (docs/PERFORMANCE.md, "Rules"). Only the storage order
 //! changes: the surfels and the physics are the same, up to the order of floating-point
 //! sums.
 
