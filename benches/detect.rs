@@ -11,7 +11,7 @@
 //! - `detect_<size>/step`: a whole `world.step()` (dynamics, advection, broad phase,
 //!   surfel grids, detection, contact surface, forces, distribution);
 //! - `detect_<size>/phases`: the detection phases alone, `broad_phase + surfel_grid +
-//!   detect`, as timed by the step's own phase timers (`world.times`); the World's phase
+//!   detect`, as timed by the step's own phase timers (`world.record.times`); the World's phase
 //!   functions are private, so each iteration still runs a whole step, but only these
 //!   three phases count. Throughput is in candidate surfels (surfels of either sphere in
 //!   the broad phase's intersection box): µs per candidate = 1000 / (Kelem/s).

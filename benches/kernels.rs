@@ -6,8 +6,8 @@
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
-use phyxel::body::columns::Vec3s;
 use phyxel::body::shape::Shape;
+use phyxel::columns::Vec3s;
 use phyxel::contact::implicit::{ImplicitSurface, SurfelRows, grid_cell};
 use phyxel::spatial::grid::Grid;
 use std::hint::black_box;

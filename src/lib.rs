@@ -22,7 +22,7 @@
 //!
 //! | step (Keiser et al. 2004 unless noted) | module |
 //! |---|---|
-//! | object `Γ = (S, P)`: surfels, phyxels, SoA columns (§3) | [`body::object`], [`body::surfels`], [`body::phyxels`], [`body::columns`] |
+//! | object `Γ = (S, P)`: surfels, phyxels, SoA columns (§3) | [`body::object`], [`body::surfels`], [`body::phyxels`], [`columns`] |
 //! | sampling shapes and meshes | [`body::shape`], [`body::mesh`], [`scene`] |
 //! | dynamics of the phyxels (Müller et al. 2004; pluggable) | [`dynamics`] ([`Dynamics`]), `backends/` ([`backends`]) |
 //! | MLS displacement gradient (Müller et al. 2004, §4.2) | [`dynamics::mls`], [`dynamics::kernel`] |
@@ -46,6 +46,7 @@
 extern crate self as phyxel;
 
 pub mod body;
+pub mod columns;
 pub mod contact;
 pub mod dynamics;
 pub mod io;
@@ -69,12 +70,12 @@ pub mod topology {
 /// code written against them compiles; new code uses the folders.
 #[doc(hidden)]
 pub use {
-    body::{advect, columns, connectivity, material, mesh, object, phyxels, shape, surfels},
+    body::{advect, connectivity, material, mesh, object, phyxels, shape, surfels},
     contact::{brent, detect, implicit},
     dynamics::{kernel, mls},
-    io::{frame, import, output},
+    io::{frame, import},
     spatial::{broad_phase, gather, grid, morton},
-    world::phase as timing,
+    world::{output, phase as timing},
 };
 
 #[doc(hidden)]
@@ -135,9 +136,9 @@ pub struct ReadmeDoctests;
 /// The vector types of the API (`Vec3`, `Mat3`, `Quat`), at the version phyxel uses.
 pub use glam;
 
+pub use body::material::Material;
+pub use body::object::Object;
+pub use body::phyxels::Phyxels;
+pub use body::surfels::Surfels;
 pub use dynamics::{Dynamics, StepContext};
-pub use material::Material;
-pub use object::Object;
-pub use phyxels::Phyxels;
-pub use surfels::Surfels;
 pub use world::World;

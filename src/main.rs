@@ -1,24 +1,20 @@
-//! The `phyxel` command line: run scenes, list them, show them as TOML.
+//! The `phyxel` command line: parses the arguments and dispatches to the commands in
+//! `cli/` (run, compare, render, scenes, validate).
 
 mod cli;
 
 use cli::compare::compare;
 use cli::render::render_frame;
-use cli::run::{make_dir, run_scene};
+use cli::run::run_scene;
 use cli::scenes::scenes;
 use cli::validate::validate;
 
 use clap::{Parser, Subcommand};
-use indicatif::{ProgressBar, ProgressStyle};
-use phyxel::app::render::{Camera, RenderOptions, camera_for, render};
-use phyxel::app::summary::{RunOptions, RunSummary, run};
-use phyxel::backends;
+use phyxel::app::render::RenderOptions;
+use phyxel::app::summary::RunOptions;
 use phyxel::io::frame::Format;
-use phyxel::io::import::read_frame;
-use phyxel::scene::{BUILTIN, BuildOptions, DEFAULT_SCENE, Scene};
-use phyxel::world::phase::Phase;
-use std::io::IsTerminal;
-use std::path::{Path, PathBuf};
+use phyxel::scene::{BuildOptions, DEFAULT_SCENE};
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 #[derive(Parser)]

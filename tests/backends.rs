@@ -520,14 +520,14 @@ backend = "sph"
             0.0
         }
     };
-    let x = |c: &phyxel::body::columns::Vec3s, i: usize| {
+    let x = |c: &phyxel::columns::Vec3s, i: usize| {
         let v = c.get(i);
         [v.x as f64, v.y as f64, v.z as f64]
     };
     let dist = |a: [f64; 3], b: [f64; 3]| {
         ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
     };
-    let density = |c: &phyxel::body::columns::Vec3s| -> Vec<f64> {
+    let density = |c: &phyxel::columns::Vec3s| -> Vec<f64> {
         (0..n)
             .map(|i| {
                 (0..n)

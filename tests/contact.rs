@@ -91,7 +91,7 @@ fn reordering_objects_keeps_the_physics() {
 /// (no gravity, no loads) at the default dt: the kinetic energy never rises above its
 /// initial value (conservation: elastic energy ≥ 0 and damping only dissipates), for
 /// every backend, and the spheres do meet. Before the contact spring entered the stable
-/// bound (`world::contact_stable_dt`), `lj` reached 3·10¹⁶ J here without a NaN.
+/// bound (`contact::params::contact_stable_dt`), `lj` reached 3·10¹⁶ J here without a NaN.
 #[test]
 fn stiff_contact_stays_stable_at_the_default_dt() {
     let mut scene = Scene::builtin("two-spheres").unwrap();
@@ -461,7 +461,7 @@ fn simd_distribution_matches_scalar_reference() {
         &mut DistributeScratch,
     )| {
         let mut p = o.phyxels.clone();
-        p.force = phyxel::body::columns::Vec3s::zeros(p.len());
+        p.force = phyxel::columns::Vec3s::zeros(p.len());
         f(
             &surfels,
             1.0,
@@ -851,7 +851,7 @@ fn scene_rotation_is_x_then_y_then_z_about_the_turned_axes() {
     println!("surfel normals: largest error {worst:e}");
 }
 
-/// The contact constants of a pair (`world::contact_params`) against the documented
+/// The contact constants of a pair (`contact::params::contact_params`) against the documented
 /// formulas (docs/SCENES.md, Material; docs/ARCHITECTURE.md, Contact response), for two
 /// unequal materials: `E* = 1/((1−ν_a²)/E_a + (1−ν_b²)/E_b)` (Pa), stiffness
 /// `k = ½(s_a + s_b) E*/h` (N/m³), damping `min(2 ζ √(k ρ h), 1.6 ρ h/dt)` with
@@ -907,7 +907,7 @@ fn pair_contact_constants_follow_the_documented_formulas() {
         let zeta = 0.5 * (0.2 + 1.0);
         let critical = 2.0 * zeta * (k * rho * h).sqrt();
         for dt in [1e-6f64, 1e-2] {
-            let p = phyxel::world::contact_params(a, b, dt as f32);
+            let p = phyxel::contact::params::contact_params(a, b, dt as f32);
             let cap = 1.6 * rho * h / dt;
             assert_eq!(
                 critical < cap,
@@ -1158,7 +1158,7 @@ fn distributed_contact_forces_act_at_the_surfel() {
     for (k, &c) in surfels.iter().enumerate() {
         for (slot, f) in [distribute, distribute_reference].into_iter().enumerate() {
             let mut p = o.phyxels.clone();
-            p.force = phyxel::body::columns::Vec3s::zeros(p.len());
+            p.force = phyxel::columns::Vec3s::zeros(p.len());
             f(
                 &[c],
                 -1.0,

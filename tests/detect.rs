@@ -3,8 +3,8 @@
 //! surfels of one sphere inside another.
 
 use glam::Vec3;
-use phyxel::body::columns::Vec3s;
 use phyxel::body::shape::Shape;
+use phyxel::columns::Vec3s;
 use phyxel::contact::implicit::{FarHint, ImplicitSurface, SurfelRows, exp_neg, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::spatial::grid::Grid;

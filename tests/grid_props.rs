@@ -9,7 +9,7 @@
 //! Run: `cargo test --release --test grid_props`.
 
 use glam::Vec3;
-use phyxel::body::columns::Vec3s;
+use phyxel::columns::Vec3s;
 use phyxel::spatial::grid::Grid;
 use proptest::collection::vec;
 use proptest::prelude::*;

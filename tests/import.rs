@@ -2,8 +2,8 @@
 
 use phyxel::io::frame::{Format, Frame};
 use phyxel::io::import::read_frame;
-use phyxel::io::output::surface_frame;
 use phyxel::scene::Scene;
+use phyxel::world::output::surface_frame;
 use std::process::Command;
 
 mod common;

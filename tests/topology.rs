@@ -3,8 +3,8 @@
 //! its reference and tolerance.
 
 use glam::Vec3;
-use phyxel::body::columns::Vec3s;
 use phyxel::body::fracture::components;
+use phyxel::columns::Vec3s;
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::world::phase::Phase;
 use std::collections::{HashMap, HashSet};

@@ -30,9 +30,9 @@
 //! material's damping time (default: damping ratio 0.1 on the fastest mode).
 
 use glam::Vec3;
-use phyxel::body::columns::Vec3s;
 use phyxel::body::material::Material;
 use phyxel::body::phyxels::Phyxels;
+use phyxel::columns::Vec3s;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };

@@ -14,9 +14,9 @@
 mod tests;
 
 use glam::{Mat3, Vec3};
-use phyxel::body::columns::Vec3s;
 use phyxel::body::material::{Material, StrainForm};
 use phyxel::body::phyxels::Phyxels;
+use phyxel::columns::Vec3s;
 use phyxel::dynamics::kernel::poly6_shape;
 use phyxel::dynamics::mls::{MlsStencil, cofactor};
 use phyxel::dynamics::{

@@ -10,9 +10,9 @@
 //! point `o` is the phyxels' rest centroid, so `c_i` stays small (no f32 cancellation) for
 //! objects far from the origin.
 
-use crate::body::columns::{LANES, load8, store8};
 use crate::body::phyxels::Phyxels;
 use crate::body::surfels::Surfels;
+use crate::columns::{LANES, load8, store8};
 use crate::dynamics::kernel::poly6_shape;
 use crate::dynamics::mls::cofactor;
 use crate::spatial::broad_phase::{Aabb, BLOCK};

@@ -11,7 +11,7 @@
 //! is the full count's in every step: the tree only skips searches whose result it
 //! already proves.
 
-use crate::body::columns::Vec3s;
+use crate::columns::Vec3s;
 use crate::spatial::grid::Grid;
 
 /// Connected components of a phyxel set: `label[i]` in `0..count`, numbered in the order

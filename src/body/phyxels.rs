@@ -1,6 +1,6 @@
 //! Phyxels: the volume samples that carry mass and are moved by a dynamics backend.
 
-use crate::body::columns::{Vec3s, scalar_column};
+use crate::columns::{Vec3s, scalar_column};
 use crate::spatial::grid::Grid;
 use glam::Vec3;
 
@@ -50,13 +50,13 @@ pub struct Phyxels {
 
 impl Phyxels {
     /// Checks the columns' lengths against the phyxel count (see
-    /// [`columns::check_lengths`](crate::body::columns::check_lengths)) and, with `values`,
+    /// [`columns::check_lengths`](crate::columns::check_lengths)) and, with `values`,
     /// that masses, volumes, spacings and influence radii are finite and > 0 (a
     /// zero-mass phyxel never moves, a zero radius reaches nothing). `Err` names the
     /// column.
     pub fn check(&self, values: bool) -> Result<(), String> {
         let n = self.len();
-        crate::body::columns::check_lengths(
+        crate::columns::check_lengths(
             n,
             &[
                 ("pos", &self.pos),
@@ -74,7 +74,7 @@ impl Phyxels {
             ],
         )?;
         if values {
-            use crate::body::columns::check_positive;
+            use crate::columns::check_positive;
             check_positive("mass", &self.mass[..n])?;
             check_positive("volume", &self.volume[..n])?;
             check_positive("spacing", &self.spacing[..n])?;
@@ -102,7 +102,7 @@ impl Phyxels {
             volume: scalar_column(std::iter::repeat_n(cell_volume, n)),
             spacing: scalar_column(spacing.into_iter()),
             radius,
-            fixed: vec![0; crate::body::columns::padded_len(n)],
+            fixed: vec![0; crate::columns::padded_len(n)],
             pos_carry: Vec3s::zeros(n),
         }
     }
@@ -111,7 +111,7 @@ impl Phyxels {
     pub fn gather(&self, idx: &[usize]) -> Self {
         let col = |c: &[f32]| scalar_column(idx.iter().map(|&i| c[i]));
         let mut fixed: Vec<u8> = idx.iter().map(|&i| self.fixed[i]).collect();
-        fixed.resize(crate::body::columns::padded_len(idx.len()), 0);
+        fixed.resize(crate::columns::padded_len(idx.len()), 0);
         Self {
             pos: self.pos.gather(idx),
             rest: self.rest.gather(idx),

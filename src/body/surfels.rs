@@ -1,6 +1,6 @@
 //! Surfels: oriented surface disks that follow the phyxels.
 
-use crate::body::columns::{Vec3s, scalar_column};
+use crate::columns::{Vec3s, scalar_column};
 use glam::Vec3;
 
 /// SoA columns of an object's surfels.
@@ -23,12 +23,12 @@ pub struct Surfels {
 
 impl Surfels {
     /// Checks the columns' lengths against the surfel count (see
-    /// [`columns::check_lengths`](crate::body::columns::check_lengths)) and, with `values`,
+    /// [`columns::check_lengths`](crate::columns::check_lengths)) and, with `values`,
     /// that the disk radii are finite and > 0 (a zero radius makes every kernel weight
     /// zero: the object's surface would vanish from detection). `Err` names the column.
     pub fn check(&self, values: bool) -> Result<(), String> {
         let n = self.len();
-        crate::body::columns::check_lengths(
+        crate::columns::check_lengths(
             n,
             &[
                 ("pos", &self.pos),
@@ -40,7 +40,7 @@ impl Surfels {
             &[("radius", self.radius.len())],
         )?;
         if values {
-            crate::body::columns::check_positive("radius", &self.radius[..n])?;
+            crate::columns::check_positive("radius", &self.radius[..n])?;
         }
         Ok(())
     }

@@ -1,7 +1,12 @@
 //! `phyxel compare`: one scene once per backend, side by side.
 
+use phyxel::app::summary::{RunOptions, RunSummary, run};
+use phyxel::backends;
+use phyxel::scene::{BuildOptions, Scene};
+use phyxel::world::phase::Phase;
+use std::process::ExitCode;
+
 use super::run::{note_run, resolve_scene, step_bar};
-use crate::*;
 
 /// `phyxel compare`: the scene once per backend, like `run --backend B`.
 /// Runs `arg` once per backend of `names`; `(dt, allow_unstable)` are `--dt` and

@@ -1,6 +1,6 @@
 //! `run --flamegraph`: the sampling profiler, its SVG, and the frames of most own time.
 
-use crate::*;
+use std::path::Path;
 
 /// A sampling profiler (timer signal, so no perf permissions are needed) and the file
 /// its flamegraph goes to, created before the run so that a bad path fails at once,

@@ -1,6 +1,10 @@
 //! `phyxel render`: a PLY frame to a PNG image.
 
-use crate::*;
+use crate::{parse_size, point};
+use phyxel::app::render::{Camera, RenderOptions, camera_for, render};
+use phyxel::io::import::read_frame;
+use phyxel::scene::Scene;
+use std::process::ExitCode;
 
 pub(crate) fn render_frame(
     frame: &std::path::Path,

@@ -1,8 +1,16 @@
 //! `phyxel run`: one scene with a progress bar, its summary as a table or JSON, frames
 //! and a flamegraph on request.
 
+use indicatif::{ProgressBar, ProgressStyle};
+use phyxel::app::summary::{RunOptions, RunSummary, run};
+use phyxel::backends;
+use phyxel::scene::Scene;
+use phyxel::world::phase::Phase;
+use std::io::IsTerminal;
+use std::path::Path;
+use std::process::ExitCode;
+
 use super::profile::{start_profiler, write_flamegraph};
-use crate::*;
 
 /// Creates the output directory `dir` (and its parents). A path that exists as a file
 /// is said to be one: `create_dir_all` reported "File exists", as if the trouble were

@@ -1,6 +1,7 @@
 //! `phyxel scenes`: the built-in scenes, listed or printed as TOML.
 
-use crate::*;
+use phyxel::scene::{BUILTIN, Scene};
+use std::process::ExitCode;
 
 pub(crate) fn scenes(show: Option<String>) -> ExitCode {
     match show {

@@ -1,6 +1,10 @@
 //! `phyxel validate`: the validation suite with progress, its table, charts and JSON.
 
-use crate::*;
+use crate::cli::run::make_dir;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::io::IsTerminal;
+use std::path::Path;
+use std::process::ExitCode;
 
 /// `phyxel validate`: runs the suite, prints the table (or JSON), writes the charts;
 /// fails when a row fails.

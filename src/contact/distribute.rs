@@ -3,6 +3,21 @@
 
 use super::*;
 
+/// Phyxels a contact force spreads over at least (paper §7.3: k = 6).
+pub const MIN_DISTRIBUTION_PHYXELS: usize = 6;
+
+/// Scratch of [`distribute`]: the phyxels near one contact surfel, and the force
+/// columns in the phyxel grid's sorted order (padded by `LANES − 1`); kept between
+/// steps, so the step does not allocate.
+#[derive(Clone, Debug, Default)]
+pub struct DistributeScratch {
+    near: Vec<(usize, f32)>,
+    knn: Vec<(usize, f32)>,
+    force: [Vec<f32>; 3],
+    /// The lane groups of one surfel's query and their weights.
+    lanes: Vec<(usize, f32x8)>,
+}
+
 /// Spreads each contact surfel's force over the phyxels of one object with the poly6
 /// kernel of support `h` (twice the influence radius), widened to the
 /// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within `h`, normalised so the

@@ -3,6 +3,13 @@
 
 use super::*;
 
+/// Friction regularisation speed (m/s): below it Coulomb friction is viscous
+/// (`μ F_n v_t / FRICTION_SLIP_SPEED`). Explicit integration of that stiff viscous term
+/// does not hold a sticking contact to this speed times `F_t/(μ F_n)`: a block on the 20°
+/// `incline` (μ = 0.5, where that bound is 0.07 mm/s) creeps at 0.24–0.35 mm/s at
+/// dt = 0.1 ms, in proportion to dt (docs/ACCURACY.md, "Known limits").
+pub const FRICTION_SLIP_SPEED: f32 = 1.0e-4;
+
 /// Area each contact surfel stands for: `1 / Σ_j W(|x_i − x_j|)` with the normalised
 /// 2-D poly6 kernel of support 2 spacings (a kernel density estimate of surfels per m²,
 /// exact for any uniform sampling, unlike a k-nearest radius).

@@ -1,6 +1,8 @@
-//! Contact handling (Keiser et al. 2004, §6–7): the contact surface Φ between two
-//! intersecting objects, its resampling, penalty and friction forces on the contact
-//! surfels, and their distribution to the phyxels.
+//! Contact handling (Keiser et al. 2004, §5–7): colliding surfels found against implicit
+//! surfaces (§5: `implicit`, `detect`), the contact surface Φ between two intersecting
+//! objects and its resampling (§6), penalty and friction forces on the contact surfels
+//! and their distribution to the phyxels (§7). This module holds the types the phases
+//! share: contact surfels, patches, the pair's surfaces and scratch.
 
 pub mod brent;
 pub mod detect;
@@ -11,14 +13,17 @@ pub mod params;
 mod resample;
 mod surface;
 
-pub use distribute::{distribute, distribute_reference};
-pub use forces::{areas, forces};
+pub use distribute::{
+    DistributeScratch, MIN_DISTRIBUTION_PHYXELS, distribute, distribute_reference,
+};
+pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
+pub use params::ContactParams;
 pub use resample::resample;
 pub use surface::contact_surface;
 
-use crate::body::columns::{LANES, lane_mask, load8, store8};
 use crate::body::phyxels::Phyxels;
 use crate::body::surfels::Surfels;
+use crate::columns::{LANES, lane_mask, load8, store8};
 use crate::contact::brent::brent;
 use crate::contact::detect::{Colliding, PairDetection};
 use crate::contact::implicit::{ImplicitSurface, NearHits, SurfaceSample};
@@ -28,15 +33,6 @@ use crate::spatial::grid::Grid;
 use glam::{DMat3, Vec3};
 use rayon::prelude::*;
 use wide::f32x8;
-
-/// Phyxels a contact force spreads over at least (paper §7.3: k = 6).
-pub const MIN_DISTRIBUTION_PHYXELS: usize = 6;
-/// Friction regularisation speed (m/s): below it Coulomb friction is viscous
-/// (`μ F_n v_t / FRICTION_SLIP_SPEED`). Explicit integration of that stiff viscous term
-/// does not hold a sticking contact to this speed times `F_t/(μ F_n)`: a block on the 20°
-/// `incline` (μ = 0.5, where that bound is 0.07 mm/s) creeps at 0.24–0.35 mm/s at
-/// dt = 0.1 ms, in proportion to dt (docs/ACCURACY.md, "Known limits").
-pub const FRICTION_SLIP_SPEED: f32 = 1.0e-4;
 
 /// A surfel on the contact surface Φ.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,25 +73,6 @@ pub struct ContactPatch {
     pub not_carriers: usize,
 }
 
-/// Contact-response constants of one pair, from the two materials.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ContactParams {
-    /// Surface weights λ = Young's modulus (paper §6), normalised to sum 1.
-    pub lambda_a: f32,
-    pub lambda_b: f32,
-    /// Penalty spring stiffness per area (N/m³).
-    pub stiffness: f32,
-    /// Penalty damping per area (N·s/m³).
-    pub damping: f32,
-    /// Coulomb friction coefficient.
-    pub friction: f32,
-    /// Target spacing of contact surfels (m).
-    pub spacing: f32,
-    /// Spacing of the denser side's force-carrying contact surfels (m, ≥ `spacing`;
-    /// equal to it when neither side is thinned): the support of their area estimate.
-    pub force_spacing: f32,
-}
-
 /// The two implicit surfaces and the surfels of a pair.
 #[derive(Clone, Copy)]
 pub struct PairSurfaces<'a> {
@@ -134,16 +111,4 @@ pub struct PatchScratch {
     placed: Vec<Option<ContactSurfel>>,
     grid: Grid,
     density: Vec<f32>,
-}
-
-/// Scratch of [`distribute`]: the phyxels near one contact surfel, and the force
-/// columns in the phyxel grid's sorted order (padded by `LANES − 1`); kept between
-/// steps, so the step does not allocate.
-#[derive(Clone, Debug, Default)]
-pub struct DistributeScratch {
-    near: Vec<(usize, f32)>,
-    knn: Vec<(usize, f32)>,
-    force: [Vec<f32>; 3],
-    /// The lane groups of one surfel's query and their weights.
-    lanes: Vec<(usize, f32x8)>,
 }

@@ -2,10 +2,28 @@
 //! penalty spring, dashpot and friction of [`ContactParams`], the support of the force
 //! distribution, and the stable step the penalty spring allows.
 
-use super::ContactParams;
 use crate::body::material::Material;
 use crate::body::object::Object;
 use crate::dynamics::damped_euler_limit;
+
+/// Contact-response constants of one pair, from the two materials.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactParams {
+    /// Surface weights λ = Young's modulus (paper §6), normalised to sum 1.
+    pub lambda_a: f32,
+    pub lambda_b: f32,
+    /// Penalty spring stiffness per area (N/m³).
+    pub stiffness: f32,
+    /// Penalty damping per area (N·s/m³).
+    pub damping: f32,
+    /// Coulomb friction coefficient.
+    pub friction: f32,
+    /// Target spacing of contact surfels (m).
+    pub spacing: f32,
+    /// Spacing of the denser side's force-carrying contact surfels (m, ≥ `spacing`;
+    /// equal to it when neither side is thinned): the support of their area estimate.
+    pub force_spacing: f32,
+}
 
 /// Support of the contact-force distribution kernel in influence radii. The paper uses
 /// two of Müller's radii (3 r each, so 6 phyxel spacings); that spreads a contact force

@@ -5,8 +5,8 @@
 //! `d_i = −Σ_j d_j`, and the gradient `∇u_i = Σ_j (u_j − u_i) d_jᵀ` — exact for affine
 //! displacement fields wherever `A_i` has full rank. The stencil is built once at rest.
 
-use crate::body::columns::Vec3s;
 use crate::body::phyxels::Phyxels;
+use crate::columns::Vec3s;
 use crate::dynamics::kernel::poly6_shape;
 use glam::{DMat3, DVec3, Mat3, Vec3};
 use rayon::prelude::*;

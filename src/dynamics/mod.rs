@@ -7,9 +7,9 @@
 pub mod kernel;
 pub mod mls;
 
-use crate::body::columns::{LANES, Vec3s, load8, store8};
 use crate::body::material::Material;
 use crate::body::phyxels::Phyxels;
+use crate::columns::{LANES, Vec3s, load8, store8};
 use glam::{Mat3, Vec3};
 use wide::f32x8;
 

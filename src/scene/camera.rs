@@ -8,15 +8,18 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Camera {
-    #[serde(deserialize_with = "crate::scene::exact_array")]
+    #[serde(deserialize_with = "crate::io::arrays::exact_array")]
     pub position: [f32; 3],
-    #[serde(deserialize_with = "crate::scene::exact_array")]
+    #[serde(deserialize_with = "crate::io::arrays::exact_array")]
     pub target: [f32; 3],
     /// Vertical field of view (degrees).
     #[serde(default = "default_fov")]
     pub fov: f32,
     /// World up direction.
-    #[serde(default = "default_up", deserialize_with = "crate::scene::exact_array")]
+    #[serde(
+        default = "default_up",
+        deserialize_with = "crate::io::arrays::exact_array"
+    )]
     pub up: [f32; 3],
 }
 

@@ -7,6 +7,8 @@ mod check;
 mod tests;
 mod warnings;
 
+use crate::io::arrays::exact_array;
+
 use check::f32_range;
 
 pub use check::{MAX_LATTICE_POINTS, MAX_PHYXELS, MAX_SURFELS, POSITION_RESOLUTION, fits_f32};
@@ -174,19 +176,6 @@ pub struct Region {
     pub min: [f32; 3],
     #[serde(deserialize_with = "exact_array")]
     pub max: [f32; 3],
-}
-
-/// Reads an array of exactly `N` numbers: serde's arrays stop after `N` and ignore the
-/// rest, so `velocity = [1, 0, 0, 5]` would run as `[1, 0, 0]` without a word.
-pub(crate) fn exact_array<'de, D, const N: usize>(d: D) -> Result<[f32; N], D::Error>
-where
-    D: serde::Deserializer<'de>,
-{
-    let v = Vec::<f32>::deserialize(d)?;
-    let len = v.len();
-    v.try_into().map_err(|_| {
-        serde::de::Error::invalid_length(len, &format!("an array of {N} numbers").as_str())
-    })
 }
 
 /// Command-line overrides applied when a scene is built.

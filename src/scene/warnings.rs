@@ -14,7 +14,7 @@ impl Scene {
     /// to stop them (head-on along the line between their centres, as
     /// `fast_approaches`). Stopping depth of a body of curvature radius R (the smaller moving
     /// body's `3V/A`, its radius for a sphere) on the spring `k` per area
-    /// ([`crate::world::contact_params`]): `½ μ v² = ⅔ π R k d³` (the contact disc's area
+    /// ([`crate::contact::params::contact_params`]): `½ μ v² = ⅔ π R k d³` (the contact disc's area
     /// `2π R d`), μ the pair's reduced mass (the moving body's mass against a static
     /// one). A 5 cm ball at 100 m/s needs 2.6 cm, and passed through a 1 cm static wall
     /// with every value finite and no other warning. Planes (no volume) count as thick.
@@ -39,7 +39,7 @@ impl Scene {
                     .map(|(_, i)| thickness(i))
                     .fold(f64::INFINITY, f64::min);
                 let thinnest = thickness(k).min(thickness(l));
-                let spring = crate::world::contact_params(a, b, 1.0).stiffness as f64;
+                let spring = crate::contact::params::contact_params(a, b, 1.0).stiffness as f64;
                 let depth = (3.0 * mu * closing * closing
                     / (4.0 * std::f64::consts::PI * radius * spring))
                     .cbrt();

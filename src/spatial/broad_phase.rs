@@ -2,7 +2,7 @@
 //! surfels; pairs whose boxes overlap, with their intersection box B. Only surfels in B
 //! are collision candidates.
 
-use crate::body::columns::{LANES, Vec3s, load8};
+use crate::columns::{LANES, Vec3s, load8};
 use glam::Vec3;
 use wide::f32x8;
 
@@ -226,7 +226,7 @@ fn scan_box(points: &Vec3s, bounds: &Aabb, range: std::ops::Range<usize>, out: &
 #[cfg(test)]
 mod tests {
     use super::{Aabb, BLOCK, PARALLEL_CHUNK, points_in_blocks, points_in_box};
-    use crate::body::columns::Vec3s;
+    use crate::columns::Vec3s;
     use glam::Vec3;
 
     /// The box of a set larger than several parallel chunks (and not a whole number of

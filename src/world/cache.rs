@@ -1,7 +1,9 @@
 //! The world's private cache: per-object grids and boxes, and scratch reused from step
-//! to step so that the steady step allocates nothing. Nothing here is a result: dropped
+//! to step so that the steady step allocates nothing, and the view of the surfaces the
+//! contact phases share. Nothing here is a result: dropped
 //! ([`World::clear_cache`](super::World::clear_cache)), it is rebuilt by the next step
-//! with the same bits.
+//! with the same bits. One value is handed from a step to the next: each object's
+//! deepest penetration ([`SurfaceGrids::depth`]), which only sizes a grid region.
 
 use crate::body::object::Object;
 use crate::contact::detect::DetectScratch;

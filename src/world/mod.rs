@@ -8,13 +8,14 @@
 
 mod cache;
 mod guard;
+pub mod output;
 pub mod phase;
 mod record;
 mod step;
 
 pub use guard::NonFinite;
 pub use phase::{Phase, PhaseTimes};
-pub use record::{DT_FRACTION, DtChange, ENERGY_GAIN_WARNING, Energy, MAX_DEFAULT_DT, RunRecord};
+pub use record::{DT_FRACTION, DtChange, Energy, MAX_DEFAULT_DT, RunRecord};
 
 /// Where these lived in phyxel 0.1.
 #[doc(hidden)]
@@ -36,9 +37,10 @@ use glam::Vec3;
 /// Four parts: what the caller sets (`objects`, `gravity`, `dt`, `keep_stable`,
 /// `render_contacts`), the clock and the guard (`steps`, `time`, `non_finite`), the
 /// contact state of the last step (`pairs`, `detections`, `patches`: read them, the
-/// step rewrites them), and the run's [`RunRecord`]. Everything else is a private
-/// cache: [`World::clear_cache`] drops it, and the next step rebuilds it with the same
-/// results.
+/// step rewrites them), and the run's [`RunRecord`]. Privately it keeps the ids it
+/// hands out and which object list the contact state indexes, and a cache of grids,
+/// boxes and scratch: [`World::clear_cache`] drops the cache, and the next step
+/// rebuilds it with the same results.
 pub struct World {
     /// The objects. They may be reordered, added, removed or replaced between steps (ids
     /// must stay distinct: [`World::step`] checks); an object's columns keep the counts
@@ -57,7 +59,7 @@ pub struct World {
     pub keep_stable: bool,
     /// Build what the render surface `S \ C ∪ Φ` needs (only for output): resample the
     /// contact surfaces, and test every surfel for contact, not only the force carriers
-    /// (`object::FORCE_CARRIER_SPACING`), so that `C` holds all colliding surfels. The
+    /// ([`FORCE_CARRIER_SPACING`](crate::body::object::FORCE_CARRIER_SPACING)), so that `C` holds all colliding surfels. The
     /// forces and the motion are the same either way.
     pub render_contacts: bool,
     /// Steps taken so far.
@@ -68,11 +70,14 @@ pub struct World {
     /// The first non-finite value the step's checks found (`None`: all finite so far);
     /// see [`NonFinite`].
     pub non_finite: Option<NonFinite>,
-    /// Overlapping pairs of the last step, in a fixed order (indices into `objects`).
+    /// Overlapping pairs of the last step, in a fixed order (indices into `objects`):
+    /// written by `broad_phase`, read by the contact phases after it.
     pub pairs: Vec<Pair>,
-    /// Colliding surfels of every overlapping pair of the last step.
+    /// Colliding surfels of every overlapping pair of the last step: written by
+    /// `detect`, read by `contact_surface`.
     pub detections: Vec<PairDetection>,
-    /// Contact surfaces and forces of the last step.
+    /// Contact surfaces and forces of the last step: written by `contact_surface`,
+    /// `resample` and `forces`, read by `distribute` (and by callers after the step).
     pub patches: Vec<ContactPatch>,
     /// Statistics of the run so far: phase times, deepest penetration, splits, dt
     /// changes, warnings.

@@ -1,5 +1,5 @@
-//! Per-phase wall-clock timers of the step; phase names match the pipeline's
-//! function names so the timing table and a flamegraph line up.
+//! The one phase list of the step ([`Phase::ALL`]: the step's order, the timing table's
+//! rows, the flamegraph's frame names) and the per-phase wall-clock timers.
 
 use std::time::{Duration, Instant};
 
@@ -19,6 +19,7 @@ pub enum Phase {
 }
 
 impl Phase {
+    /// Every phase, in the order the step runs them.
     pub const ALL: [Phase; 10] = [
         Phase::Dynamics,
         Phase::Advect,
@@ -53,7 +54,8 @@ impl Phase {
 #[derive(Clone, Debug, Default)]
 pub struct PhaseTimes {
     time: [Duration; 10],
-    /// Work items per phase (phyxels stepped, surfels advected, pairs tested, ...).
+    /// Work items per phase, as each phase counts them (phyxels stepped, pairs found,
+    /// surfels gridded or tested, contact surfels, phyxels checked; 0 where none).
     work: [u64; 10],
 }
 

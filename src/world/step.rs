@@ -1,7 +1,10 @@
-//! The phases of one step (Keiser et al. 2004, §8), one `#[inline(never)]` method each
-//! so that a flamegraph names them as the timing table does
-//! (`phyxel::world::step::detect`). [`run`] dispatches [`Phase::ALL`] to them; a value one phase hands to a later one travels as an
-//! argument (`blocks_current`) or in the contact state.
+//! The phases of one step (Keiser et al. 2004, §8), one `#[inline(never)]` function
+//! each, so that a flamegraph names them as the timing table does
+//! (`phyxel::world::step::detect`). [`run`] dispatches the phases of [`Phase::ALL`] to
+//! them. A value one phase hands to a later one travels as an argument
+//! (`blocks_current`) or in the world's contact state (`pairs`, `detections`,
+//! `patches`); the one value kept from step to step is each object's last penetration
+//! depth in the cache, which sizes the next grid region (speed only).
 
 use super::World;
 use super::cache::{

@@ -1,4 +1,5 @@
-//! Triangle meshes as object shapes (`shape = { type = "mesh", path = ... }`): loading
+//! Meshes and point clouds as object shapes (`shape = { type = "mesh", path = ... }`):
+//! a [`Surface`] is a closed triangle mesh or an oriented point cloud. Loading
 //! (OBJ via `tobj`, ASCII/binary PLY via `ply-rs-bw`), checks (closed, manifold,
 //! consistently oriented, finite, non-empty), and sampling: surfels area-weighted over the
 //! triangles then thinned Poisson-disk to the target spacing, phyxels on the cubic lattice

@@ -27,7 +27,7 @@ pub enum Shape {
     },
     /// Full edge lengths along x, y, z.
     Box {
-        #[serde(deserialize_with = "crate::scene::exact_array")]
+        #[serde(deserialize_with = "crate::io::arrays::exact_array")]
         size: [f32; 3],
     },
     /// Axis along local y; `length` is the distance between the two hemisphere centres (the straight part).
@@ -43,7 +43,7 @@ pub enum Shape {
     /// A one-sided ground patch: the top face is the local plane y = 0 with normal +y,
     /// extents `size = [sx, sz]` along x and z. Its phyxels are one layer just below (y = -spacing/2).
     Plane {
-        #[serde(deserialize_with = "crate::scene::exact_array")]
+        #[serde(deserialize_with = "crate::io::arrays::exact_array")]
         size: [f32; 2],
     },
     /// A closed triangle mesh from an OBJ or PLY file, `path` relative to the scene file,

@@ -9,9 +9,12 @@ mod project;
 
 use lanes::LaneSums;
 pub use lanes::{SurfelRows, exp_neg};
-pub use project::Projection;
+pub use project::{
+    MAX_PROJECTION_ITERATIONS, MAX_STEP_HALVINGS, PROJECTION_ROUNDOFF_EPS, PROJECTION_SLOPE_COS,
+    PROJECTION_SLOPE_RANGE, PROJECTION_TOLERANCE, Projection,
+};
 
-use crate::body::columns::{LANES, Vec3s, lane_mask, load8};
+use crate::columns::{LANES, Vec3s, lane_mask, load8};
 use crate::spatial::broad_phase::Aabb;
 use crate::spatial::grid::{Grid, LazyGrid};
 use glam::Vec3;
@@ -74,29 +77,6 @@ impl Default for NearHits {
         }
     }
 }
-
-/// Iteration limit of the orthogonal projection.
-pub const MAX_PROJECTION_ITERATIONS: u32 = 20;
-/// A projection step that leaves every kernel's reach is halved up to this many times
-/// (to a sixteenth) before the far field is sampled at its end.
-pub const MAX_STEP_HALVINGS: u32 = 4;
-/// The projection's step is `f/g`, with `g = ∂f/∂t` the slope of `f` along the normal
-/// measured over the last step, when `g` lies in this range (`g` is 1 for a flat
-/// surface of equal kernels); outside it, and on the first step, the plain step `f`.
-pub const PROJECTION_SLOPE_RANGE: (f32, f32) = (0.2, 2.0);
-/// The measured slope is used only when the normal turned by less than this cosine
-/// over the last step (both steps then run along about the same line).
-pub const PROJECTION_SLOPE_COS: f32 = 0.999;
-/// Convergence tolerance of the projection, in units of the smallest σ.
-pub const PROJECTION_TOLERANCE: f32 = 1.0e-4;
-/// The projection's tolerance is at least this many f32 epsilons of the point's largest
-/// coordinate: `f = n·(x − a)` takes `a` from sums of surfel positions, whose round-off
-/// grows with the distance from the origin, so far from it `|f|` cannot fall below
-/// [`PROJECTION_TOLERANCE`] σ and the projection would run to its iteration limit
-/// (a sphere of 3.5 mm spacing 100 m out: 427 of 500 projections unconverged without
-/// the floor; in a probe one epsilon let all converge, two leave a margin:
-/// `tests/detect.rs`).
-pub const PROJECTION_ROUNDOFF_EPS: f32 = 2.0;
 
 /// The implicit surface of one object's surfels, backed by its surfel grid.
 #[derive(Clone, Copy)]

@@ -1,7 +1,7 @@
 //! A grid built on first use after each reset.
 
 use super::Grid;
-use crate::body::columns::Vec3s;
+use crate::columns::Vec3s;
 use std::sync::{Mutex, OnceLock};
 
 /// A grid built on first use after each [`LazyGrid::reset`], for queries that are rare

@@ -42,7 +42,7 @@ mod tests;
 
 pub use lazy::LazyGrid;
 
-use crate::body::columns::Vec3s;
+use crate::columns::Vec3s;
 use glam::Vec3;
 use wide::{f32x8, i32x8, u32x8};
 

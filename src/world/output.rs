@@ -1,4 +1,5 @@
-//! Frame output: binary little-endian PLY files of surfels and phyxels.
+//! The frames of a [`World`]: its render surface and phyxels as [`Frame`]s, written as
+//! binary PLY or VTK XML PolyData.
 
 use crate::contact::ContactSurfel;
 use crate::io::frame::{Format, Frame};
