@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Same bits: runs every built-in scene with `run --json` on two phyxel binaries and
 # compares the summaries with wall-clock keys removed (wall_seconds, steps_per_second,
-# phase_seconds), plus the binary PLY frames of one scene (the resampling path runs only
-# when frames are written). Used to show that a refactor changes no result.
+# phase_seconds), the same for two scenes on the other backends, plus the binary PLY
+# frames of one scene (the resampling path runs only when frames are written). Used to show that a refactor changes no result.
 #
 #   tests/same-bits.sh OLD_BINARY NEW_BINARY
 #
@@ -36,6 +36,21 @@ for scene in $scenes; do
     else
         echo "DIFFERS $scene"
         diff "$work/$scene.old.json" "$work/$scene.new.json" | head -20
+        status=1
+    fi
+done
+for run in "two-spheres --backend sph" "two-spheres --backend lj" "pile --backend sph --steps 300" "plastic-fracture --backend lj --steps 600"; do
+    name=${run// /_}
+    for side in old new; do
+        bin=$old; [ "$side" = new ] && bin=$new
+        # shellcheck disable=SC2086 # the run's words are its arguments
+        "$bin" run $run --json | strip > "$work/$name.$side.json"
+    done
+    if cmp -s "$work/$name.old.json" "$work/$name.new.json"; then
+        echo "same    $run"
+    else
+        echo "DIFFERS $run"
+        diff "$work/$name.old.json" "$work/$name.new.json" | head -20
         status=1
     fi
 done

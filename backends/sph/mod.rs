@@ -146,23 +146,7 @@ impl SphDynamics {
         let support = kernel.support();
         let rest: Vec<Vec3> = phyxels.rest.iter().collect();
         let grid = Grid::build(rest.iter().copied(), support);
-        // Rest rows with an exactly symmetric test ((a − b)² = (b − a)² in IEEE).
-        let s2 = support * support;
-        let mut off = Vec::with_capacity(n + 1);
-        let mut nbr: Vec<u32> = Vec::new();
-        off.push(0u32);
-        let mut row = Vec::new();
-        for i in 0..n {
-            row.clear();
-            grid.for_each_within(rest[i], support * 1.001, |j, _| {
-                if j != i && (rest[i] - rest[j]).length_squared() < s2 {
-                    row.push(j as u32);
-                }
-            });
-            row.sort_unstable();
-            nbr.extend_from_slice(&row);
-            off.push(nbr.len() as u32);
-        }
+        let (off, nbr) = rest_rows(&rest, &grid, support);
         // The rest density by the step's own sum (same grid, order and distances), so
         // that a body at rest has a density ratio of exactly 1 and no pressure: summed
         // in stencil order it came out a few ulps off, which the Tait law's stiffness
@@ -181,35 +165,7 @@ impl SphDynamics {
                 )
             })
             .collect();
-        let mut d = vec![Vec3::ZERO; nbr.len()];
-        let mut d_self = vec![Vec3::ZERO; n];
-        for i in 0..n {
-            let (a, b) = (off[i] as usize, off[i + 1] as usize);
-            let mut m = Mat3::ZERO;
-            for k in a..b {
-                let j = nbr[k] as usize;
-                let xij = rest[i] - rest[j];
-                let r2 = xij.length_squared();
-                let g = xij * (kernel.grad_over_r(r2) * phyxels.volume[j]);
-                d[k] = g;
-                m += outer(-xij, g);
-            }
-            // Bonet–Lok correction where the neighbourhood spans 3D; else a scale only.
-            let tr = m.x_axis.x + m.y_axis.y + m.z_axis.z;
-            let l = if tr > 0.0 && m.determinant() > 1e-3 * (tr / 3.0).powi(3) {
-                m.inverse()
-            } else if tr > 0.0 {
-                Mat3::from_diagonal(Vec3::splat(3.0 / tr))
-            } else {
-                Mat3::ZERO
-            };
-            let mut sum = Vec3::ZERO;
-            for dk in &mut d[a..b] {
-                *dk = l.transpose() * *dk;
-                sum += *dk;
-            }
-            d_self[i] = -sum;
-        }
+        let (d, d_self) = corrected_gradients(&rest, &off, &nbr, kernel, &phyxels.volume);
         let rest_sum: Vec<Mat3> = (0..n)
             .map(|i| {
                 let mut m = Mat3::ZERO;
@@ -219,17 +175,7 @@ impl SphDynamics {
                 m
             })
             .collect();
-        let mut rev = vec![0u32; nbr.len()];
-        for i in 0..n {
-            for k in off[i] as usize..off[i + 1] as usize {
-                let j = nbr[k] as usize;
-                let row_j = &nbr[off[j] as usize..off[j + 1] as usize];
-                let at = row_j
-                    .binary_search(&(i as u32))
-                    .expect("rest rows are symmetric");
-                rev[k] = off[j] + at as u32;
-            }
-        }
+        let rev = reverse_entries(&off, &nbr);
         Self {
             options,
             kernel,
@@ -432,6 +378,89 @@ impl SphDynamics {
                 *fz = f.z;
             });
     }
+}
+
+/// The rest neighbours of each phyxel within the kernel support, as sorted rows
+/// (`nbr[off[i]..off[i + 1]]`), with an exactly symmetric test ((a − b)² = (b − a)² in
+/// IEEE), so that `j` is in `i`'s row exactly when `i` is in `j`'s.
+fn rest_rows(rest: &[Vec3], grid: &Grid, support: f32) -> (Vec<u32>, Vec<u32>) {
+    let n = rest.len();
+    let s2 = support * support;
+    let mut off = Vec::with_capacity(n + 1);
+    let mut nbr: Vec<u32> = Vec::new();
+    off.push(0u32);
+    let mut row = Vec::new();
+    for i in 0..n {
+        row.clear();
+        grid.for_each_within(rest[i], support * 1.001, |j, _| {
+            if j != i && (rest[i] - rest[j]).length_squared() < s2 {
+                row.push(j as u32);
+            }
+        });
+        row.sort_unstable();
+        nbr.extend_from_slice(&row);
+        off.push(nbr.len() as u32);
+    }
+    (off, nbr)
+}
+
+/// Kernel gradients at rest `d_ij = L_iᵀ V_j ∇_i W(x⁰_ij)` with the Bonet–Lok correction
+/// `L_i` where the neighbourhood spans 3D (else a scale only), and `d_ii = −Σ_j d_ij`.
+fn corrected_gradients(
+    rest: &[Vec3],
+    off: &[u32],
+    nbr: &[u32],
+    kernel: CubicSpline,
+    volume: &[f32],
+) -> (Vec<Vec3>, Vec<Vec3>) {
+    let n = rest.len();
+    let mut d = vec![Vec3::ZERO; nbr.len()];
+    let mut d_self = vec![Vec3::ZERO; n];
+    for i in 0..n {
+        let (a, b) = (off[i] as usize, off[i + 1] as usize);
+        let mut m = Mat3::ZERO;
+        for k in a..b {
+            let j = nbr[k] as usize;
+            let xij = rest[i] - rest[j];
+            let r2 = xij.length_squared();
+            let g = xij * (kernel.grad_over_r(r2) * volume[j]);
+            d[k] = g;
+            m += outer(-xij, g);
+        }
+        // Bonet–Lok correction where the neighbourhood spans 3D; else a scale only.
+        let tr = m.x_axis.x + m.y_axis.y + m.z_axis.z;
+        let l = if tr > 0.0 && m.determinant() > 1e-3 * (tr / 3.0).powi(3) {
+            m.inverse()
+        } else if tr > 0.0 {
+            Mat3::from_diagonal(Vec3::splat(3.0 / tr))
+        } else {
+            Mat3::ZERO
+        };
+        let mut sum = Vec3::ZERO;
+        for dk in &mut d[a..b] {
+            *dk = l.transpose() * *dk;
+            sum += *dk;
+        }
+        d_self[i] = -sum;
+    }
+    (d, d_self)
+}
+
+/// For each row entry `(i, j)`, the index of the entry `(j, i)` (rows are symmetric).
+fn reverse_entries(off: &[u32], nbr: &[u32]) -> Vec<u32> {
+    let n = off.len() - 1;
+    let mut rev = vec![0u32; nbr.len()];
+    for i in 0..n {
+        for k in off[i] as usize..off[i + 1] as usize {
+            let j = nbr[k] as usize;
+            let row_j = &nbr[off[j] as usize..off[j + 1] as usize];
+            let at = row_j
+                .binary_search(&(i as u32))
+                .expect("rest rows are symmetric");
+            rev[k] = off[j] + at as u32;
+        }
+    }
+    rev
 }
 
 /// Bulk modulus `K = E / (3(1 − 2ν))` (Pa).

@@ -269,20 +269,8 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
         if n.dot(q) > 0.0 {
             n = -n;
         }
-        let base = if frame.contact[i] != 0 {
-            CONTACT_COLOUR
-        } else {
-            object_colour(frame.object[i])
-        };
         let contact = frame.contact[i] != 0;
-        let lambert = n.dot(key).max(0.0);
-        let fill = n.dot(-fwd).max(0.0);
-        let light = if contact {
-            0.7 + 0.3 * lambert.max(fill) // the overlay stays bright
-        } else {
-            0.22 + 0.62 * lambert + 0.22 * fill
-        };
-        let shaded = base.map(|c| (c * light).min(1.0));
+        let shaded = shade(contact, frame.object[i], n, key, fwd);
         for py in y0 as u32..=y1 as u32 {
             for px in x0 as u32..=x1 as u32 {
                 // Ray with unit forward component: t is the view depth.
@@ -313,6 +301,42 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
     }
     // Box-filter down to the output size.
     let (ow, oh) = (opts.width.max(1), opts.height.max(1));
+    let rgb = downsample((ow, oh), s, w, (&colour, &ov_colour, &ov_depth));
+    Image {
+        width: ow,
+        height: oh,
+        rgb,
+    }
+}
+
+/// The colour of a splat with normal `n` (facing the eye): contact surfels in the
+/// contact colour, kept bright (an overlay), others in their object's colour under a
+/// key light `key` and a fill from the camera (`fwd`: the view direction).
+fn shade(contact: bool, object: i32, n: Vec3, key: Vec3, fwd: Vec3) -> [f32; 3] {
+    let base = if contact {
+        CONTACT_COLOUR
+    } else {
+        object_colour(object)
+    };
+    let lambert = n.dot(key).max(0.0);
+    let fill = n.dot(-fwd).max(0.0);
+    let light = if contact {
+        0.7 + 0.3 * lambert.max(fill) // the overlay stays bright
+    } else {
+        0.22 + 0.62 * lambert + 0.22 * fill
+    };
+    base.map(|c| (c * light).min(1.0))
+}
+
+/// RGB bytes of the `(ow, oh)` image from the supersampled buffers (`s` samples per
+/// axis, `w` samples per row): each pixel the mean of its samples, the contact overlay
+/// blended over the objects with [`CONTACT_ALPHA`] where it was drawn.
+fn downsample(
+    (ow, oh): (u32, u32),
+    s: u32,
+    w: u32,
+    (colour, ov_colour, ov_depth): (&[[f32; 3]], &[[f32; 3]], &[f32]),
+) -> Vec<u8> {
     let mut rgb = Vec::with_capacity((3 * ow * oh) as usize);
     let norm = 1.0 / (s * s) as f32;
     for y in 0..oh {
@@ -335,9 +359,5 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
             rgb.extend(acc.map(|a| (a * norm * 255.0).round().clamp(0.0, 255.0) as u8));
         }
     }
-    Image {
-        width: ow,
-        height: oh,
-        rgb,
-    }
+    rgb
 }
