@@ -25,7 +25,9 @@ use phyxel::dynamics::{
 use rayon::prelude::*;
 
 mod lanes;
+mod law;
 use lanes::{LaneInputs, LaneOutputs, LaneStencil};
+use law::{Law, frobenius};
 
 /// The backend's name in scenes and on the command line (`backend = "mls"`).
 pub const NAME: &str = "mls";
@@ -464,112 +466,6 @@ fn incoming_of(stencil: &MlsStencil) -> (Vec<u32>, Vec<(u32, u32)>) {
         }
     }
     (in_off, incoming)
-}
-
-/// The constitutive law of a material, resolved once per step.
-#[derive(Clone, Copy)]
-struct Law {
-    lambda: f32,
-    mu: f32,
-    kv: f32,
-    tau: f32,
-    paper: bool,
-    plastic_yield: f32,
-    /// The fraction of the elastic strain that flows in one step: `1 − exp(−c·dt)`,
-    /// the exact step of the creep law `ε̇_p = c (ε − ε_p)` at the step's strain. It is
-    /// `c·dt` to first order and never exceeds 1, so a fast creep (or a large dt) cannot
-    /// carry `ε_p` past `ε` and flip the stress (the explicit `c·dt` gave a free-falling
-    /// body 250 J of elastic energy at `c = 10⁴`/s).
-    plastic_creep_dt: f32,
-    plastic_max: f32,
-}
-
-impl Law {
-    fn new(m: &Material, dt: f32, tau: f32) -> Self {
-        let (lambda, mu) = m.lame();
-        Self {
-            lambda,
-            mu,
-            kv: m.k_volume(),
-            tau,
-            paper: m.strain == StrainForm::Paper,
-            plastic_yield: m.plastic_yield,
-            plastic_creep_dt: -(-m.plastic_creep * dt).exp_m1(),
-            plastic_max: m.plastic_max,
-        }
-    }
-
-    /// Isotropic Hooke law `σ = λ tr(ε) I + 2μ ε`.
-    #[inline]
-    fn hooke(&self, e: Mat3) -> Mat3 {
-        let tr = e.x_axis.x + e.y_axis.y + e.z_axis.z;
-        Mat3::from_diagonal(Vec3::splat(self.lambda * tr)) + e * (2.0 * self.mu)
-    }
-
-    /// Strain of the deformation gradient `j` (calibrated or paper form).
-    #[inline]
-    fn strain(&self, j: Mat3) -> Mat3 {
-        let c = j.transpose() * j - Mat3::IDENTITY;
-        if self.paper { c } else { c * 0.5 }
-    }
-
-    /// `P = −v (s J σ + k_v (det J − 1) cof J)` and the strain norm, updating plastic strain.
-    #[inline]
-    fn stress_force(
-        &self,
-        grad: Mat3,
-        vel_grad: Option<Mat3>,
-        plastic: Option<&mut Mat3>,
-        volume: f32,
-    ) -> (Mat3, f32) {
-        let j = Mat3::IDENTITY + grad;
-        let strain = self.strain(j);
-        let mut elastic = strain;
-        if let Some(ep) = plastic {
-            let e = strain - *ep;
-            if frobenius(e) > self.plastic_yield {
-                *ep += e * self.plastic_creep_dt;
-            }
-            let norm = frobenius(*ep);
-            if norm > self.plastic_max {
-                *ep *= self.plastic_max / norm;
-            }
-            elastic = strain - *ep;
-        }
-        let mut sigma = self.hooke(elastic);
-        if let Some(jd) = vel_grad {
-            // ε̇ of the strain measure: ½(JᵀJ̇ + J̇ᵀJ) (twice that for the paper form).
-            let rate = j.transpose() * jd + jd.transpose() * j;
-            let rate = if self.paper { rate } else { rate * 0.5 };
-            sigma += self.hooke(rate) * self.tau;
-        }
-        let s = if self.paper { 2.0 } else { 1.0 };
-        let mut p = j * sigma * (-volume * s);
-        if self.kv > 0.0 {
-            let cof = cofactor(j);
-            p -= cof * (volume * self.kv * (j.determinant() - 1.0));
-        }
-        (p, frobenius(strain))
-    }
-
-    /// Elastic energy density ½ ε:σ + ½ k_v (det J − 1)² (J/m³); its derivative with
-    /// respect to J is the P of [`Law::stress_force`] in either strain form.
-    fn energy_density(&self, grad: Mat3, plastic: Option<&Mat3>) -> f32 {
-        let j = Mat3::IDENTITY + grad;
-        let mut e = self.strain(j);
-        if let Some(ep) = plastic {
-            e -= *ep;
-        }
-        let sigma = self.hooke(e);
-        let dot = (0..3).map(|c| e.col(c).dot(sigma.col(c))).sum::<f32>();
-        let dv = j.determinant() - 1.0;
-        0.5 * dot + 0.5 * self.kv * dv * dv
-    }
-}
-
-#[inline]
-fn frobenius(m: Mat3) -> f32 {
-    (m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()).sqrt()
 }
 
 impl Dynamics for MlsDynamics {

@@ -2,6 +2,7 @@
 //! sums), and nearest neighbours.
 
 use super::*;
+use cells::{SEP, box_cells, cell_of, floor_i32, hash};
 
 impl Grid {
     /// Calls `f(index, squared_distance)` once for every point within `r` of `x`

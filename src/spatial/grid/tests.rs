@@ -1,4 +1,5 @@
 use super::*;
+use cells::{P2, P3, hash};
 
 /// The cells of a box `lo..=hi`.
 fn cells(lo: [i32; 3], hi: [i32; 3]) -> impl Iterator<Item = [i32; 3]> {
