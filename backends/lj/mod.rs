@@ -77,6 +77,9 @@ pub struct LjDynamics {
     /// Largest `Σ_j 2 k_ij / m_i` (1/s²): Gershgorin bound of `ω²_max`.
     omega2_max: f32,
     energy: f64,
+    /// Bond energy per phyxel (J), summed in phyxel order into `energy`: a parallel
+    /// reduction's order depends on work stealing and changed its last bits run to run.
+    phyxel_energy: Vec<f64>,
     max_strain: f32,
 }
 
@@ -129,6 +132,7 @@ impl LjDynamics {
             spacing,
             omega2_max,
             energy: 0.0,
+            phyxel_energy: vec![0.0; n],
             max_strain: 0.0,
         }
     }
@@ -164,12 +168,13 @@ impl LjDynamics {
         // Each row writes only its own entries of `broken` (atomics: no per-step split).
         let broken = &self.broken;
         let Vec3s { x, y, z, .. } = &mut self.internal;
-        let (energy, max_strain) = x[..n]
+        let max_strain = x[..n]
             .par_iter_mut()
             .zip(y[..n].par_iter_mut())
             .zip(z[..n].par_iter_mut())
+            .zip(self.phyxel_energy.par_iter_mut())
             .enumerate()
-            .map(|(i, ((fx, fy), fz))| {
+            .map(|(i, (((fx, fy), fz), e_out))| {
                 let (xi, vi, ci) = (pos.get(i), vel.get(i), carry.get(i));
                 let (mut f, mut e, mut strain) = (Vec3::ZERO, 0.0f64, 0.0f32);
                 for kk in off[i] as usize..off[i + 1] as usize {
@@ -201,10 +206,11 @@ impl LjDynamics {
                 *fx = f.x;
                 *fy = f.y;
                 *fz = f.z;
-                (e, strain)
+                *e_out = e;
+                strain
             })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)));
-        self.energy = energy;
+            .reduce(|| 0.0, f32::max);
+        self.energy = self.phyxel_energy.iter().sum();
         self.max_strain = max_strain;
     }
 }

@@ -127,6 +127,9 @@ pub struct SphDynamics {
     /// Largest strain norm and stored energy (J) of the last step.
     max_strain: f32,
     energy: f64,
+    /// Stored energy per phyxel (J), summed in phyxel order into `energy`: a parallel
+    /// reduction's order depends on work stealing and changed its last bits run to run.
+    phyxel_energy: Vec<f64>,
     /// Smallest lattice spacing (m), for the CFL bound and the default damping.
     spacing: f32,
 }
@@ -197,6 +200,7 @@ impl SphDynamics {
             grid,
             max_strain: 0.0,
             energy: 0.0,
+            phyxel_energy: vec![0.0; n],
             spacing,
         }
     }
@@ -252,9 +256,10 @@ impl SphDynamics {
         let (off, nbr, d) = (&self.off, &self.nbr, &self.d);
         let rest_sum = &self.rest_sum;
         // Pass 1: density, pressure, and the elastic stress of each phyxel.
-        let (energy, max_strain) = self
+        let max_strain = self
             .density
             .par_iter_mut()
+            .zip(self.phyxel_energy.par_iter_mut())
             .zip(self.pressure_term.par_iter_mut())
             .zip(self.stress_force.par_iter_mut())
             .zip(self.grad.par_iter_mut())
@@ -262,58 +267,61 @@ impl SphDynamics {
             .zip(self.current.par_chunks_mut(MAX_STORED))
             .zip(self.current_len.par_iter_mut())
             .enumerate()
-            .map(|(i, ((((((rho_out, pt), pf), gr), q), slots), len))| {
-                let xi = pos.get(i);
-                let mut count = 0usize;
-                let rho = density_sum(grid, kernel, pos, carry, mass, i, |j| {
-                    if j != i {
-                        if count < MAX_STORED {
-                            slots[count] = j as u32;
+            .map(
+                |(i, (((((((rho_out, e_out), pt), pf), gr), q), slots), len))| {
+                    let xi = pos.get(i);
+                    let mut count = 0usize;
+                    let rho = density_sum(grid, kernel, pos, carry, mass, i, |j| {
+                        if j != i {
+                            if count < MAX_STORED {
+                                slots[count] = j as u32;
+                            }
+                            count += 1;
                         }
-                        count += 1;
+                    });
+                    *len = if count <= MAX_STORED {
+                        count as u32
+                    } else {
+                        OVERFLOW
+                    };
+                    let ratio = rho / rest_density[i];
+                    let p = b_tait * (ratio.powi(TAIT_GAMMA as i32) - 1.0);
+                    *rho_out = rho;
+                    *pt = if rho > 0.0 { p / (rho * rho) } else { 0.0 };
+                    let dv = (ratio - 1.0) as f64;
+                    let mut e = 0.5 * k_bulk * dv * dv * volume[i] as f64;
+                    let mut strain_norm = (ratio - 1.0).abs();
+                    if elastic {
+                        let (vi, mut sum, mut fd) = (vel.get(i), Mat3::ZERO, Mat3::ZERO);
+                        let ci = carry.get(i);
+                        for k in off[i] as usize..off[i + 1] as usize {
+                            let j = nbr[k] as usize;
+                            // With the position sums' carries (`Phyxels::pos_carry`), so that
+                            // rounding far from the origin does not strain a stiff body.
+                            sum += outer((pos.get(j) - xi) + (carry.get(j) - ci), d[k]);
+                            fd += outer(vel.get(j) - vi, d[k]);
+                        }
+                        // ∇u as a difference of like sums (0 at rest), and the strain from
+                        // it and the rotation's own part, not as `sym(Rᵀ F) − I`.
+                        let g = sum - rest_sum[i];
+                        *q = polar_rotation(Mat3::IDENTITY + g, *q);
+                        let r = Mat3::from_quat(*q);
+                        let rt = r.transpose();
+                        let eps = (sym(rt) - Mat3::IDENTITY) + sym(rt * g);
+                        let eps_rate = sym(rt * fd);
+                        let sigma = (dev(eps) + dev(eps_rate) * tau) * (2.0 * mu);
+                        *pf = r * sigma * (-volume[i]);
+                        *gr = g;
+                        let de = dev(eps);
+                        e += (mu * frob2(de)) as f64 * volume[i] as f64;
+                        strain_norm = strain_norm.max(frob2(eps).sqrt());
                     }
-                });
-                *len = if count <= MAX_STORED {
-                    count as u32
-                } else {
-                    OVERFLOW
-                };
-                let ratio = rho / rest_density[i];
-                let p = b_tait * (ratio.powi(TAIT_GAMMA as i32) - 1.0);
-                *rho_out = rho;
-                *pt = if rho > 0.0 { p / (rho * rho) } else { 0.0 };
-                let dv = (ratio - 1.0) as f64;
-                let mut e = 0.5 * k_bulk * dv * dv * volume[i] as f64;
-                let mut strain_norm = (ratio - 1.0).abs();
-                if elastic {
-                    let (vi, mut sum, mut fd) = (vel.get(i), Mat3::ZERO, Mat3::ZERO);
-                    let ci = carry.get(i);
-                    for k in off[i] as usize..off[i + 1] as usize {
-                        let j = nbr[k] as usize;
-                        // With the position sums' carries (`Phyxels::pos_carry`), so that
-                        // rounding far from the origin does not strain a stiff body.
-                        sum += outer((pos.get(j) - xi) + (carry.get(j) - ci), d[k]);
-                        fd += outer(vel.get(j) - vi, d[k]);
-                    }
-                    // ∇u as a difference of like sums (0 at rest), and the strain from
-                    // it and the rotation's own part, not as `sym(Rᵀ F) − I`.
-                    let g = sum - rest_sum[i];
-                    *q = polar_rotation(Mat3::IDENTITY + g, *q);
-                    let r = Mat3::from_quat(*q);
-                    let rt = r.transpose();
-                    let eps = (sym(rt) - Mat3::IDENTITY) + sym(rt * g);
-                    let eps_rate = sym(rt * fd);
-                    let sigma = (dev(eps) + dev(eps_rate) * tau) * (2.0 * mu);
-                    *pf = r * sigma * (-volume[i]);
-                    *gr = g;
-                    let de = dev(eps);
-                    e += (mu * frob2(de)) as f64 * volume[i] as f64;
-                    strain_norm = strain_norm.max(frob2(eps).sqrt());
-                }
-                (e, strain_norm)
-            })
-            .reduce(|| (0.0, 0.0), |a, b| (a.0 + b.0, a.1.max(b.1)));
-        self.energy = energy;
+                    *e_out = e;
+                    strain_norm
+                },
+            )
+            .reduce(|| 0.0, f32::max);
+        self.energy = self.phyxel_energy.iter().sum();
         self.max_strain = max_strain;
         // Pass 2: pressure, viscosity and the gathered elastic forces.
         let alpha = self.options.alpha;
