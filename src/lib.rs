@@ -57,6 +57,9 @@ pub mod world;
 #[cfg(feature = "app")]
 pub mod app;
 
+#[cfg(feature = "python")]
+mod python;
+
 #[cfg(feature = "app")]
 #[doc(hidden)]
 pub use app::{render, summary, validate};

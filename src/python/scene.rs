@@ -1,0 +1,180 @@
+//! `phyxel.Scene`: a scene read from a built-in name, a TOML file, TOML text or a dict,
+//! and built into a `phyxel.World`.
+
+use super::errors::{error, scene_error};
+use super::world::PyWorld;
+use crate::scene::{BUILTIN, BuildOptions, Scene, SceneError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::path::PathBuf;
+
+/// A simulation scene (docs/SCENES.md): objects with shapes, materials, backends and
+/// placements, gravity, dt and the step count. Immutable; change one through its dict
+/// (`Scene.from_dict(d)` after editing `scene.to_dict()`).
+#[pyclass(name = "Scene", module = "phyxel", frozen)]
+#[derive(Clone)]
+pub struct PyScene {
+    pub scene: Scene,
+}
+
+/// Removes `null`s from a JSON value: TOML has none, and a missing key means the
+/// scene's default, which is what `None` means in Python.
+fn without_nulls(v: serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(map) => Value::Object(
+            map.into_iter()
+                .filter(|(_, v)| !v.is_null())
+                .map(|(k, v)| (k, without_nulls(v)))
+                .collect(),
+        ),
+        Value::Array(items) => Value::Array(items.into_iter().map(without_nulls).collect()),
+        other => other,
+    }
+}
+
+/// A JSON string as a Python object (through the standard `json` module).
+pub fn json_to_py<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
+    py.import("json")?.call_method1("loads", (text,))
+}
+
+/// A Python object as a JSON string (through the standard `json` module).
+pub fn py_to_json(obj: &Bound<'_, PyAny>) -> PyResult<String> {
+    obj.py()
+        .import("json")?
+        .call_method1("dumps", (obj,))?
+        .extract()
+}
+
+#[pymethods]
+impl PyScene {
+    /// The built-in scene `name` (`phyxel.scenes()` lists them).
+    #[staticmethod]
+    fn builtin(py: Python<'_>, name: &str) -> PyResult<Self> {
+        Scene::builtin(name)
+            .map(|scene| Self { scene })
+            .ok_or_else(|| {
+                let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+                let e = SceneError(format!(
+                    "{name}: not a built-in scene (built-in: {})",
+                    names.join(", ")
+                ));
+                scene_error(py, &e)
+            })
+    }
+
+    /// Reads a scene file (TOML); mesh paths are relative to it.
+    #[staticmethod]
+    fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        Scene::load(&path)
+            .map(|scene| Self { scene })
+            .map_err(|e| scene_error(py, &e))
+    }
+
+    /// Parses scene TOML; `origin` names it in errors.
+    #[staticmethod]
+    #[pyo3(signature = (text, origin = "scene"))]
+    fn from_toml(py: Python<'_>, text: &str, origin: &str) -> PyResult<Self> {
+        Scene::parse(text, origin)
+            .map(|scene| Self { scene })
+            .map_err(|e| scene_error(py, &e))
+    }
+
+    /// A scene from a dict with the keys of a scene file (`None` values mean the
+    /// default); checked exactly as a file is.
+    #[staticmethod]
+    #[pyo3(signature = (d, origin = "scene"))]
+    fn from_dict(py: Python<'_>, d: &Bound<'_, PyDict>, origin: &str) -> PyResult<Self> {
+        let json = py_to_json(d.as_any())?;
+        let value: serde_json::Value = serde_json::from_str(&json)
+            .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+        let toml_value = toml::Value::try_from(without_nulls(value))
+            .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+        let text = toml::to_string(&toml_value)
+            .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+        Self::from_toml(py, &text, origin)
+    }
+
+    /// The scene as TOML text (what `phyxel scenes --show` prints).
+    fn to_toml(&self) -> String {
+        self.scene.to_toml()
+    }
+
+    /// The scene as a dict with the keys of a scene file.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let json = serde_json::to_string(&self.scene).map_err(|e| error(e.to_string()))?;
+        json_to_py(py, &json)
+    }
+
+    /// The scene's name.
+    #[getter]
+    fn name(&self) -> String {
+        self.scene.name.clone()
+    }
+
+    /// The number of steps `run` takes by default.
+    #[getter]
+    fn steps(&self) -> u64 {
+        self.scene.steps
+    }
+
+    /// The names of the scene's objects, in order.
+    #[getter]
+    fn object_names(&self) -> Vec<String> {
+        (0..self.scene.objects.len())
+            .map(|k| match self.scene.objects[k].name.as_str() {
+                "" => format!("object{k}"),
+                name => name.to_string(),
+            })
+            .collect()
+    }
+
+    /// Samples every object and builds a world. `backend` replaces every deformable
+    /// object's backend; `surfels` and `phyxels` set the sample counts per deformable
+    /// object; `dt` the time step (default: 90% of the stable bound, at most 1 ms);
+    /// `allow_unstable` accepts a dt above the bound.
+    #[pyo3(signature = (backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false))]
+    pub fn build(
+        &self,
+        py: Python<'_>,
+        backend: Option<String>,
+        surfels: Option<u32>,
+        phyxels: Option<u32>,
+        dt: Option<f32>,
+        allow_unstable: bool,
+    ) -> PyResult<PyWorld> {
+        let opts = BuildOptions {
+            dt,
+            backend,
+            allow_unstable,
+            surfels,
+            phyxels,
+        };
+        let scene = self.scene.clone();
+        let world = py
+            .detach(|| scene.build(&opts))
+            .map_err(|e| scene_error(py, &e))?;
+        Ok(PyWorld::new(world, scene))
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Scene(name={:?}, objects={}, steps={})",
+            self.scene.name,
+            self.scene.objects.len(),
+            self.scene.steps
+        )
+    }
+}
+
+/// The names of the built-in scenes with their one-line descriptions.
+#[pyfunction]
+pub fn scenes() -> Vec<(String, String)> {
+    BUILTIN
+        .iter()
+        .map(|(name, _)| {
+            let s = Scene::builtin(name).expect("built-in scenes parse");
+            (name.to_string(), s.description)
+        })
+        .collect()
+}

@@ -1,0 +1,735 @@
+//! `phyxel.World` and its bodies: stepping with the GIL released, NumPy arrays of the
+//! phyxel and surfel columns, the contact patches, the run summary, frames and pictures;
+//! and the module's `run`, `compare` and `validate`.
+
+use super::errors::{error, scene_error};
+use super::scene::{PyScene, json_to_py};
+use crate::app::render::{RenderOptions, render};
+use crate::app::summary::{RunSummary, summarize};
+use crate::app::validate as suite;
+use crate::body::object::Object;
+use crate::columns::Vec3s;
+use crate::contact::ContactSurfel;
+use crate::io::frame::Format;
+use crate::scene::Scene;
+use crate::world::{Energy, World, output};
+use numpy::{AllowTypeChange, PyArray1, PyArray2, PyArray3, PyArrayLike2, PyArrayMethods};
+use pyo3::exceptions::{PyIndexError, PyKeyError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::PathBuf;
+use std::sync::{Mutex, MutexGuard};
+use std::time::Instant;
+
+pyo3::create_exception!(
+    phyxel,
+    NonFiniteError,
+    super::errors::Error,
+    "The state became non-finite (a NaN or infinity) during a step: the message names the \
+     step, the object, its backend and the first bad value. The world stays readable."
+);
+
+/// A simulation: the objects of a built scene and the state of the run.
+///
+/// `step(n)` advances it (the GIL is released while it steps; Ctrl-C is answered between
+/// steps). Arrays read from it are copies (read-only); write through the setters of a
+/// [`Body`](PyBody), between steps.
+#[pyclass(name = "World", module = "phyxel", frozen)]
+pub struct PyWorld {
+    state: Mutex<State>,
+}
+
+/// What a `World` holds. The world is taken out while a step runs (with the GIL
+/// released), so the lock is never held across a step and another thread that uses the
+/// world meanwhile gets an error, not a deadlock.
+struct State {
+    world: Option<World>,
+    scene: Scene,
+    momentum_initial: [f64; 3],
+    energy_initial: Energy,
+    /// Wall time (s) spent in `step`.
+    wall: f64,
+    /// Set when a step panicked: the state may be inconsistent, so nothing more runs.
+    poisoned: Option<String>,
+}
+
+impl State {
+    fn world(&self) -> PyResult<&World> {
+        self.usable()?;
+        self.world.as_ref().ok_or_else(busy)
+    }
+
+    fn world_mut(&mut self) -> PyResult<&mut World> {
+        self.usable()?;
+        self.world.as_mut().ok_or_else(busy)
+    }
+
+    fn usable(&self) -> PyResult<()> {
+        match &self.poisoned {
+            Some(why) => Err(error(format!(
+                "this world stopped working after an internal error ({why}); build it again"
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// The summary of the run so far, as `phyxel run --json` prints it.
+    fn run_summary(&self) -> PyResult<RunSummary> {
+        let start = (self.momentum_initial, self.energy_initial);
+        let w = self.world()?;
+        Ok(summarize(w, &self.scene, w.steps, self.wall, start, 0))
+    }
+}
+
+fn busy() -> PyErr {
+    error("the world is being stepped by another thread")
+}
+
+/// The index of the object with id `id` in `w`.
+fn object_index(w: &World, id: u32) -> PyResult<usize> {
+    w.objects.iter().position(|o| o.id == id).ok_or_else(|| {
+        error(format!(
+            "object id {id} is no longer in the world (it broke into pieces or was removed)"
+        ))
+    })
+}
+
+impl PyWorld {
+    pub fn new(world: World, scene: Scene) -> Self {
+        Self {
+            state: Mutex::new(State {
+                momentum_initial: world.momentum(),
+                energy_initial: world.energy(),
+                world: Some(world),
+                scene,
+                wall: 0.0,
+                poisoned: None,
+            }),
+        }
+    }
+
+    fn lock(&self) -> PyResult<MutexGuard<'_, State>> {
+        self.state
+            .lock()
+            .map_err(|_| error("the world's lock was poisoned by an earlier error"))
+    }
+
+    /// One step with the GIL released; a panic becomes `phyxel.Error` and poisons the
+    /// world.
+    fn step_once(&self, py: Python<'_>) -> PyResult<()> {
+        let mut world = {
+            let mut s = self.lock()?;
+            s.usable()?;
+            s.world.take().ok_or_else(busy)?
+        };
+        let t0 = Instant::now();
+        let result = py.detach(|| {
+            // On a pool thread, as `phyxel run` steps: the steps' parallel loops then
+            // push their jobs to local deques (no allocation per step).
+            catch_unwind(AssertUnwindSafe(|| rayon::scope(|_| world.step())))
+        });
+        let mut s = self.lock()?;
+        s.wall += t0.elapsed().as_secs_f64();
+        if let Err(panic) = result {
+            let why = panic
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "a panic".into());
+            s.poisoned = Some(why.clone());
+            s.world = Some(world);
+            return Err(error(why));
+        }
+        if world.steps == 1 {
+            // As `phyxel run`: contact energy exists once a contact phase has run.
+            s.energy_initial.contact = world.contact_energy();
+        }
+        s.world = Some(world);
+        Ok(())
+    }
+}
+
+/// A read-only `(n, 3)` float32 copy of the first `n` rows of `c`.
+fn rows3<'py>(py: Python<'py>, c: &Vec3s, n: usize) -> Bound<'py, PyArray2<f32>> {
+    let a = PyArray2::<f32>::zeros(py, [n, 3], false);
+    {
+        let mut w = a.readwrite();
+        let mut v = w.as_array_mut();
+        for i in 0..n {
+            v[[i, 0]] = c.x[i];
+            v[[i, 1]] = c.y[i];
+            v[[i, 2]] = c.z[i];
+        }
+    }
+    read_only(a)
+}
+
+/// A read-only float32 copy of `v`.
+fn column<'py>(py: Python<'py>, v: &[f32]) -> Bound<'py, PyArray1<f32>> {
+    read_only(PyArray1::from_slice(py, v))
+}
+
+/// `a` with its writeable flag cleared: an in-place write into a copy would otherwise be
+/// lost without a word.
+fn read_only<T>(a: Bound<'_, T>) -> Bound<'_, T> {
+    // Clearing the flag of an array we own cannot fail; if it did, the copy stays
+    // writable, which loses nothing.
+    let _ = a.as_any().call_method1("setflags", (false,));
+    a
+}
+
+/// Checks an `(n, 3)` array of finite values; the error names `what`.
+fn finite_rows(a: &PyArrayLike2<'_, f32, AllowTypeChange>, n: usize, what: &str) -> PyResult<()> {
+    let v = a.as_array();
+    if v.shape() != [n, 3] {
+        let shape: Vec<String> = v.shape().iter().map(|d| d.to_string()).collect();
+        return Err(PyValueError::new_err(format!(
+            "{what}: shape ({}): must be ({n}, 3)",
+            shape.join(", ")
+        )));
+    }
+    if let Some(((i, j), x)) = v.indexed_iter().find(|(_, x)| !x.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "{what}[{i}, {j}] = {x}: must be finite"
+        )));
+    }
+    Ok(())
+}
+
+/// Writes rows `a` into the columns `c`, adding them when `add`.
+fn write_rows(c: &mut Vec3s, a: &PyArrayLike2<'_, f32, AllowTypeChange>, add: bool) {
+    let v = a.as_array();
+    for (i, row) in v.outer_iter().enumerate() {
+        let (x, y, z) = (row[0], row[1], row[2]);
+        if add {
+            c.x[i] += x;
+            c.y[i] += y;
+            c.z[i] += z;
+        } else {
+            (c.x[i], c.y[i], c.z[i]) = (x, y, z);
+        }
+    }
+}
+
+#[pymethods]
+impl PyWorld {
+    /// Advances the world by `n` steps. The GIL is released while a step runs, and
+    /// Ctrl-C (any pending signal) is answered between steps. Raises `NonFiniteError`
+    /// when the state stops being finite (after that step; the world stays readable).
+    #[pyo3(signature = (n = 1))]
+    fn step(&self, py: Python<'_>, n: u64) -> PyResult<()> {
+        for _ in 0..n {
+            self.step_once(py)?;
+            if let Some(e) = &self.lock()?.world()?.non_finite {
+                return Err(NonFiniteError::new_err(e.to_string()));
+            }
+            py.check_signals()?;
+        }
+        Ok(())
+    }
+
+    /// Time step (s). Setting it checks only that it is a finite number > 0: see
+    /// `stable_dt` for the explicit bound.
+    #[getter]
+    fn dt(&self) -> PyResult<f32> {
+        Ok(self.lock()?.world()?.dt)
+    }
+
+    #[setter]
+    fn set_dt(&self, dt: f32) -> PyResult<()> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(PyValueError::new_err(format!(
+                "dt = {dt}: must be a finite number > 0"
+            )));
+        }
+        self.lock()?.world_mut()?.dt = dt;
+        Ok(())
+    }
+
+    /// Simulated time (s).
+    #[getter]
+    fn time(&self) -> PyResult<f64> {
+        Ok(self.lock()?.world()?.time)
+    }
+
+    /// Steps taken.
+    #[getter]
+    fn steps(&self) -> PyResult<u64> {
+        Ok(self.lock()?.world()?.steps)
+    }
+
+    /// Largest stable time step (s) over the objects and their contacts.
+    #[getter]
+    fn stable_dt(&self) -> PyResult<f32> {
+        Ok(self.lock()?.world()?.stable_dt().0)
+    }
+
+    /// Gravitational acceleration (m/s²).
+    #[getter]
+    fn gravity(&self) -> PyResult<[f32; 3]> {
+        Ok(self.lock()?.world()?.gravity.to_array())
+    }
+
+    #[setter]
+    fn set_gravity(&self, g: [f32; 3]) -> PyResult<()> {
+        if g.iter().any(|c| !c.is_finite()) {
+            return Err(PyValueError::new_err(format!(
+                "gravity = {g:?}: must be finite"
+            )));
+        }
+        self.lock()?.world_mut()?.gravity = g.into();
+        Ok(())
+    }
+
+    /// Largest penetration depth of a contact over the run (m).
+    #[getter]
+    fn max_penetration(&self) -> PyResult<f32> {
+        Ok(self.lock()?.world()?.record.max_penetration)
+    }
+
+    /// Where the state first became non-finite (`None`: finite so far).
+    #[getter]
+    fn non_finite(&self) -> PyResult<Option<String>> {
+        Ok(self
+            .lock()?
+            .world()?
+            .non_finite
+            .as_ref()
+            .map(|e| e.to_string()))
+    }
+
+    /// Mechanical energy of the moving objects (J): kinetic, elastic, potential, contact
+    /// and their total.
+    fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let e = self.lock()?.world()?.energy();
+        let d = PyDict::new(py);
+        d.set_item("kinetic", e.kinetic)?;
+        d.set_item("elastic", e.elastic)?;
+        d.set_item("potential", e.potential)?;
+        d.set_item("contact", e.contact)?;
+        d.set_item("total", e.total())?;
+        Ok(d)
+    }
+
+    /// Total linear momentum of the moving objects (kg·m/s).
+    fn momentum(&self) -> PyResult<[f64; 3]> {
+        Ok(self.lock()?.world()?.momentum())
+    }
+
+    /// The run so far as `phyxel run --json` prints it (a dict with the same keys;
+    /// `wall_seconds` counts the time spent in `step`).
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let summary = self.lock()?.run_summary()?;
+        let json = serde_json::to_string(&summary).map_err(|e| error(e.to_string()))?;
+        json_to_py(py, &json)
+    }
+
+    /// The bodies, in the world's order (a fracture appends pieces).
+    #[getter]
+    fn objects(slf: &Bound<'_, Self>) -> PyResult<Vec<PyBody>> {
+        let ids: Vec<u32> = slf
+            .get()
+            .lock()?
+            .world()?
+            .objects
+            .iter()
+            .map(|o| o.id)
+            .collect();
+        Ok(ids
+            .into_iter()
+            .map(|id| PyBody {
+                world: slf.clone().unbind(),
+                id,
+            })
+            .collect())
+    }
+
+    fn __len__(&self) -> PyResult<usize> {
+        Ok(self.lock()?.world()?.objects.len())
+    }
+
+    /// `world[k]` (index) or `world["name"]`.
+    fn __getitem__(slf: &Bound<'_, Self>, key: &Bound<'_, PyAny>) -> PyResult<PyBody> {
+        let id = {
+            let s = slf.get().lock()?;
+            let objects = &s.world()?.objects;
+            if let Ok(k) = key.extract::<isize>() {
+                let n = objects.len() as isize;
+                let at = if k < 0 { k + n } else { k };
+                if !(0..n).contains(&at) {
+                    return Err(PyIndexError::new_err(format!(
+                        "object index {k} out of range ({n} objects)"
+                    )));
+                }
+                objects[at as usize].id
+            } else if let Ok(name) = key.extract::<String>() {
+                match objects.iter().find(|o| o.name == name) {
+                    Some(o) => o.id,
+                    None => {
+                        let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
+                        return Err(PyKeyError::new_err(format!(
+                            "no object named '{name}' (objects: {})",
+                            names.join(", ")
+                        )));
+                    }
+                }
+            } else {
+                return Err(PyTypeError::new_err(
+                    "world[key]: key must be an index (int) or a name (str)",
+                ));
+            }
+        };
+        Ok(PyBody {
+            world: slf.clone().unbind(),
+            id,
+        })
+    }
+
+    /// The body with id `id`.
+    fn object(slf: &Bound<'_, Self>, id: u32) -> PyResult<PyBody> {
+        object_index(slf.get().lock()?.world()?, id)?;
+        Ok(PyBody {
+            world: slf.clone().unbind(),
+            id,
+        })
+    }
+
+    /// The contact patches of the last step, one dict per touching pair: the two
+    /// objects' ids (`a`, `b`), and per contact surfel (rows of `(m, 3)` / `(m,)` float32
+    /// arrays) `positions`, `normals` (from a into b), `areas` (m²), `forces` (N, on a;
+    /// b receives the opposite) and `velocities` (of a relative to b, m/s).
+    fn patches<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        let s = self.lock()?;
+        let w = s.world()?;
+        let mut out = Vec::with_capacity(w.patches.len());
+        for p in &w.patches {
+            let d = PyDict::new(py);
+            d.set_item("a", w.objects.get(p.a).map(|o| o.id))?;
+            d.set_item("b", w.objects.get(p.b).map(|o| o.id))?;
+            let m = p.surfels.len();
+            let rows = |f: &dyn Fn(&ContactSurfel) -> glam::Vec3| {
+                let mut c = Vec3s::zeros(m);
+                for (i, s) in p.surfels.iter().enumerate() {
+                    c.set(i, f(s));
+                }
+                rows3(py, &c, m)
+            };
+            d.set_item("positions", rows(&|s| s.pos))?;
+            d.set_item("normals", rows(&|s| s.normal))?;
+            d.set_item("forces", rows(&|s| s.force))?;
+            d.set_item("velocities", rows(&|s| s.velocity))?;
+            let areas: Vec<f32> = p.surfels.iter().map(|s| s.area).collect();
+            d.set_item("areas", column(py, &areas))?;
+            out.push(d);
+        }
+        Ok(out)
+    }
+
+    /// Writes the render surface (surfels, contact surfels marked) to `path` as binary
+    /// PLY (`format="ply"`) or VTK XML PolyData (`"vtk"`, `.vtp`); with `phyxels=True`
+    /// the phyxels instead (PLY).
+    #[pyo3(signature = (path, format = "ply", phyxels = false))]
+    fn write_frame(&self, path: PathBuf, format: &str, phyxels: bool) -> PyResult<()> {
+        let format = Format::parse(format).map_err(PyValueError::new_err)?;
+        let s = self.lock()?;
+        let w = s.world()?;
+        let written = if phyxels {
+            output::write_phyxels(w, &path).map(|_| ())
+        } else {
+            output::surface_frame(w).write(&path, format)
+        };
+        written.map_err(|e| error(format!("{}: cannot write the frame: {e}", path.display())))
+    }
+
+    /// The render surface drawn by the software splat renderer, as an `(h, w, 3)` uint8
+    /// array; the camera is the scene's, else fitted to the objects.
+    #[pyo3(signature = (size = (800, 600)))]
+    fn render<'py>(&self, py: Python<'py>, size: (u32, u32)) -> PyResult<Bound<'py, PyArray3<u8>>> {
+        let (w, h) = size;
+        if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+            return Err(PyValueError::new_err(format!(
+                "size = ({w}, {h}): each side must be 1..16384 pixels"
+            )));
+        }
+        let (frame, camera) = {
+            let s = self.lock()?;
+            (output::surface_frame(s.world()?), s.scene.camera)
+        };
+        let opts = RenderOptions {
+            width: w,
+            height: h,
+            camera,
+            ..RenderOptions::default()
+        };
+        let image = py.detach(|| render(&frame, &opts));
+        let a = PyArray1::from_vec(py, image.rgb);
+        a.reshape([h as usize, w as usize, 3])
+    }
+
+    fn __repr__(&self) -> String {
+        match self.lock().and_then(|s| {
+            let w = s.world()?;
+            Ok(format!(
+                "World(scene={:?}, objects={}, steps={}, time={:.6} s, dt={:e} s)",
+                s.scene.name,
+                w.objects.len(),
+                w.steps,
+                w.time,
+                w.dt
+            ))
+        }) {
+            Ok(text) => text,
+            Err(_) => "World(unavailable)".into(),
+        }
+    }
+}
+
+/// One object of a world, by id (it follows the object when others are added or
+/// removed; an object that broke apart is gone, and its pieces are new bodies).
+///
+/// Reading an array gives a read-only copy; assigning one writes the engine's columns,
+/// which the next step uses (positions and velocities of deformable bodies; forces are
+/// added with `apply_forces`).
+#[pyclass(name = "Body", module = "phyxel", frozen)]
+pub struct PyBody {
+    world: Py<PyWorld>,
+    id: u32,
+}
+
+impl PyBody {
+    fn with<R>(&self, f: impl FnOnce(&Object) -> R) -> PyResult<R> {
+        let s = self.world.get().lock()?;
+        let w = s.world()?;
+        Ok(f(&w.objects[object_index(w, self.id)?]))
+    }
+
+    fn with_mut<R>(&self, f: impl FnOnce(&mut Object) -> PyResult<R>) -> PyResult<R> {
+        let mut s = self.world.get().lock()?;
+        let w = s.world_mut()?;
+        let k = object_index(w, self.id)?;
+        let o = &mut w.objects[k];
+        if o.is_static() {
+            return Err(error(format!(
+                "object '{}' is static: its box and grids are computed once, so it cannot \
+                 be moved or pushed (build a scene with it elsewhere instead)",
+                o.name
+            )));
+        }
+        f(o)
+    }
+}
+
+#[pymethods]
+impl PyBody {
+    /// The object's id (unique in the world).
+    #[getter]
+    fn id(&self) -> u32 {
+        self.id
+    }
+
+    /// The object's name.
+    #[getter]
+    fn name(&self) -> PyResult<String> {
+        self.with(|o| o.name.clone())
+    }
+
+    /// The name of the object's dynamics backend (`"static"` for fixed obstacles).
+    #[getter]
+    fn backend(&self) -> PyResult<String> {
+        self.with(|o| o.dynamics.name().to_string())
+    }
+
+    /// True for an object that never moves.
+    #[getter]
+    fn is_static(&self) -> PyResult<bool> {
+        self.with(|o| o.is_static())
+    }
+
+    /// Total mass (kg).
+    #[getter]
+    fn mass(&self) -> PyResult<f64> {
+        self.with(|o| o.phyxels.total_mass())
+    }
+
+    /// Phyxel positions `(n, 3)` (m). Assign an `(n, 3)` array to move the phyxels; the
+    /// surfels follow at the next step.
+    #[getter]
+    fn phyxel_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        self.with(|o| rows3(py, &o.phyxels.pos, o.phyxels.len()))
+    }
+
+    #[setter]
+    fn set_phyxel_positions(&self, a: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
+        self.with_mut(|o| {
+            finite_rows(&a, o.phyxels.len(), "phyxel_positions")?;
+            write_rows(&mut o.phyxels.pos, &a, false);
+            // The compensated sums' carries belong to the old positions.
+            o.phyxels.pos_carry.fill_zero();
+            Ok(())
+        })
+    }
+
+    /// Phyxel velocities `(n, 3)` (m/s). Assign an `(n, 3)` array to set them.
+    #[getter]
+    fn phyxel_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        self.with(|o| rows3(py, &o.phyxels.vel, o.phyxels.len()))
+    }
+
+    #[setter]
+    fn set_phyxel_velocities(&self, a: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
+        self.with_mut(|o| {
+            finite_rows(&a, o.phyxels.len(), "phyxel_velocities")?;
+            write_rows(&mut o.phyxels.vel, &a, false);
+            Ok(())
+        })
+    }
+
+    /// Forces on the phyxels for the next step `(n, 3)` (N): the contact forces the last
+    /// step distributed, plus any applied since.
+    #[getter]
+    fn phyxel_forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        self.with(|o| rows3(py, &o.phyxels.force, o.phyxels.len()))
+    }
+
+    /// Adds external forces `(n, 3)` (N) to the phyxels, for the next step only.
+    fn apply_forces(&self, forces: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
+        self.with_mut(|o| {
+            finite_rows(&forces, o.phyxels.len(), "forces")?;
+            write_rows(&mut o.phyxels.force, &forces, true);
+            Ok(())
+        })
+    }
+
+    /// Phyxel masses `(n,)` (kg).
+    #[getter]
+    fn phyxel_masses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        self.with(|o| column(py, &o.phyxels.mass[..o.phyxels.len()]))
+    }
+
+    /// Surfel positions `(m, 3)` (m).
+    #[getter]
+    fn surfel_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        self.with(|o| rows3(py, &o.surfels.pos, o.surfels.len()))
+    }
+
+    /// Surfel unit normals `(m, 3)`.
+    #[getter]
+    fn surfel_normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
+        self.with(|o| rows3(py, &o.surfels.normal, o.surfels.len()))
+    }
+
+    /// Surfel disc radii `(m,)` (m).
+    #[getter]
+    fn surfel_radii<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f32>>> {
+        self.with(|o| column(py, &o.surfels.radius[..o.surfels.len()]))
+    }
+
+    fn __repr__(&self) -> String {
+        self.with(|o| {
+            format!(
+                "Body(id={}, name={:?}, backend={:?}, phyxels={}, surfels={})",
+                o.id,
+                o.name,
+                o.dynamics.name(),
+                o.phyxels.len(),
+                o.surfels.len()
+            )
+        })
+        .unwrap_or_else(|e| format!("Body(id={}, unavailable: {e})", self.id))
+    }
+}
+
+/// Accepts a `Scene` or a name/path.
+fn scene_of(py: Python<'_>, scene: &Bound<'_, PyAny>) -> PyResult<Scene> {
+    if let Ok(s) = scene.extract::<PyRef<'_, PyScene>>() {
+        return Ok(s.scene.clone());
+    }
+    let arg: String = scene.extract().map_err(|_| {
+        PyTypeError::new_err("scene: a phyxel.Scene, a built-in scene name or a path")
+    })?;
+    Scene::resolve(&arg).map_err(|e| scene_error(py, &e))
+}
+
+/// Runs `scene` (a `Scene`, a built-in name or a path) for `steps` (default: the
+/// scene's) and returns the summary dict of `phyxel run --json`. Stops at a non-finite
+/// state as `run` does (the summary says where).
+#[pyfunction]
+#[pyo3(signature = (scene, steps = None, backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false))]
+#[allow(clippy::too_many_arguments)] // the keyword arguments of the Python function
+pub fn run<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyAny>,
+    steps: Option<u64>,
+    backend: Option<String>,
+    surfels: Option<u32>,
+    phyxels: Option<u32>,
+    dt: Option<f32>,
+    allow_unstable: bool,
+) -> PyResult<Bound<'py, PyAny>> {
+    let scene = PyScene {
+        scene: scene_of(py, scene)?,
+    };
+    let world = scene.build(py, backend, surfels, phyxels, dt, allow_unstable)?;
+    let n = steps.unwrap_or(scene.scene.steps);
+    match world.step(py, n) {
+        Ok(()) => {}
+        Err(e) if e.is_instance_of::<NonFiniteError>(py) => {}
+        Err(e) => return Err(e),
+    }
+    world.summary(py)
+}
+
+/// Runs `scene` once per backend of `backends` (default: all) and returns their
+/// summaries (`phyxel compare --json`).
+#[pyfunction]
+#[pyo3(signature = (scene, backends = None, steps = None, dt = None, allow_unstable = false))]
+pub fn compare<'py>(
+    py: Python<'py>,
+    scene: &Bound<'py, PyAny>,
+    backends: Option<Vec<String>>,
+    steps: Option<u64>,
+    dt: Option<f32>,
+    allow_unstable: bool,
+) -> PyResult<Vec<Bound<'py, PyAny>>> {
+    let names = backends.unwrap_or_else(|| {
+        crate::backends::NAMES
+            .iter()
+            .map(|s| s.to_string())
+            .collect()
+    });
+    names
+        .into_iter()
+        .map(|b| run(py, scene, steps, Some(b), None, None, dt, allow_unstable))
+        .collect()
+}
+
+/// The validation suite (`phyxel validate --json`): one dict per row, accuracy cases
+/// then hard cases. `quick` uses the short resolutions; `case` keeps the cases whose
+/// name starts with it; `backend` picks one backend (default: all).
+#[pyfunction]
+#[pyo3(signature = (quick = true, case = None, backend = None))]
+pub fn validate<'py>(
+    py: Python<'py>,
+    quick: bool,
+    case: Option<String>,
+    backend: Option<String>,
+) -> PyResult<Bound<'py, PyAny>> {
+    let backends: Vec<String> = backend.into_iter().collect();
+    for b in &backends {
+        suite::check_backend(b).map_err(PyValueError::new_err)?;
+    }
+    let only = case.as_deref();
+    let rows = py.detach(|| {
+        let mut rows = suite::run_accuracy(&backends, quick, only, |_| {});
+        rows.extend(suite::run_stability(&backends, quick, only, |_| {}));
+        rows
+    });
+    let json = serde_json::to_string(&rows).map_err(|e| error(e.to_string()))?;
+    json_to_py(py, &json)
+}
+
+/// Registers the world's exception.
+pub fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("NonFiniteError", m.py().get_type::<NonFiniteError>())
+}
