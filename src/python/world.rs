@@ -152,16 +152,13 @@ impl PyWorld {
 
 /// A read-only `(n, 3)` float32 copy of the first `n` rows of `c`.
 fn rows3<'py>(py: Python<'py>, c: &Vec3s, n: usize) -> Bound<'py, PyArray2<f32>> {
-    let a = PyArray2::<f32>::zeros(py, [n, 3], false);
-    {
-        let mut w = a.readwrite();
-        let mut v = w.as_array_mut();
-        for i in 0..n {
-            v[[i, 0]] = c.x[i];
-            v[[i, 1]] = c.y[i];
-            v[[i, 2]] = c.z[i];
-        }
+    let mut rows = vec![0.0f32; 3 * n];
+    for (((r, &x), &y), &z) in rows.chunks_exact_mut(3).zip(&c.x).zip(&c.y).zip(&c.z) {
+        r.copy_from_slice(&[x, y, z]);
     }
+    let a = PyArray1::from_vec(py, rows)
+        .reshape([n, 3])
+        .expect("3n values reshape to (n, 3)");
     read_only(a)
 }
 
