@@ -5,6 +5,7 @@
 //! The compiled module is `phyxel._phyxel`; the package `src/python/phyxel/` re-exports
 //! it and adds what is easier in Python (pandas conversion).
 
+mod backend;
 mod errors;
 mod scene;
 mod world;

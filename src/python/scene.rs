@@ -130,30 +130,50 @@ impl PyScene {
     }
 
     /// Samples every object and builds a world. `backend` replaces every deformable
-    /// object's backend; `surfels` and `phyxels` set the sample counts per deformable
-    /// object; `dt` the time step (default: 90% of the stable bound, at most 1 ms);
-    /// `allow_unstable` accepts a dt above the bound.
+    /// object's backend: a name (`phyxel.BACKENDS`) or a Python class (docs/PYTHON.md,
+    /// "Backends in Python"); `surfels` and `phyxels` set the sample counts per
+    /// deformable object; `dt` the time step (default: 90% of the stable bound, at most
+    /// 1 ms); `allow_unstable` accepts a dt above the bound.
     #[pyo3(signature = (backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false))]
     pub fn build(
         &self,
         py: Python<'_>,
-        backend: Option<String>,
+        backend: Option<&Bound<'_, PyAny>>,
         surfels: Option<u32>,
         phyxels: Option<u32>,
         dt: Option<f32>,
         allow_unstable: bool,
     ) -> PyResult<PyWorld> {
+        let (name, class) = match backend {
+            None => (None, None),
+            Some(b) => match b.extract::<String>() {
+                Ok(name) => (Some(name), None),
+                Err(_) if b.is_callable() => (None, Some(b)),
+                Err(_) => {
+                    return Err(pyo3::exceptions::PyTypeError::new_err(
+                        "backend: a backend name (str) or a Python backend class",
+                    ));
+                }
+            },
+        };
         let opts = BuildOptions {
             dt,
-            backend,
-            allow_unstable,
+            backend: name,
+            // A Python backend's bound is checked once it is installed.
+            allow_unstable: allow_unstable || class.is_some(),
             surfels,
             phyxels,
         };
         let scene = self.scene.clone();
-        let world = py
+        let mut world = py
             .detach(|| scene.build(&opts))
             .map_err(|e| scene_error(py, &e))?;
+        if let Some(class) = class {
+            super::backend::install(py, &mut world, class)?;
+            world.keep_stable = !allow_unstable;
+            world.dt = python_backend_dt(&world, &scene, dt, allow_unstable)
+                .map_err(|e| scene_error(py, &e))?;
+        }
         Ok(PyWorld::new(world, scene))
     }
 
@@ -164,6 +184,37 @@ impl PyScene {
             self.scene.objects.len(),
             self.scene.steps
         )
+    }
+}
+
+/// The time step of a world whose backends were replaced after the build: `dt` checked
+/// against the new stable bound (as `Scene::build` checks it), else the default.
+fn python_backend_dt(
+    world: &crate::world::World,
+    scene: &Scene,
+    dt: Option<f32>,
+    allow_unstable: bool,
+) -> Result<f32, SceneError> {
+    let (stable, limiter) = world.stable_dt();
+    let origin = if scene.name.is_empty() {
+        "scene"
+    } else {
+        &scene.name
+    };
+    let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
+    if stable.is_nan() || stable <= 0.0 {
+        return Err(SceneError(format!(
+            "{origin}: object '{limiter}': the Python backend's stable_dt gave {stable}: it \
+             must be a number > 0 (or float('inf'))"
+        )));
+    }
+    match dt.or(scene.dt) {
+        Some(dt) if dt > stable && !allow_unstable => Err(SceneError(format!(
+            "{origin}: dt = {dt} s exceeds the stable bound {stable} s of object '{limiter}' \
+             (explicit integration would blow up); use a smaller dt or allow_unstable=True"
+        ))),
+        Some(dt) => Ok(dt),
+        None => Ok((crate::world::DT_FRACTION * stable).min(crate::world::MAX_DEFAULT_DT)),
     }
 }
 

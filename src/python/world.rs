@@ -658,7 +658,7 @@ pub fn run<'py>(
     py: Python<'py>,
     scene: &Bound<'py, PyAny>,
     steps: Option<u64>,
-    backend: Option<String>,
+    backend: Option<&Bound<'py, PyAny>>,
     surfels: Option<u32>,
     phyxels: Option<u32>,
     dt: Option<f32>,
@@ -677,26 +677,27 @@ pub fn run<'py>(
     world.summary(py)
 }
 
-/// Runs `scene` once per backend of `backends` (default: all) and returns their
-/// summaries (`phyxel compare --json`).
+/// Runs `scene` once per backend of `backends` (names or Python backend classes;
+/// default: the built-in ones) and returns their summaries (`phyxel compare --json`).
 #[pyfunction]
 #[pyo3(signature = (scene, backends = None, steps = None, dt = None, allow_unstable = false))]
 pub fn compare<'py>(
     py: Python<'py>,
     scene: &Bound<'py, PyAny>,
-    backends: Option<Vec<String>>,
+    backends: Option<Vec<Bound<'py, PyAny>>>,
     steps: Option<u64>,
     dt: Option<f32>,
     allow_unstable: bool,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
-    let names = backends.unwrap_or_else(|| {
-        crate::backends::NAMES
+    let backends = match backends {
+        Some(b) => b,
+        None => crate::backends::NAMES
             .iter()
-            .map(|s| s.to_string())
-            .collect()
-    });
-    names
-        .into_iter()
+            .map(|n| pyo3::types::PyString::new(py, n).into_any())
+            .collect(),
+    };
+    backends
+        .iter()
         .map(|b| run(py, scene, steps, Some(b), None, None, dt, allow_unstable))
         .collect()
 }

@@ -1,7 +1,7 @@
 """Type stubs of the compiled module `phyxel._phyxel` (re-exported by `phyxel`)."""
 
 from os import PathLike
-from typing import Any, Optional, Sequence, Union
+from typing import Any, Optional, Protocol, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -24,6 +24,17 @@ class UnstableError(SceneError):
 class NonFiniteError(Error):
     """The state became non-finite during a step; the world stays readable."""
 
+class PhyxelArrays(Protocol):
+    """What a Python backend receives: NumPy copies of one body's phyxel columns."""
+    positions: npt.NDArray[np.float32]
+    velocities: npt.NDArray[np.float32]
+    forces: npt.NDArray[np.float32]
+    rest: npt.NDArray[np.float32]
+    masses: npt.NDArray[np.float32]
+    fixed: npt.NDArray[np.bool_]
+
+Backend = Union[str, type]
+
 class Scene:
     """A simulation scene (docs/SCENES.md)."""
     @staticmethod
@@ -44,7 +55,7 @@ class Scene:
     def object_names(self) -> list[str]: ...
     def build(
         self,
-        backend: Optional[str] = None,
+        backend: Optional[Backend] = None,
         surfels: Optional[int] = None,
         phyxels: Optional[int] = None,
         dt: Optional[float] = None,
@@ -114,7 +125,7 @@ def scenes() -> list[tuple[str, str]]: ...
 def run(
     scene: Union[Scene, str],
     steps: Optional[int] = None,
-    backend: Optional[str] = None,
+    backend: Optional[Backend] = None,
     surfels: Optional[int] = None,
     phyxels: Optional[int] = None,
     dt: Optional[float] = None,
@@ -122,7 +133,7 @@ def run(
 ) -> dict[str, Any]: ...
 def compare(
     scene: Union[Scene, str],
-    backends: Optional[Sequence[str]] = None,
+    backends: Optional[Sequence[Backend]] = None,
     steps: Optional[int] = None,
     dt: Optional[float] = None,
     allow_unstable: bool = False,
