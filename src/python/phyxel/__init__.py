@@ -29,19 +29,24 @@ from ._phyxel import (
     validate,
 )
 
+from .sweeps import WALL_KEYS, grid, sweep
+
 __all__ = [
     "BACKENDS",
     "Body",
     "Error",
     "NonFiniteError",
     "Scene",
+    "WALL_KEYS",
     "SceneError",
     "UnstableError",
     "World",
     "__version__",
     "compare",
     "run",
+    "grid",
     "scenes",
+    "sweep",
     "to_pandas",
     "validate",
 ]
