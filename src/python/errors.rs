@@ -12,7 +12,8 @@ create_exception!(
     SceneError,
     Error,
     "A scene that cannot be read or built. `origin` is the file or scene the message \
-     names and `field` the key (e.g. `objects[1].spacing`), where it names one."
+     names, `field` the key (e.g. `objects[1].spacing`) and `value` the bad value as \
+     written, where it names them."
 );
 create_exception!(
     phyxel,
@@ -53,6 +54,11 @@ pub fn scene_error(py: Python<'_>, e: &crate::scene::SceneError) -> PyErr {
     };
     // Setting attributes on a fresh exception instance cannot fail in practice; an error
     // here would only lose an attribute, never the exception.
+    // "FIELD: NAME = VALUE: why" gives the value as written.
+    let value_text = third
+        .and_then(|t| t.split_once(" = "))
+        .and_then(|(_, rest)| rest.split_once(": ").map(|(v, _)| v.to_string()));
+    let _ = value.setattr("value", value_text);
     let _ = value.setattr("origin", origin);
     let _ = value.setattr("field", field);
     let _ = value.setattr("bound", unstable);

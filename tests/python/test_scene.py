@@ -49,6 +49,7 @@ def test_bad_value_names_origin_and_field():
         phyxel.Scene.from_dict(d, origin="mine")
     assert e.value.origin == "mine"
     assert e.value.field == "objects[1].spacing"
+    assert e.value.value == "-1"
 
 
 def test_unknown_key_and_bad_toml_are_refused():

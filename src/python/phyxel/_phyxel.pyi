@@ -16,6 +16,7 @@ class SceneError(Error):
     """A scene that cannot be read or built."""
     origin: Optional[str]
     field: Optional[str]
+    value: Optional[str]
     bound: Optional[float]
 
 class UnstableError(SceneError):
