@@ -6,6 +6,8 @@
 //! Reference: the same run on one thread. Tolerance: bitwise equality of every phyxel
 //! and surfel position and velocity after the run.
 
+mod common;
+
 use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};
 
@@ -27,23 +29,6 @@ fn run_with(threads: usize, scene: &str, options: &BuildOptions, steps: usize) -
     })
 }
 
-fn bits(w: &World) -> Vec<u32> {
-    let mut out = Vec::new();
-    for o in &w.objects {
-        for col in [
-            &o.phyxels.pos,
-            &o.phyxels.vel,
-            &o.surfels.pos,
-            &o.surfels.vel,
-        ] {
-            for v in [&col.x, &col.y, &col.z] {
-                out.extend(v.iter().map(|x| x.to_bits()));
-            }
-        }
-    }
-    out
-}
-
 /// Both runs end in the same bits: the largest penetration and every phyxel and surfel
 /// position and velocity.
 fn assert_same_state(one: &World, two: &World) {
@@ -51,7 +36,7 @@ fn assert_same_state(one: &World, two: &World) {
         one.record.max_penetration.to_bits(),
         two.record.max_penetration.to_bits()
     );
-    let (a, b) = (bits(one), bits(two));
+    let (a, b) = (common::state_bits(one), common::state_bits(two));
     assert_eq!(a.len(), b.len());
     let differing = a.iter().zip(&b).filter(|(x, y)| x != y).count();
     assert_eq!(differing, 0, "{differing} of {} values differ", a.len());

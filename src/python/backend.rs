@@ -11,56 +11,17 @@
 //! engine keeps fixed phyxels in place and clears the forces after the step.
 
 use super::scene::json_to_py;
+use super::world::{finite_rows, rows_writable};
 use crate::body::material::Material;
 use crate::body::phyxels::Phyxels;
-use crate::columns::Vec3s;
 use crate::dynamics::{Dynamics, StepContext};
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArrayMethods};
+use numpy::{AllowTypeChange, PyArray1, PyArrayLike2};
 use pyo3::prelude::*;
 
 /// A Python object driving one body's phyxels.
 pub struct PyDynamics {
     obj: Py<PyAny>,
     name: String,
-}
-
-/// `c`'s first `n` rows as a writable `(n, 3)` float32 array.
-fn rows<'py>(py: Python<'py>, c: &Vec3s, n: usize) -> PyResult<Bound<'py, PyArray2<f32>>> {
-    let mut v = vec![0.0f32; 3 * n];
-    for (((r, &x), &y), &z) in v.chunks_exact_mut(3).zip(&c.x).zip(&c.y).zip(&c.z) {
-        r.copy_from_slice(&[x, y, z]);
-    }
-    PyArray1::from_vec(py, v).reshape([n, 3])
-}
-
-/// Reads an `(n, 3)` array-like back into `c`, refusing another shape or a non-finite
-/// value (the message names the backend and the array).
-fn read_rows(obj: &Bound<'_, PyAny>, c: &mut Vec3s, n: usize, what: &str) -> PyResult<()> {
-    let np = obj.py().import("numpy")?;
-    let a = np.call_method1("ascontiguousarray", (obj, "float32"))?;
-    let a = a.cast_into::<PyArray2<f32>>().map_err(|_| {
-        pyo3::exceptions::PyValueError::new_err(format!("{what}: must be an (n, 3) array"))
-    })?;
-    if a.shape() != [n, 3] {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!(
-            "{what}: shape {:?}: must be ({n}, 3)",
-            a.shape()
-        )));
-    }
-    let ro = a.readonly();
-    let v = ro.as_slice()?;
-    if let Some(i) = v.iter().position(|x| !x.is_finite()) {
-        return Err(pyo3::exceptions::PyValueError::new_err(format!(
-            "{what}[{}, {}] = {}: must be finite",
-            i / 3,
-            i % 3,
-            v[i]
-        )));
-    }
-    for (i, r) in v.chunks_exact(3).enumerate() {
-        (c.x[i], c.y[i], c.z[i]) = (r[0], r[1], r[2]);
-    }
-    Ok(())
 }
 
 /// The `phyxels` argument: NumPy copies of the columns a backend reads and writes.
@@ -73,10 +34,10 @@ fn phyxel_view<'py>(py: Python<'py>, p: &Phyxels) -> PyResult<Bound<'py, PyAny>>
     }
     let fixed: Vec<bool> = p.fixed[..n].iter().map(|&f| f != 0).collect();
     let ns = py.import("types")?.getattr("SimpleNamespace")?.call0()?;
-    ns.setattr("positions", rows(py, &pos, n)?)?;
-    ns.setattr("velocities", rows(py, &p.vel, n)?)?;
-    ns.setattr("forces", rows(py, &p.force, n)?)?;
-    ns.setattr("rest", rows(py, &p.rest, n)?)?;
+    ns.setattr("positions", rows_writable(py, &pos, n))?;
+    ns.setattr("velocities", rows_writable(py, &p.vel, n))?;
+    ns.setattr("forces", rows_writable(py, &p.force, n))?;
+    ns.setattr("rest", rows_writable(py, &p.rest, n))?;
     ns.setattr("masses", PyArray1::from_slice(py, &p.mass[..n]))?;
     ns.setattr("fixed", PyArray1::from_vec(py, fixed))?;
     Ok(ns)
@@ -124,22 +85,20 @@ impl PyDynamics {
         let view = phyxel_view(py, phyxels)?;
         let g = ctx.gravity.to_array();
         self.obj.bind(py).call_method1("step", (&view, ctx.dt, g))?;
-        let before = (phyxels.pos.clone(), phyxels.vel.clone());
-        read_rows(
-            &view.getattr("positions")?,
-            &mut phyxels.pos,
-            n,
-            "positions",
-        )?;
-        read_rows(
-            &view.getattr("velocities")?,
-            &mut phyxels.vel,
-            n,
-            "velocities",
-        )?;
-        for i in (0..n).filter(|&i| phyxels.fixed[i] != 0) {
-            phyxels.pos.set(i, before.0.get(i));
-            phyxels.vel.set(i, before.1.get(i));
+        // Both read and checked before either is written: a bad one changes nothing.
+        let pos: PyArrayLike2<'_, f32, AllowTypeChange> = view.getattr("positions")?.extract()?;
+        let vel: PyArrayLike2<'_, f32, AllowTypeChange> = view.getattr("velocities")?.extract()?;
+        finite_rows(&pos, n, "positions")?;
+        finite_rows(&vel, n, "velocities")?;
+        // Fixed phyxels keep their place and velocity, whatever the backend wrote.
+        let (pos, vel) = (pos.as_array(), vel.as_array());
+        for i in (0..n).filter(|&i| phyxels.fixed[i] == 0) {
+            phyxels
+                .pos
+                .set(i, glam::Vec3::new(pos[[i, 0]], pos[[i, 1]], pos[[i, 2]]));
+            phyxels
+                .vel
+                .set(i, glam::Vec3::new(vel[[i, 0]], vel[[i, 1]], vel[[i, 2]]));
         }
         phyxels.pos_carry.fill_zero();
         phyxels.force.fill_zero();

@@ -152,14 +152,22 @@ impl PyWorld {
 
 /// A read-only `(n, 3)` float32 copy of the first `n` rows of `c`.
 fn rows3<'py>(py: Python<'py>, c: &Vec3s, n: usize) -> Bound<'py, PyArray2<f32>> {
+    read_only(rows_writable(py, c, n))
+}
+
+/// A writable `(n, 3)` float32 copy of the first `n` rows of `c`.
+pub(super) fn rows_writable<'py>(
+    py: Python<'py>,
+    c: &Vec3s,
+    n: usize,
+) -> Bound<'py, PyArray2<f32>> {
     let mut rows = vec![0.0f32; 3 * n];
     for (((r, &x), &y), &z) in rows.chunks_exact_mut(3).zip(&c.x).zip(&c.y).zip(&c.z) {
         r.copy_from_slice(&[x, y, z]);
     }
-    let a = PyArray1::from_vec(py, rows)
+    PyArray1::from_vec(py, rows)
         .reshape([n, 3])
-        .expect("3n values reshape to (n, 3)");
-    read_only(a)
+        .expect("3n values reshape to (n, 3)")
 }
 
 /// A read-only float32 copy of `v`.
@@ -177,7 +185,11 @@ fn read_only<T>(a: Bound<'_, T>) -> Bound<'_, T> {
 }
 
 /// Checks an `(n, 3)` array of finite values; the error names `what`.
-fn finite_rows(a: &PyArrayLike2<'_, f32, AllowTypeChange>, n: usize, what: &str) -> PyResult<()> {
+pub(super) fn finite_rows(
+    a: &PyArrayLike2<'_, f32, AllowTypeChange>,
+    n: usize,
+    what: &str,
+) -> PyResult<()> {
     let v = a.as_array();
     if v.shape() != [n, 3] {
         let shape: Vec<String> = v.shape().iter().map(|d| d.to_string()).collect();
@@ -195,7 +207,7 @@ fn finite_rows(a: &PyArrayLike2<'_, f32, AllowTypeChange>, n: usize, what: &str)
 }
 
 /// Writes rows `a` into the columns `c`, adding them when `add`.
-fn write_rows(c: &mut Vec3s, a: &PyArrayLike2<'_, f32, AllowTypeChange>, add: bool) {
+pub(super) fn write_rows(c: &mut Vec3s, a: &PyArrayLike2<'_, f32, AllowTypeChange>, add: bool) {
     let v = a.as_array();
     for (i, row) in v.outer_iter().enumerate() {
         let (x, y, z) = (row[0], row[1], row[2]);

@@ -1,12 +1,14 @@
 //! Helpers shared by the integration tests (each test file that needs them declares
-//! `mod common;`).
+//! `mod common;`; not every file uses every helper, hence the `dead_code` allowances).
 
 use std::path::PathBuf;
 
 /// A fresh temp directory `phyxel-{group}-{label}-{pid}`, removed on drop.
+#[allow(dead_code)]
 pub struct TempDir(pub PathBuf);
 
 impl TempDir {
+    #[allow(dead_code)]
     pub fn new(group: &str, label: &str) -> Self {
         let p = std::env::temp_dir().join(format!("phyxel-{group}-{label}-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&p);
@@ -19,4 +21,24 @@ impl Drop for TempDir {
     fn drop(&mut self) {
         let _ = std::fs::remove_dir_all(&self.0);
     }
+}
+
+/// The bits of every phyxel and surfel position and velocity of `w`, in object order:
+/// two runs that must agree bitwise compare these.
+#[allow(dead_code)]
+pub fn state_bits(w: &phyxel::World) -> Vec<u32> {
+    let mut out = Vec::new();
+    for o in &w.objects {
+        for col in [
+            &o.phyxels.pos,
+            &o.phyxels.vel,
+            &o.surfels.pos,
+            &o.surfels.vel,
+        ] {
+            for v in [&col.x, &col.y, &col.z] {
+                out.extend(v.iter().map(|x| x.to_bits()));
+            }
+        }
+    }
+    out
 }
