@@ -75,18 +75,3 @@ fn stable_bound(message: &str) -> Option<f64> {
 pub fn error(message: impl Into<String>) -> PyErr {
     Error::new_err(message.into())
 }
-
-#[cfg(test)]
-mod tests {
-    use super::stable_bound;
-
-    #[test]
-    fn the_bound_is_read_from_the_refusal() {
-        let m = "scene: dt = 0.01 s exceeds the stable bound 0.00077 s of object 'left' (...)";
-        assert_eq!(stable_bound(m), Some(0.00077));
-        assert_eq!(
-            stable_bound("scene: dt = 0: must be a finite number > 0"),
-            None
-        );
-    }
-}
