@@ -151,6 +151,33 @@ enum Command {
         #[arg(long)]
         case: Option<String>,
     },
+    /// Watch a scene live in a window (feature `view`): space pauses, `.` steps once, `r`
+    /// rebuilds, drag orbits, the wheel zooms
+    #[cfg(feature = "view")]
+    #[command(allow_negative_numbers = true)]
+    View {
+        /// Built-in scene name or path to a .toml scene file
+        #[arg(default_value = DEFAULT_SCENE)]
+        scene: String,
+        /// Backend for every deformable object (overrides the scene)
+        #[arg(long)]
+        backend: Option<String>,
+        /// Surfels per deformable object
+        #[arg(long = "surfels", value_name = "N")]
+        surfels: Option<u32>,
+        /// Phyxels per deformable object
+        #[arg(long = "phyxel-count", value_name = "N")]
+        phyxel_count: Option<u32>,
+        /// Window size, WIDTHxHEIGHT
+        #[arg(long, default_value = "1280x720")]
+        size: String,
+        /// Run `--after` steps, draw one frame, save the window as this PNG and exit
+        #[arg(long, value_name = "FILE.png")]
+        screenshot: Option<PathBuf>,
+        /// Steps before the screenshot
+        #[arg(long, default_value_t = 0, requires = "screenshot")]
+        after: u64,
+    },
     /// List the built-in scenes, or print one as TOML.
     Scenes {
         /// Print this built-in scene as TOML (runnable with `phyxel run FILE.toml`).
@@ -166,6 +193,42 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Scenes { show, name } => scenes(show.or(name)),
+        #[cfg(feature = "view")]
+        Command::View {
+            scene,
+            backend,
+            surfels,
+            phyxel_count,
+            size,
+            screenshot,
+            after,
+        } => {
+            let Some((scene, _)) = cli::run::resolve_scene(&scene) else {
+                return ExitCode::FAILURE;
+            };
+            let size = match parse_size(&size) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: --size {size}: {e}");
+                    return ExitCode::FAILURE;
+                }
+            };
+            let build = BuildOptions {
+                backend,
+                surfels,
+                phyxels: phyxel_count,
+                ..BuildOptions::default()
+            };
+            cli::view::view(
+                scene,
+                cli::view::ViewOptions {
+                    build,
+                    size,
+                    screenshot,
+                    after,
+                },
+            )
+        }
         Command::Validate {
             quick,
             backend,

@@ -7,3 +7,5 @@ pub mod render;
 pub mod run;
 pub mod scenes;
 pub mod validate;
+#[cfg(feature = "view")]
+pub mod view;
