@@ -62,7 +62,7 @@ fn simulate(scene: Scene, build: BuildOptions, shared: Arc<Shared>) {
         s.steps_per_second = rate;
         s.max_penetration = world.record.max_penetration;
     };
-    'build: loop {
+    loop {
         let mut world = match scene.build(&build) {
             Ok(w) => w,
             Err(e) => {
@@ -83,9 +83,6 @@ fn simulate(scene: Scene, build: BuildOptions, shared: Arc<Shared>) {
                 let single = shared.single_steps.load(Ordering::Relaxed) > 0;
                 let run = !shared.paused.load(Ordering::Relaxed) || single;
                 if !run || world.steps >= shared.stop_at || world.non_finite.is_some() {
-                    if world.steps >= shared.stop_at {
-                        publish(&world, rate);
-                    }
                     std::thread::sleep(Duration::from_millis(5));
                     continue;
                 }
@@ -99,7 +96,8 @@ fn simulate(scene: Scene, build: BuildOptions, shared: Arc<Shared>) {
                 if window >= 0.5 {
                     (counted, since) = (0, Instant::now());
                 }
-                if last.elapsed() >= PUBLISH_EVERY || single || world.steps >= shared.stop_at {
+                let last_step = world.steps >= shared.stop_at || world.non_finite.is_some();
+                if last.elapsed() >= PUBLISH_EVERY || single || last_step {
                     publish(&world, rate);
                     last = Instant::now();
                 }
@@ -108,8 +106,7 @@ fn simulate(scene: Scene, build: BuildOptions, shared: Arc<Shared>) {
         if shared.quit.load(Ordering::Relaxed) {
             return;
         }
-        let _ = &mut world;
-        continue 'build;
+        // Asked to rebuild: the loop builds the scene afresh.
     }
 }
 
