@@ -177,6 +177,10 @@ enum Command {
         /// Steps before the screenshot
         #[arg(long, default_value_t = 0, requires = "screenshot")]
         after: u64,
+        /// Close after this many wall seconds and print steps/s, × real time and frames/s
+        /// as one JSON line
+        #[arg(long, value_name = "S")]
+        seconds: Option<f64>,
     },
     /// List the built-in scenes, or print one as TOML.
     Scenes {
@@ -202,6 +206,7 @@ fn main() -> ExitCode {
             size,
             screenshot,
             after,
+            seconds,
         } => {
             let Some((scene, _)) = cli::run::resolve_scene(&scene) else {
                 return ExitCode::FAILURE;
@@ -226,6 +231,7 @@ fn main() -> ExitCode {
                     size,
                     screenshot,
                     after,
+                    seconds,
                 },
             )
         }

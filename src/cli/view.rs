@@ -3,7 +3,9 @@
 //! window draws the latest one with the software splat renderer and never waits for a
 //! step. Space pauses, `.` steps once while paused, `r` rebuilds the scene, dragging
 //! orbits the camera and the wheel zooms. `--screenshot FILE --after N` runs N steps,
-//! draws one frame, saves the window's pixels as PNG and exits (for tests under Xvfb).
+//! draws one frame, saves the window's pixels as PNG and exits (for tests under Xvfb);
+//! `--seconds S` closes after S wall seconds and prints steps/s, × real time and frames/s
+//! (for measurements).
 
 use eframe::egui;
 use glam::Vec3;
@@ -23,6 +25,8 @@ pub(crate) struct ViewOptions {
     pub size: (u32, u32),
     pub screenshot: Option<PathBuf>,
     pub after: u64,
+    /// Close after this many wall seconds and print the run's figures (measurements).
+    pub seconds: Option<f64>,
 }
 
 /// The latest state the simulation thread published.
@@ -48,8 +52,11 @@ struct Shared {
     stop_at: u64,
 }
 
+/// The display's frame interval.
+const FRAME_INTERVAL: Duration = Duration::from_millis(16);
+
 /// How often the simulation publishes a snapshot while running.
-const PUBLISH_EVERY: Duration = Duration::from_millis(15);
+const PUBLISH_EVERY: Duration = Duration::from_millis(30);
 
 /// Builds the world and steps it until asked to quit, publishing snapshots.
 fn simulate(scene: Scene, build: BuildOptions, shared: Arc<Shared>) {
@@ -123,6 +130,12 @@ struct Viewer {
     shot_taken: Arc<Mutex<Option<Arc<egui::ColorImage>>>>,
     shot_requested: bool,
     exit: Arc<Mutex<Option<Result<(), String>>>>,
+    /// The state and view last drawn (step, yaw, pitch, zoom).
+    drawn: Option<(u64, f32, f32, f32)>,
+    /// When the window opened, frames drawn since, and when to close (`--seconds`).
+    opened: Instant,
+    frames: u64,
+    close_after: Option<f64>,
 }
 
 impl Viewer {
@@ -163,6 +176,25 @@ impl Viewer {
 impl eframe::App for Viewer {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
+        self.frames += 1;
+        if let Some(limit) = self.close_after
+            && self.opened.elapsed().as_secs_f64() >= limit
+        {
+            let seconds = self.opened.elapsed().as_secs_f64();
+            let s = self.shared.snapshot.lock().expect("snapshot lock");
+            // Simulated seconds per wall second over the whole window's life.
+            println!(
+                "{{\"seconds\": {seconds:.3}, \"steps\": {}, \"steps_per_second\": {:.1}, \
+                 \"real_time\": {:.3}, \"frames_per_second\": {:.1}}}",
+                s.steps,
+                s.steps as f64 / seconds,
+                s.time / seconds,
+                self.frames as f64 / seconds
+            );
+            self.close_after = None;
+            self.shared.quit.store(true, Ordering::Relaxed);
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
         self.handle_input(&ctx);
         let (frame, line, at, error) = {
             let s = self.shared.snapshot.lock().expect("snapshot lock");
@@ -178,7 +210,11 @@ impl eframe::App for Viewer {
                 1e3 * s.max_penetration,
                 if paused { "   [paused]" } else { "" }
             );
-            (s.frame.clone(), line, s.steps, s.error.clone())
+            // Only a new state or a new view is drawn again.
+            let key = (s.steps, self.yaw, self.pitch, self.zoom);
+            let frame = (self.drawn != Some(key)).then(|| s.frame.clone());
+            self.drawn = Some(key);
+            (frame, line, s.steps, s.error.clone())
         };
         if let Some(e) = error {
             *self.exit.lock().expect("exit lock") = Some(Err(e));
@@ -189,7 +225,15 @@ impl eframe::App for Viewer {
             ui.label(line);
             let avail = ui.available_size();
             let (w, h) = (avail.x.max(16.0) as u32, avail.y.max(16.0) as u32);
-            if !frame.is_empty() {
+            if self
+                .texture
+                .as_ref()
+                .is_some_and(|t| t.size() != [w as usize, h as usize])
+            {
+                // The window changed size: draw the same state again at the new size.
+                self.drawn = None;
+            }
+            if let Some(frame) = frame.filter(|f| !f.is_empty()) {
                 if self.base.is_none() {
                     let fit = RenderOptions {
                         width: w,
@@ -245,7 +289,9 @@ impl eframe::App for Viewer {
                 ctx.send_viewport_cmd(egui::ViewportCommand::Close);
             }
         }
-        ctx.request_repaint();
+        // At most about 60 frames a second: the display shares the cores with the simulation
+        // (and, under software OpenGL, with the rasteriser).
+        ctx.request_repaint_after(FRAME_INTERVAL);
     }
 }
 
@@ -279,6 +325,10 @@ pub(crate) fn view(scene: Scene, opts: ViewOptions) -> ExitCode {
         shot_taken: Arc::new(Mutex::new(None)),
         shot_requested: false,
         exit: exit.clone(),
+        drawn: None,
+        opened: Instant::now(),
+        frames: 0,
+        close_after: opts.seconds,
     };
     let (w, h) = opts.size;
     let native = eframe::NativeOptions {
