@@ -102,7 +102,13 @@ pub mod backends {
 
     use crate::body::material::Material;
     use crate::body::phyxels::Phyxels;
+    use crate::dynamics::kinematic::Kinematic;
     use crate::dynamics::{Dynamics, StaticDynamics};
+
+    /// The prescribed-motion backend (`backend = "kinematic"`): a rigid body the caller
+    /// moves, such as a tool ([`crate::dynamics::kinematic`]). Not in [`NAMES`]: it is no
+    /// dynamics to compare, and `--backend` leaves such objects as they are.
+    pub const KINEMATIC: &str = crate::dynamics::kinematic::NAME;
 
     /// Names accepted by `backend = "..."` in scenes and `--backend`.
     pub const NAMES: &[&str] = &[mls::NAME, sph::NAME, lj::NAME];
@@ -122,6 +128,7 @@ pub mod backends {
             sph::NAME => Ok(Box::new(sph::SphDynamics::new(phyxels, material))),
             lj::NAME => Ok(Box::new(lj::LjDynamics::new(phyxels, material))),
             "static" => Ok(Box::new(StaticDynamics)),
+            KINEMATIC => Ok(Box::new(Kinematic::new(phyxels))),
             other => Err(format!(
                 "unknown backend '{other}' (available: {})",
                 NAMES.join(", ")

@@ -305,6 +305,20 @@ impl Object {
         ))
     }
 
+    /// The backend as its concrete type `T`, if it is one (a caller's own backend, or
+    /// the [`crate::dynamics::kinematic::Kinematic`] of a tool).
+    pub fn dynamics_as<T: Dynamics>(&self) -> Option<&T> {
+        let any: &dyn std::any::Any = self.dynamics.as_ref();
+        any.downcast_ref::<T>()
+    }
+
+    /// The backend as its concrete type `T`, mutably: how a caller drives a kinematic
+    /// tool or changes its own backend's parameters between steps.
+    pub fn dynamics_mut<T: Dynamics>(&mut self) -> Option<&mut T> {
+        let any: &mut dyn std::any::Any = self.dynamics.as_mut();
+        any.downcast_mut::<T>()
+    }
+
     /// True for objects whose backend never moves them.
     pub fn is_static(&self) -> bool {
         self.dynamics.is_static()

@@ -5,6 +5,7 @@
 //! (contact, user loads) arrive in `phyxels.force` and act during the next step.
 
 pub mod kernel;
+pub mod kinematic;
 pub mod mls;
 
 use crate::body::material::Material;
@@ -55,8 +56,9 @@ pub struct Diagnostics {
 /// A dynamics backend for the phyxels of one object.
 ///
 /// Implement it in your own crate to drive the contact pipeline with your own
-/// physics; see docs/BACKENDS.md. The trait is object-safe.
-pub trait Dynamics: Send + Sync {
+/// physics; see docs/BACKENDS.md. The trait is object-safe, and `Any` so that a
+/// caller can reach its own backend's state through [`crate::Object::dynamics_mut`].
+pub trait Dynamics: std::any::Any + Send + Sync {
     /// Short backend name, as used in scenes (`"mls"`).
     fn name(&self) -> &str;
 

@@ -56,7 +56,9 @@ impl Scene {
             }
             let backend = match (&opts.backend, spec.is_static) {
                 (_, true) => "static".to_string(),
-                (Some(b), false) => b.clone(),
+                // A prescribed motion is no dynamics to swap.
+                (Some(b), false) if spec.backend_name() != backends::KINEMATIC => b.clone(),
+                (Some(_), false) => spec.backend_name().to_string(),
                 (None, false) => spec.backend_name().to_string(),
             };
             let obj = spec

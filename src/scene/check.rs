@@ -228,13 +228,17 @@ impl ObjectSpec {
                 ),
             );
         }
-        if !o.is_static && !backends::NAMES.contains(&o.backend_name()) {
+        if !o.is_static
+            && !backends::NAMES.contains(&o.backend_name())
+            && o.backend_name() != backends::KINEMATIC
+        {
             return at(
                 "backend",
                 format!(
-                    "backend = \"{}\": unknown (available: {})",
+                    "backend = \"{}\": unknown (available: {}, {})",
                     o.backend_name(),
-                    backends::NAMES.join(", ")
+                    backends::NAMES.join(", "),
+                    backends::KINEMATIC
                 ),
             );
         }
