@@ -151,8 +151,8 @@ enum Command {
         #[arg(long)]
         case: Option<String>,
     },
-    /// Watch a scene live in a window (feature `view`): space pauses, `.` steps once, `r`
-    /// rebuilds, drag orbits, the wheel zooms
+    /// Watch and touch a scene live in a window (feature `view`): the keys are listed at
+    /// the window's bottom; `t` brings the tool sphere, ctrl-drag grabs a body
     #[cfg(feature = "view")]
     #[command(allow_negative_numbers = true)]
     View {
@@ -181,6 +181,21 @@ enum Command {
         /// as one JSON line
         #[arg(long, value_name = "S")]
         seconds: Option<f64>,
+        /// Simulated seconds per wall second at most (0: as fast as the machine steps;
+        /// `[` and `]` change it live)
+        #[arg(long, default_value_t = 1.0, value_name = "X")]
+        speed: f64,
+        /// Scripted input: a TOML file of [[event]] entries, each applied before its step
+        #[arg(long, value_name = "EVENTS.toml")]
+        input: Option<PathBuf>,
+        /// Play the frames `phyxel run --out DIR` wrote, with a slider (no simulation;
+        /// `--after N` then means frame N)
+        #[arg(long, value_name = "DIR", conflicts_with_all = ["input", "backend", "surfels", "phyxel_count"])]
+        frames: Option<PathBuf>,
+        /// Print the state shown (objects, tool, camera) and the run's figures as one JSON
+        /// line when the window closes
+        #[arg(long)]
+        json: bool,
     },
     /// List the built-in scenes, or print one as TOML.
     Scenes {
@@ -207,9 +222,25 @@ fn main() -> ExitCode {
             screenshot,
             after,
             seconds,
+            speed,
+            input,
+            frames,
+            json,
         } => {
-            let Some((scene, _)) = cli::run::resolve_scene(&scene) else {
+            if !(speed.is_finite() && speed >= 0.0) {
+                eprintln!(
+                    "error: --speed {speed}: must be finite and ≥ 0 (0: as fast as it steps)"
+                );
                 return ExitCode::FAILURE;
+            }
+            let file =
+                (phyxel::scene::Scene::builtin(&scene).is_none()).then(|| PathBuf::from(&scene));
+            let scene = match frames {
+                Some(_) => None,
+                None => match cli::run::resolve_scene(&scene) {
+                    Some((scene, _)) => Some(scene),
+                    None => return ExitCode::FAILURE,
+                },
             };
             let size = match parse_size(&size) {
                 Ok(s) => s,
@@ -232,6 +263,11 @@ fn main() -> ExitCode {
                     screenshot,
                     after,
                     seconds,
+                    speed,
+                    input,
+                    frames,
+                    json,
+                    file,
                 },
             )
         }

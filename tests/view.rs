@@ -17,7 +17,7 @@ fn screenshot(after: u64, label: &str) -> Image {
     let out = Command::new("xvfb-run")
         .args(["-a", "-s", "-screen 0 1280x1024x24"])
         .arg(env!("CARGO_BIN_EXE_phyxel"))
-        .args(["view", "two-spheres", "--size", "480x320", "--after"])
+        .args(["view", "two-spheres", "--size", "640x480", "--after"])
         .arg(after.to_string())
         .arg("--screenshot")
         .arg(&path)
@@ -72,7 +72,7 @@ fn the_window_shows_each_body_where_the_engine_has_it() {
 
     let start = screenshot(0, "start");
     let touching = screenshot(120, "touching");
-    assert_eq!((touching.width, touching.height), (480, 320));
+    assert_eq!((touching.width, touching.height), (640, 480));
     let (left, right) = (object_colour(0), object_colour(1));
     for (image, when) in [(&start, "step 0"), (&touching, "step 120")] {
         let (nl, xl) = pixels_like(image, left);

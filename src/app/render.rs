@@ -40,6 +40,14 @@ pub const PALETTE: [[f32; 3]; 6] = [
     [0.62, 0.62, 0.60],
 ];
 
+/// The colour of contact level `level` (1..=255) when [`RenderOptions::contact_levels`]
+/// is set: pale yellow at the lowest, through orange, to deep red at the highest.
+pub fn level_colour(level: u8) -> [f32; 3] {
+    let t = (f32::from(level.max(1)) - 1.0) / 254.0;
+    let (lo, hi) = ([1.0, 0.93, 0.45], [0.62, 0.0, 0.05]);
+    std::array::from_fn(|c| lo[c] + t * (hi[c] - lo[c]))
+}
+
 /// The colour of object `id`.
 pub fn object_colour(id: i32) -> [f32; 3] {
     PALETTE[id.rem_euclid(PALETTE.len() as i32) as usize]
@@ -59,6 +67,10 @@ pub struct RenderOptions {
     pub supersample: u32,
     /// Disc radius scale over the surfel radius (closes gaps between neighbours).
     pub splat_scale: f32,
+    /// Read a contact splat's `contact` value (1..=255) as a level (pressure, say) and
+    /// colour it from pale yellow (1) to deep red (255) ([`level_colour`]); otherwise
+    /// every contact splat gets [`CONTACT_COLOUR`].
+    pub contact_levels: bool,
 }
 
 impl Default for RenderOptions {
@@ -69,6 +81,7 @@ impl Default for RenderOptions {
             camera: None,
             supersample: 2,
             splat_scale: 1.2,
+            contact_levels: false,
         }
     }
 }
@@ -270,7 +283,12 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
             n = -n;
         }
         let contact = frame.contact[i] != 0;
-        let shaded = shade(contact, frame.object[i], n, key, fwd);
+        let base = match (contact, opts.contact_levels) {
+            (true, true) => level_colour(frame.contact[i]),
+            (true, false) => CONTACT_COLOUR,
+            (false, _) => object_colour(frame.object[i]),
+        };
+        let shaded = shade(contact, base, n, key, fwd);
         for py in y0 as u32..=y1 as u32 {
             for px in x0 as u32..=x1 as u32 {
                 // Ray with unit forward component: t is the view depth.
@@ -309,15 +327,10 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
     }
 }
 
-/// The colour of a splat with normal `n` (facing the eye): contact surfels in the
-/// contact colour, kept bright (an overlay), others in their object's colour under a
-/// key light `key` and a fill from the camera (`fwd`: the view direction).
-fn shade(contact: bool, object: i32, n: Vec3, key: Vec3, fwd: Vec3) -> [f32; 3] {
-    let base = if contact {
-        CONTACT_COLOUR
-    } else {
-        object_colour(object)
-    };
+/// The colour of a splat of colour `base` with normal `n` (facing the eye): contact
+/// surfels kept bright (an overlay), others under a key light `key` and a fill from the
+/// camera (`fwd`: the view direction).
+fn shade(contact: bool, base: [f32; 3], n: Vec3, key: Vec3, fwd: Vec3) -> [f32; 3] {
     let lambert = n.dot(key).max(0.0);
     let fill = n.dot(-fwd).max(0.0);
     let light = if contact {

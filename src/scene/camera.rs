@@ -99,7 +99,8 @@ impl Camera {
         Ok(())
     }
 
-    pub(crate) fn basis(&self) -> (Vec3, Vec3, Vec3, Vec3) {
+    /// The eye and the unit forward, right and up vectors of the view.
+    pub fn basis(&self) -> (Vec3, Vec3, Vec3, Vec3) {
         let eye = Vec3::from(self.position);
         let fwd = (Vec3::from(self.target) - eye).normalize();
         let right = fwd.cross(Vec3::from(self.up)).normalize();
@@ -108,8 +109,18 @@ impl Camera {
     }
 
     /// Focal length in pixels for an image `height` pixels high.
-    pub(crate) fn focal(&self, height: u32) -> f32 {
+    pub fn focal(&self, height: u32) -> f32 {
         0.5 * height as f32 / (0.5 * self.fov.to_radians()).tan()
+    }
+
+    /// The eye and the unit direction of the ray through pixel coordinates `(x, y)` of a
+    /// `width × height` image (the inverse of [`Camera::project`]): how a window turns
+    /// the mouse into a point of the scene.
+    pub fn ray(&self, x: f32, y: f32, width: u32, height: u32) -> (Vec3, Vec3) {
+        let (eye, fwd, right, up) = self.basis();
+        let f = self.focal(height);
+        let d = fwd + ((x - 0.5 * width as f32) / f) * right + ((0.5 * height as f32 - y) / f) * up;
+        (eye, d.normalize())
     }
 
     /// The pixel coordinates (x right, y down; pixel centres at +0.5) and view depth of

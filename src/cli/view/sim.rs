@@ -1,0 +1,634 @@
+//! The simulation thread of `phyxel view`: it steps the world, applies the window's and
+//! the event script's commands between steps, paces the run to the chosen speed and
+//! publishes snapshots. The window never waits for a step, and a step never waits for
+//! the window.
+
+use super::script::Script;
+use glam::Vec3;
+use phyxel::World;
+use phyxel::body::shape::Shape;
+use phyxel::dynamics::kinematic::Kinematic;
+use phyxel::io::frame::Frame;
+use phyxel::scene::{BuildOptions, ObjectSpec, Scene};
+use phyxel::world::output::surface_frame;
+use phyxel::world::{DT_FRACTION, Phase, PhaseTimes};
+use std::sync::mpsc::Receiver;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+/// What the window (or the event script) asks of the simulation.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Command {
+    TogglePause,
+    /// One step while paused.
+    Step,
+    /// Build the scene afresh (with this backend, if given).
+    Rebuild(Option<String>),
+    /// Replace the scene (the file changed on disk) and build it.
+    Reload(Box<Scene>),
+    Gravity(bool),
+    /// Simulated seconds per wall second at most; 0: as fast as the machine steps.
+    Speed(f64),
+    /// Show the tool sphere and send it towards this point; `None` removes it.
+    Tool(Option<Vec3>),
+    /// Grab the body under the ray (eye, unit direction) with a spring.
+    Grab(Vec3, Vec3),
+    /// Move the grab spring's end to the grab depth along this ray.
+    DragTo(Vec3, Vec3),
+    /// Let go (the body keeps its velocity: a throw).
+    Release,
+    /// Drop a new sphere here (`None`: above the scene's centre).
+    Drop(Option<Vec3>),
+    /// Draw the phyxels instead of the surface.
+    ShowPhyxels(bool),
+    /// Colour the contact surface by pressure.
+    Pressure(bool),
+}
+
+/// The latest state the simulation published.
+#[derive(Clone, Default)]
+pub(crate) struct Snapshot {
+    pub frame: Frame,
+    pub steps: u64,
+    pub time: f64,
+    pub dt: f32,
+    pub steps_per_second: f64,
+    /// Deepest penetration over the run and in the last step (m).
+    pub max_penetration: f32,
+    pub penetration: f32,
+    /// Kinetic + elastic + potential + contact energy (J).
+    pub energy: f64,
+    /// Share of the step time per phase since the last snapshot ([`Phase::ALL`] order).
+    pub phase_share: [f64; 10],
+    /// Per contact patch: centroid (m) and total force on its first body (N).
+    pub arrows: Vec<(Vec3, Vec3)>,
+    /// The tool's centre (m), radius (m) and reaction (N).
+    pub tool: Option<(Vec3, f32, Vec3)>,
+    /// The grab spring: the grabbed point and where it is pulled (m).
+    pub grab: Option<(Vec3, Vec3)>,
+    /// Per object: name, centre of mass, surfel bounds (m).
+    pub objects: Vec<(String, Vec3, Vec3, Vec3)>,
+    pub paused: bool,
+    pub gravity: bool,
+    pub speed: f64,
+    pub backend: String,
+    pub error: Option<String>,
+    /// True once the run reached `stop_at` (or a non-finite state).
+    pub done: bool,
+    /// Counts the snapshots published: the window copies only a new one.
+    pub version: u64,
+}
+
+/// Between the threads.
+pub(crate) struct Shared {
+    pub snapshot: Mutex<Snapshot>,
+    pub quit: std::sync::atomic::AtomicBool,
+    /// Stop after this many steps (`--after`); `u64::MAX`: run on.
+    pub stop_at: u64,
+}
+
+/// How often the simulation publishes a snapshot while running.
+pub(crate) const PUBLISH_EVERY: Duration = Duration::from_millis(30);
+
+/// Angular frequency (1/s) of the grab spring on the grabbed body's whole mass: the body
+/// follows the mouse within about a sixth of a second, and stays far below the stable
+/// rate of any scene's dt.
+const GRAB_OMEGA: f32 = 2.0 * std::f32::consts::PI * 3.0;
+
+/// Damping ratio of the grab spring (critically damped would lag; 0.7 barely overshoots).
+const GRAB_DAMPING: f32 = 0.7;
+
+/// Phyxels the grab spring pulls (the nearest to the grabbed point).
+const GRAB_PHYXELS: usize = 8;
+
+/// The tool's radius over the size (box diagonal) of the scene's moving bodies.
+const TOOL_SIZE: f32 = 0.08;
+
+/// A grab spring.
+struct Grab {
+    object: u32,
+    phyxels: Vec<usize>,
+    /// View depth of the grabbed point along the ray.
+    depth: f32,
+    target: Vec3,
+}
+
+/// The simulation's state besides the world.
+struct Sim {
+    scene: Scene,
+    build: BuildOptions,
+    paused: bool,
+    gravity: Vec3,
+    gravity_on: bool,
+    speed: f64,
+    tool: Option<u32>,
+    grab: Option<Grab>,
+    show_phyxels: bool,
+    pressure: bool,
+    drops: u32,
+    /// Wall time and simulated time the pace counts from.
+    pace_from: Option<(Instant, f64)>,
+    script: Script,
+    published: std::cell::Cell<u64>,
+}
+
+/// Builds the world and steps it until asked to quit, publishing snapshots.
+pub(crate) fn simulate(
+    scene: Scene,
+    build: BuildOptions,
+    speed: f64,
+    script: Script,
+    commands: Receiver<Command>,
+    shared: Arc<Shared>,
+) {
+    let mut sim = Sim {
+        scene,
+        build,
+        paused: false,
+        gravity: Vec3::ZERO,
+        gravity_on: true,
+        speed,
+        tool: None,
+        grab: None,
+        show_phyxels: false,
+        pressure: false,
+        drops: 0,
+        pace_from: None,
+        script,
+        published: std::cell::Cell::new(0),
+    };
+    let quit = || shared.quit.load(std::sync::atomic::Ordering::Relaxed);
+    'build: loop {
+        let mut world = match sim.scene.build(&sim.build) {
+            Ok(w) => w,
+            Err(e) => {
+                let mut s = shared.snapshot.lock().expect("snapshot lock");
+                s.error = Some(e.to_string());
+                s.version += 1;
+                return;
+            }
+        };
+        world.render_contacts = true;
+        sim.gravity = world.gravity;
+        if !sim.gravity_on {
+            world.gravity = Vec3::ZERO;
+        }
+        (sim.tool, sim.grab, sim.pace_from, sim.drops) = (None, None, None, 0);
+        sim.script.rewind();
+        let mut times = world.record.times.clone();
+        sim.publish(&world, 0.0, &mut times, &shared);
+        let (mut last, mut counted, mut since) = (Instant::now(), 0u64, Instant::now());
+        let mut rate = 0.0;
+        while !quit() {
+            let mut single = false;
+            while let Ok(c) = commands.try_recv() {
+                match c {
+                    Command::Rebuild(backend) => {
+                        if backend.is_some() {
+                            sim.build.backend = backend;
+                        }
+                        continue 'build;
+                    }
+                    Command::Reload(scene) => {
+                        sim.scene = *scene;
+                        continue 'build;
+                    }
+                    Command::Step => single = true,
+                    c => sim.apply(c, &mut world),
+                }
+            }
+            for c in sim.script.due(world.steps) {
+                sim.apply(c, &mut world);
+            }
+            let done = world.steps >= shared.stop_at || world.non_finite.is_some();
+            if (sim.paused && !single) || done {
+                sim.pace_from = None;
+                if last.elapsed() >= PUBLISH_EVERY {
+                    sim.publish(&world, rate, &mut times, &shared);
+                    last = Instant::now();
+                }
+                std::thread::sleep(Duration::from_millis(5));
+                continue;
+            }
+            if let Some(wait) = sim.ahead(world.time) {
+                std::thread::sleep(wait);
+                continue;
+            }
+            sim.pull(&mut world);
+            world.step();
+            counted += 1;
+            let window = since.elapsed().as_secs_f64();
+            rate = counted as f64 / window.max(1e-9);
+            if window >= 0.5 {
+                (counted, since) = (0, Instant::now());
+            }
+            let last_step = world.steps >= shared.stop_at || world.non_finite.is_some();
+            if last.elapsed() >= PUBLISH_EVERY || single || last_step {
+                sim.publish(&world, rate, &mut times, &shared);
+                last = Instant::now();
+            }
+        }
+        return;
+    }
+}
+
+impl Sim {
+    /// Applies one command between steps.
+    fn apply(&mut self, c: Command, world: &mut World) {
+        match c {
+            Command::TogglePause => {
+                self.paused = !self.paused;
+                self.pace_from = None;
+            }
+            Command::Gravity(on) => {
+                self.gravity_on = on;
+                world.gravity = if on { self.gravity } else { Vec3::ZERO };
+            }
+            Command::Speed(s) => {
+                self.speed = s.max(0.0);
+                self.pace_from = None;
+            }
+            Command::Tool(Some(p)) => match self.tool {
+                Some(id) => {
+                    if let Some(k) = world
+                        .object_mut(id)
+                        .and_then(|o| o.dynamics_mut::<Kinematic>())
+                    {
+                        k.target = Some(p);
+                    }
+                }
+                None => self.tool = add_body(world, p, "tool", true).ok(),
+            },
+            Command::Tool(None) => {
+                if let Some(id) = self.tool.take() {
+                    remove_body(world, id);
+                }
+            }
+            Command::Grab(eye, dir) => self.grab = pick(world, eye, dir),
+            Command::DragTo(eye, dir) => {
+                if let Some(g) = &mut self.grab {
+                    g.target = eye + g.depth * dir;
+                }
+            }
+            Command::Release => self.grab = None,
+            Command::Drop(at) => {
+                let at = at.unwrap_or_else(|| drop_point(world, self.drops));
+                self.drops += 1;
+                let _ = add_body(world, at, &format!("drop{}", self.drops), false);
+            }
+            Command::ShowPhyxels(on) => self.show_phyxels = on,
+            Command::Pressure(on) => self.pressure = on,
+            Command::Step | Command::Rebuild(_) | Command::Reload(_) => {}
+        }
+    }
+
+    /// How long to wait before the next step so that simulated time runs at `speed` ×
+    /// wall time; `None`: step now. A run slower than that steps flat out, and the pace
+    /// counts afresh after a stall (no burst of catching up).
+    fn ahead(&mut self, time: f64) -> Option<Duration> {
+        if self.speed <= 0.0 {
+            return None;
+        }
+        let (wall, sim) = *self.pace_from.get_or_insert((Instant::now(), time));
+        let due = sim + self.speed * wall.elapsed().as_secs_f64();
+        if time > due {
+            let wait = (time - due) / self.speed;
+            return Some(Duration::from_secs_f64(wait.min(0.005)));
+        }
+        if due - time > 0.1 * self.speed {
+            self.pace_from = Some((Instant::now(), time));
+        }
+        None
+    }
+
+    /// Adds the grab spring's force to the grabbed phyxels: `k (target − x̄) − c v̄` on
+    /// the body's whole mass, spread over the grabbed phyxels by mass.
+    fn pull(&mut self, world: &mut World) {
+        let Some(g) = &self.grab else { return };
+        let Some(o) = world.object_mut(g.object) else {
+            self.grab = None;
+            return;
+        };
+        let p = &mut o.phyxels;
+        if g.phyxels.iter().any(|&i| i >= p.len()) {
+            self.grab = None;
+            return;
+        }
+        let mass: f32 = g.phyxels.iter().map(|&i| p.mass[i]).sum();
+        let x = g
+            .phyxels
+            .iter()
+            .map(|&i| p.mass[i] * p.pos.get(i))
+            .sum::<Vec3>()
+            / mass;
+        let v = g
+            .phyxels
+            .iter()
+            .map(|&i| p.mass[i] * p.vel.get(i))
+            .sum::<Vec3>()
+            / mass;
+        let body = p.total_mass() as f32;
+        let k = body * GRAB_OMEGA * GRAB_OMEGA;
+        let c = 2.0 * GRAB_DAMPING * body * GRAB_OMEGA;
+        let f = k * (g.target - x) - c * v;
+        for &i in &g.phyxels {
+            let share = p.mass[i] / mass;
+            p.force.add(i, f * share);
+        }
+    }
+
+    /// Publishes the world's state for the window.
+    fn publish(&self, world: &World, rate: f64, times: &mut PhaseTimes, shared: &Shared) {
+        let mut frame = if self.show_phyxels {
+            phyxel_frame(world)
+        } else {
+            surface_frame(world)
+        };
+        if self.pressure {
+            pressure_levels(world, &mut frame);
+        }
+        let now = &world.record.times;
+        let spent: Vec<f64> = Phase::ALL
+            .iter()
+            .map(|&p| now.seconds(p) - times.seconds(p))
+            .collect();
+        let total: f64 = spent.iter().sum();
+        let mut phase_share = [0.0; 10];
+        if total > 0.0 {
+            for (s, t) in phase_share.iter_mut().zip(&spent) {
+                *s = t / total;
+            }
+        }
+        *times = now.clone();
+        let arrows = world
+            .patches
+            .iter()
+            .filter(|p| !p.surfels.is_empty())
+            .map(|p| {
+                let n = p.surfels.len() as f32;
+                let centroid = p.surfels.iter().map(|c| c.pos).sum::<Vec3>() / n;
+                // Each contact surfel's force acts on object a.
+                let force = p.surfels.iter().map(|c| c.force).sum();
+                (centroid, force)
+            })
+            .collect();
+        let tool = self.tool.and_then(|id| world.object(id)).and_then(|o| {
+            let k = o.dynamics_as::<Kinematic>()?;
+            let r = 0.5 * bounds(o).map_or(0.0, |(lo, hi)| (hi - lo).max_element());
+            Some((k.centre(), r, k.reaction()))
+        });
+        let grab = self.grab.as_ref().and_then(|g| {
+            let p = &world.object(g.object)?.phyxels;
+            let m: f32 = g.phyxels.iter().map(|&i| p.mass[i]).sum();
+            let x = g
+                .phyxels
+                .iter()
+                .map(|&i| p.mass[i] * p.pos.get(i))
+                .sum::<Vec3>()
+                / m;
+            Some((x, g.target))
+        });
+        let objects = world
+            .objects
+            .iter()
+            .map(|o| {
+                let c = Vec3::from(o.phyxels.centre_of_mass().map(|c| c as f32));
+                let (lo, hi) = bounds(o).unwrap_or((c, c));
+                (o.name.clone(), c, lo, hi)
+            })
+            .collect();
+        let penetration = world
+            .patches
+            .iter()
+            .flat_map(|p| &p.surfels)
+            .map(|c| (c.anchor_a - c.anchor_b).length())
+            .fold(0.0f32, f32::max);
+        let backend = world
+            .objects
+            .iter()
+            .find(|o| !o.is_static() && Some(o.id) != self.tool)
+            .map_or(String::new(), |o| o.dynamics.name().to_string());
+        let snapshot = Snapshot {
+            frame,
+            steps: world.steps,
+            time: world.time,
+            dt: world.dt,
+            steps_per_second: rate,
+            max_penetration: world.record.max_penetration,
+            penetration,
+            energy: world.energy().total(),
+            phase_share,
+            arrows,
+            tool,
+            grab,
+            objects,
+            paused: self.paused,
+            gravity: self.gravity_on,
+            speed: self.speed,
+            backend,
+            error: None,
+            done: world.steps >= shared.stop_at || world.non_finite.is_some(),
+            version: self.published.get() + 1,
+        };
+        self.published.set(snapshot.version);
+        *shared.snapshot.lock().expect("snapshot lock") = snapshot;
+    }
+}
+
+/// The surfel bounds of an object (m).
+fn bounds(o: &phyxel::Object) -> Option<(Vec3, Vec3)> {
+    let s = &o.surfels;
+    (!s.is_empty()).then(|| {
+        s.pos
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p), hi.max(p))
+            })
+    })
+}
+
+/// The box of the scene's moving bodies (all bodies when none moves).
+fn scene_box(world: &World) -> (Vec3, Vec3) {
+    let moving = world.objects.iter().any(|o| !o.is_static());
+    world
+        .objects
+        .iter()
+        .filter(|o| !moving || !o.is_static())
+        .filter_map(bounds)
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
+            (lo.min(a), hi.max(b))
+        })
+}
+
+/// Where the `n`-th dropped sphere starts: above the scene's moving bodies, a little
+/// aside each time so that drops pile rather than stack.
+fn drop_point(world: &World, n: u32) -> Vec3 {
+    let (lo, hi) = scene_box(world);
+    let size = (hi - lo).length();
+    let angle = n as f32 * 2.4;
+    let aside = 0.15 * size * Vec3::new(angle.cos(), 0.0, angle.sin());
+    Vec3::new(0.5 * (lo.x + hi.x), hi.y + 0.6 * size, 0.5 * (lo.z + hi.z)) + aside
+}
+
+/// Adds a sphere at `at`: the tool (kinematic, sized by [`TOOL_SIZE`]) or a dropped body
+/// (the first moving body's material and backend, half its size). Its surfels are as
+/// fine as the finest moving body's, so that contact with it is resolved as finely.
+/// Returns its id.
+fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> Result<u32, String> {
+    let (lo, hi) = scene_box(world);
+    let size = (hi - lo).length().max(1e-3);
+    let template = world
+        .objects
+        .iter()
+        .find(|o| !o.is_static() && o.dynamics_as::<Kinematic>().is_none())
+        .ok_or("no moving body to copy")?;
+    let surfel_spacing = world
+        .objects
+        .iter()
+        .filter(|o| !o.is_static() && !o.surfels.is_empty())
+        .map(|o| o.surfel_spacing)
+        .fold(f32::INFINITY, f32::min);
+    let radius = if tool {
+        TOOL_SIZE * size
+    } else {
+        0.5 * bounds(template).map_or(0.1, |(a, b)| 0.5 * (b - a).max_element())
+    };
+    let material = template.material.clone();
+    let backend = if tool {
+        phyxel::backends::KINEMATIC.to_string()
+    } else {
+        template.dynamics.name().to_string()
+    };
+    let spec = ObjectSpec {
+        name: name.to_string(),
+        shape: Shape::Sphere { radius },
+        spacing: radius / if tool { 2.5 } else { 4.0 },
+        surfel_spacing: Some(surfel_spacing.max(radius / 25.0)),
+        phyxels: None,
+        surfels: None,
+        backend: Some(backend.clone()),
+        is_static: false,
+        position: at.to_array(),
+        rotation: [0.0; 3],
+        velocity: [0.0; 3],
+        material,
+        fixed: Vec::new(),
+        load: [0.0; 3],
+        load_ramp: 0.0,
+        self_collision: false,
+    };
+    let id = world
+        .objects
+        .iter()
+        .map(|o| o.id)
+        .max()
+        .map_or(0, |m| m + 1);
+    let mut object = spec.build(id, &backend)?;
+    if let Some(k) = object.dynamics_mut::<Kinematic>() {
+        k.target = Some(at);
+        k.max_speed = (4.0 * size).max(0.5);
+    }
+    world.objects.push(object);
+    // A new body may bound the step more tightly.
+    let (bound, _) = world.stable_dt();
+    if bound.is_finite() && bound > 0.0 && bound < world.dt {
+        world.dt = bound * DT_FRACTION;
+    }
+    Ok(id)
+}
+
+/// Removes body `id`; the contact lists, which index objects, are dropped with it (the
+/// next step finds them again).
+fn remove_body(world: &mut World, id: u32) {
+    world.objects.retain(|o| o.id != id);
+    world.pairs.clear();
+    world.detections.clear();
+    world.patches.clear();
+}
+
+/// The moving body whose surfel the ray (eye, unit `dir`) meets first (within its disc
+/// radius, doubled: a thin body is still caught), with its nearest phyxels.
+fn pick(world: &World, eye: Vec3, dir: Vec3) -> Option<Grab> {
+    let mut best: Option<(f32, usize, Vec3)> = None;
+    for (k, o) in world.objects.iter().enumerate() {
+        if o.is_static() || o.dynamics_as::<Kinematic>().is_some() {
+            continue;
+        }
+        let s = &o.surfels;
+        for i in 0..s.len() {
+            let q = s.pos.get(i) - eye;
+            let t = q.dot(dir);
+            let r = 2.0 * s.radius[i];
+            if t > 0.0 && (q - t * dir).length_squared() < r * r && best.is_none_or(|b| t < b.0) {
+                best = Some((t, k, s.pos.get(i)));
+            }
+        }
+    }
+    let (depth, k, point) = best?;
+    let o = &world.objects[k];
+    let p = &o.phyxels;
+    let mut near: Vec<usize> = (0..p.len()).collect();
+    near.sort_by(|&a, &b| {
+        let da = (p.pos.get(a) - point).length_squared();
+        let db = (p.pos.get(b) - point).length_squared();
+        da.total_cmp(&db)
+    });
+    near.truncate(GRAB_PHYXELS);
+    near.retain(|&i| p.fixed[i] == 0);
+    (!near.is_empty()).then_some(Grab {
+        object: o.id,
+        phyxels: near,
+        depth,
+        target: point,
+    })
+}
+
+/// The phyxels as a frame: discs of a third of their spacing, facing the camera.
+fn phyxel_frame(world: &World) -> Frame {
+    let mut frame = Frame::default();
+    for o in &world.objects {
+        let p = &o.phyxels;
+        for i in 0..p.len() {
+            frame.push(
+                p.pos.get(i),
+                Vec3::ZERO,
+                0.35 * p.spacing[i],
+                o.id as i32,
+                0,
+            );
+        }
+    }
+    frame
+}
+
+/// Sets each contact splat's `contact` flag to a pressure level 1..=255: the pressure
+/// (|normal force| / area) of the nearest force carrier of its patch, over the largest
+/// pressure in the frame.
+fn pressure_levels(world: &World, frame: &mut Frame) {
+    let carriers: Vec<(Vec3, f32)> = world
+        .patches
+        .iter()
+        .flat_map(|p| &p.surfels)
+        .filter(|c| c.area > 0.0)
+        .map(|c| (c.pos, c.force.dot(c.normal).abs() / c.area))
+        .collect();
+    let top = carriers.iter().map(|c| c.1).fold(0.0f32, f32::max);
+    if top <= 0.0 {
+        return;
+    }
+    for i in 0..frame.len() {
+        if frame.contact[i] == 0 {
+            continue;
+        }
+        let p = frame.pos[i];
+        let nearest = carriers
+            .iter()
+            .min_by(|a, b| {
+                (a.0 - p)
+                    .length_squared()
+                    .total_cmp(&(b.0 - p).length_squared())
+            })
+            .map_or(0.0, |c| c.1);
+        frame.contact[i] = 1 + (254.0 * (nearest / top).clamp(0.0, 1.0)) as u8;
+    }
+}

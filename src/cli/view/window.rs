@@ -1,0 +1,752 @@
+//! The window of `phyxel view`: draws the latest snapshot (or a replayed frame) with the
+//! software splat renderer into a texture, overlays the contact forces and the grab
+//! spring, shows the heads-up display (figures, phase bar, live plots) and turns mouse
+//! and keys into commands for the simulation thread.
+
+use super::replay::Replay;
+use super::sim::{Command, Shared, Snapshot};
+use eframe::egui;
+use glam::{Quat, Vec3};
+use phyxel::app::render::{Camera, Image, RenderOptions, camera_for, render};
+use phyxel::io::frame::Frame;
+use phyxel::scene::Scene;
+use phyxel::world::Phase;
+use std::collections::VecDeque;
+use std::path::PathBuf;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::Sender;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant, SystemTime};
+
+/// The display's shortest frame interval (about 60 frames a second).
+const FRAME_INTERVAL: Duration = Duration::from_millis(16);
+
+/// Points kept in each live plot (at one per snapshot, about 15 s).
+const PLOT_POINTS: usize = 500;
+
+/// Where the pictures come from.
+pub(crate) enum Source {
+    Live {
+        shared: Arc<Shared>,
+        commands: Sender<Command>,
+        /// The scene file (watched for changes) and its modification time.
+        file: Option<(PathBuf, Option<SystemTime>)>,
+    },
+    Replay(Replay),
+}
+
+/// What the window was asked for besides the source.
+pub(crate) struct WindowOptions {
+    pub screenshot: Option<PathBuf>,
+    /// `--after`: the step (live) or frame (replay) of the screenshot.
+    pub after: u64,
+    /// Close after this many wall seconds (measurements).
+    pub seconds: Option<f64>,
+    /// Print a JSON line with the state and the figures when closing.
+    pub report: bool,
+}
+
+/// The window's outcome: `Err` with a message for the user.
+pub(crate) type Exit = Arc<Mutex<Option<Result<(), String>>>>;
+
+/// The window.
+pub(crate) struct Viewer {
+    source: Source,
+    opts: WindowOptions,
+    exit: Exit,
+    texture: Option<egui::TextureHandle>,
+    /// The camera fitted to the first frame, turned by `yaw`, `pitch`, scaled by `zoom`
+    /// and moved by `pan`.
+    base: Option<Camera>,
+    yaw: f32,
+    pitch: f32,
+    zoom: f32,
+    pan: Vec3,
+    /// The state and view last drawn, and the image size.
+    drawn: Option<(u64, [f32; 6], bool)>,
+    size: (u32, u32),
+    /// Tool mode: the tool follows the mouse at this view depth (m).
+    tool_depth: Option<f32>,
+    grabbing: bool,
+    gravity: bool,
+    phyxels: bool,
+    pressure: bool,
+    arrows: bool,
+    speed: f64,
+    backends: Vec<&'static str>,
+    notice: Option<(String, Instant)>,
+    energy: VecDeque<f64>,
+    penetration: VecDeque<f64>,
+    last_plotted: u64,
+    shot_taken: Arc<Mutex<Option<Arc<egui::ColorImage>>>>,
+    shot_requested: bool,
+    opened: Instant,
+    frames: u64,
+    last_file_check: Instant,
+    /// The latest snapshot (the window's copy).
+    snap: Snapshot,
+    /// Image rectangle in the window (points) of the last frame.
+    image_rect: Option<egui::Rect>,
+    /// Replay: moved to the screenshot's frame after fitting the camera.
+    jumped: bool,
+    /// The key list shown (`h`).
+    help: bool,
+}
+
+impl Viewer {
+    pub(crate) fn new(source: Source, opts: WindowOptions, speed: f64, exit: Exit) -> Self {
+        Self {
+            source,
+            opts,
+            exit,
+            texture: None,
+            base: None,
+            yaw: 0.0,
+            pitch: 0.0,
+            zoom: 1.0,
+            pan: Vec3::ZERO,
+            drawn: None,
+            size: (0, 0),
+            tool_depth: None,
+            grabbing: false,
+            gravity: true,
+            phyxels: false,
+            pressure: false,
+            arrows: false,
+            speed,
+            backends: phyxel::backends::NAMES.to_vec(),
+            notice: None,
+            energy: VecDeque::new(),
+            penetration: VecDeque::new(),
+            last_plotted: u64::MAX,
+            shot_taken: Arc::new(Mutex::new(None)),
+            shot_requested: false,
+            opened: Instant::now(),
+            frames: 0,
+            last_file_check: Instant::now(),
+            snap: Snapshot::default(),
+            image_rect: None,
+            jumped: false,
+            help: false,
+        }
+    }
+
+    /// The fitted camera turned, zoomed and panned by the mouse.
+    fn camera(&self) -> Option<Camera> {
+        let base = self.base?;
+        let target = Vec3::from(base.target);
+        let offset = Vec3::from(base.position) - target;
+        let turn = Quat::from_rotation_y(self.yaw) * Quat::from_rotation_x(self.pitch);
+        Some(Camera {
+            position: (target + self.pan + self.zoom * (turn * offset)).to_array(),
+            target: (target + self.pan).to_array(),
+            ..base
+        })
+    }
+
+    fn send(&self, c: Command) {
+        if let Source::Live { commands, .. } = &self.source {
+            let _ = commands.send(c);
+        }
+    }
+
+    fn notify(&mut self, text: impl Into<String>) {
+        self.notice = Some((text.into(), Instant::now()));
+    }
+
+    /// The ray through a window point, if it lies on the image.
+    fn ray_at(&self, pos: egui::Pos2) -> Option<(Vec3, Vec3)> {
+        let rect = self.image_rect?;
+        let cam = self.camera()?;
+        let (w, h) = self.size;
+        let x = (pos.x - rect.min.x) / rect.width() * w as f32;
+        let y = (pos.y - rect.min.y) / rect.height() * h as f32;
+        Some(cam.ray(x, y, w, h))
+    }
+
+    /// The scene's size (m): the fitted camera's distance to its target.
+    fn scene_size(&self) -> f32 {
+        self.base.map_or(1.0, |b| {
+            (Vec3::from(b.position) - Vec3::from(b.target)).length() * 0.5
+        })
+    }
+
+    /// Keys: the same in live view and replay where they make sense.
+    fn keys(&mut self, ctx: &egui::Context) {
+        let pressed = |k| ctx.input(|i| i.key_pressed(k));
+        let live = matches!(self.source, Source::Live { .. });
+        if pressed(egui::Key::Space) {
+            match &mut self.source {
+                Source::Replay(r) => r.playing = !r.playing,
+                Source::Live { .. } => self.send(Command::TogglePause),
+            }
+        }
+        if pressed(egui::Key::H) {
+            self.help = !self.help;
+        }
+        if pressed(egui::Key::Home) {
+            (self.yaw, self.pitch, self.zoom, self.pan) = (0.0, 0.0, 1.0, Vec3::ZERO);
+        }
+        if !live {
+            return;
+        }
+        if pressed(egui::Key::Period) {
+            self.send(Command::Step);
+        }
+        if pressed(egui::Key::R) {
+            self.tool_depth = None;
+            self.send(Command::Rebuild(None));
+            self.notify("rebuilt");
+        }
+        if pressed(egui::Key::B) {
+            let now = self.snap.backend.clone();
+            let k = self
+                .backends
+                .iter()
+                .position(|b| *b == now)
+                .map_or(0, |k| k + 1);
+            let next = self.backends[k % self.backends.len()].to_string();
+            self.tool_depth = None;
+            self.notify(format!("backend {next}: rebuilt"));
+            self.send(Command::Rebuild(Some(next)));
+        }
+        if pressed(egui::Key::G) {
+            self.gravity = !self.gravity;
+            self.send(Command::Gravity(self.gravity));
+        }
+        if pressed(egui::Key::OpenBracket) || pressed(egui::Key::CloseBracket) {
+            let up = pressed(egui::Key::CloseBracket);
+            self.speed = match (self.speed, up) {
+                (s, _) if s <= 0.0 => 1.0,
+                (s, true) if s >= 1.0 => 0.0,
+                (s, true) => s * 2.0,
+                (s, false) => (s / 2.0).max(1.0 / 64.0),
+            };
+            self.send(Command::Speed(self.speed));
+        }
+        if pressed(egui::Key::P) {
+            self.phyxels = !self.phyxels;
+            self.send(Command::ShowPhyxels(self.phyxels));
+        }
+        if pressed(egui::Key::C) {
+            self.pressure = !self.pressure;
+            self.send(Command::Pressure(self.pressure));
+        }
+        if pressed(egui::Key::F) {
+            self.arrows = !self.arrows;
+        }
+        if pressed(egui::Key::N) {
+            self.send(Command::Drop(None));
+        }
+        if pressed(egui::Key::T) {
+            self.tool_depth = match self.tool_depth {
+                Some(_) => {
+                    self.send(Command::Tool(None));
+                    None
+                }
+                // In front of the scene's centre by half its size: not inside a body.
+                None => self.base.map(|b| {
+                    (Vec3::from(b.position) - Vec3::from(b.target)).length() * self.zoom
+                        - 0.6 * self.scene_size()
+                }),
+            };
+        }
+    }
+
+    /// Mouse on the image: orbit (drag), pan (right or shift drag), zoom (wheel), grab
+    /// (ctrl drag or middle drag), and the tool following the pointer (wheel: deeper).
+    fn mouse(&mut self, ctx: &egui::Context, response: &egui::Response) {
+        let (modifiers, scroll, pointer) =
+            ctx.input(|i| (i.modifiers, i.smooth_scroll_delta.y, i.pointer.hover_pos()));
+        let d = response.drag_delta();
+        let grab_button = response.dragged_by(egui::PointerButton::Middle)
+            || (response.dragged_by(egui::PointerButton::Primary) && modifiers.ctrl);
+        if grab_button {
+            if let Some((eye, dir)) = pointer.and_then(|p| self.ray_at(p)) {
+                let c = if self.grabbing {
+                    Command::DragTo(eye, dir)
+                } else {
+                    Command::Grab(eye, dir)
+                };
+                self.grabbing = true;
+                self.send(c);
+            }
+        } else {
+            if self.grabbing {
+                self.grabbing = false;
+                self.send(Command::Release);
+            }
+            let pan = response.dragged_by(egui::PointerButton::Secondary)
+                || (response.dragged_by(egui::PointerButton::Primary) && modifiers.shift);
+            if pan {
+                if let Some(cam) = self.camera() {
+                    let (_, _, right, up) = cam.basis();
+                    let per_px = 2.0 * self.scene_size() * self.zoom / self.size.1.max(1) as f32;
+                    self.pan += per_px * (-d.x * right + d.y * up);
+                }
+            } else if response.dragged_by(egui::PointerButton::Primary) {
+                self.yaw -= 0.01 * d.x;
+                self.pitch = (self.pitch - 0.01 * d.y).clamp(-1.4, 1.4);
+            }
+        }
+        let size = self.scene_size();
+        match &mut self.tool_depth {
+            Some(depth) => {
+                if response.hovered() {
+                    *depth = (*depth - 0.0005 * scroll * size).max(1e-3);
+                }
+                let depth = *depth;
+                if let (Some(p), Some(cam)) = (pointer, self.camera())
+                    && let Some((eye, dir)) = self.ray_at(p)
+                {
+                    let fwd = cam.basis().1;
+                    let at = eye + dir * (depth / dir.dot(fwd).max(1e-3));
+                    if response.hovered() || self.snap.tool.is_none() {
+                        self.send(Command::Tool(Some(at)));
+                    }
+                }
+            }
+            None => {
+                if response.hovered() {
+                    self.zoom = (self.zoom * (-0.002 * scroll).exp()).clamp(0.05, 20.0);
+                }
+            }
+        }
+    }
+
+    /// Polls the scene file and sends the scene again when it changed.
+    fn watch_file(&mut self) {
+        if self.last_file_check.elapsed() < Duration::from_millis(500) {
+            return;
+        }
+        self.last_file_check = Instant::now();
+        let Source::Live {
+            file: Some((path, seen)),
+            commands,
+            ..
+        } = &mut self.source
+        else {
+            return;
+        };
+        let now = std::fs::metadata(&*path).and_then(|m| m.modified()).ok();
+        if now == *seen {
+            return;
+        }
+        *seen = now;
+        let text = match Scene::load(path) {
+            Ok(scene) => {
+                let _ = commands.send(Command::Reload(Box::new(scene)));
+                format!("{}: changed, reloaded", path.display())
+            }
+            Err(e) => format!("not reloaded: {e}"),
+        };
+        self.tool_depth = None;
+        self.notify(text);
+    }
+
+    /// The latest state: a copy of the simulation's snapshot, or the replay's frame.
+    fn refresh(&mut self) {
+        match &mut self.source {
+            Source::Live { shared, .. } => {
+                let s = shared.snapshot.lock().expect("snapshot lock");
+                if s.version != self.snap.version {
+                    self.snap = s.clone();
+                }
+            }
+            Source::Replay(r) => {
+                // The camera is fitted to the first frame, as in the live view; then the
+                // screenshot's frame is shown.
+                if self.base.is_some() && !self.jumped {
+                    self.jumped = true;
+                    if self.opts.screenshot.is_some() {
+                        r.index = self.opts.after.min(r.len() - 1);
+                    }
+                }
+                r.advance();
+                if (self.snap.steps != r.index || self.snap.frame.is_empty())
+                    && let Some((frame, index)) = r.current()
+                {
+                    self.snap.frame = frame.clone();
+                    self.snap.steps = index;
+                }
+                self.snap.done = self.snap.steps >= self.opts.after.min(r.len() - 1);
+                self.snap.error = r.error.clone();
+            }
+        }
+        if self.snap.steps != self.last_plotted {
+            self.last_plotted = self.snap.steps;
+            for (series, v) in [
+                (&mut self.energy, self.snap.energy),
+                (&mut self.penetration, 1e3 * self.snap.penetration as f64),
+            ] {
+                series.push_back(v);
+                if series.len() > PLOT_POINTS {
+                    series.pop_front();
+                }
+            }
+        }
+    }
+
+    /// The heads-up line.
+    fn hud_line(&self) -> String {
+        let s = &self.snap;
+        match &self.source {
+            Source::Replay(r) => format!(
+                "replay {}   frame {} of {}{}",
+                r.dir.display(),
+                s.steps,
+                r.len().saturating_sub(1),
+                if r.playing { "" } else { "   [paused]" }
+            ),
+            Source::Live { .. } => {
+                let speed = if s.speed > 0.0 {
+                    format!("speed ≤ {}×", trim(s.speed))
+                } else {
+                    "speed: flat out".into()
+                };
+                format!(
+                    "{}   step {}   t = {:.4} s   dt = {:.2e} s   {:.0} steps/s   {:.2}× real time   \
+                     {speed}   deepest penetration {:.2} mm{}{}{}",
+                    s.backend,
+                    s.steps,
+                    s.time,
+                    s.dt,
+                    s.steps_per_second,
+                    s.steps_per_second * s.dt as f64,
+                    1e3 * s.max_penetration,
+                    if s.gravity { "" } else { "   [no gravity]" },
+                    s.tool
+                        .map(|t| format!("   tool feels {:.3} N", t.2.length()))
+                        .unwrap_or_default(),
+                    if s.paused { "   [paused]" } else { "" },
+                )
+            }
+        }
+    }
+
+    /// Draws the frame into the texture when the state or the view changed.
+    fn draw(&mut self, ctx: &egui::Context, w: u32, h: u32) {
+        let view = [
+            self.yaw, self.pitch, self.zoom, self.pan.x, self.pan.y, self.pan.z,
+        ];
+        let key = (self.snap.steps, view, self.pressure);
+        let resized = (w, h) != self.size;
+        if self.drawn == Some(key) && !resized && self.texture.is_some() {
+            return;
+        }
+        let frame: &Frame = &self.snap.frame;
+        if frame.is_empty() {
+            return;
+        }
+        self.drawn = Some(key);
+        self.size = (w, h);
+        if self.base.is_none() {
+            let fit = RenderOptions {
+                width: w,
+                height: h,
+                ..RenderOptions::default()
+            };
+            self.base = Some(camera_for(frame, &fit));
+        }
+        let opts = RenderOptions {
+            width: w,
+            height: h,
+            camera: self.camera(),
+            supersample: 1,
+            contact_levels: self.pressure,
+            ..RenderOptions::default()
+        };
+        let image: Image = render(frame, &opts);
+        let color = egui::ColorImage::from_rgb([w as usize, h as usize], &image.rgb);
+        match &mut self.texture {
+            Some(t) => t.set(color, egui::TextureOptions::LINEAR),
+            None => {
+                self.texture =
+                    Some(ctx.load_texture("surfels", color, egui::TextureOptions::LINEAR))
+            }
+        }
+    }
+
+    /// Force arrows, the grab spring and the tool's outline over the image.
+    fn overlay(&self, painter: &egui::Painter, rect: egui::Rect) {
+        let Some(cam) = self.camera() else { return };
+        let (w, h) = self.size;
+        let to_screen = |p: Vec3| {
+            cam.project(p, w, h).map(|(x, y, _)| {
+                egui::pos2(
+                    rect.min.x + x / w as f32 * rect.width(),
+                    rect.min.y + y / h as f32 * rect.height(),
+                )
+            })
+        };
+        if self.arrows {
+            let top = self
+                .snap
+                .arrows
+                .iter()
+                .map(|a| a.1.length())
+                .fold(0.0f32, f32::max);
+            let length = 0.3 * self.scene_size();
+            for &(at, f) in &self.snap.arrows {
+                if top <= 0.0 {
+                    break;
+                }
+                // Both bodies' forces: equal and opposite.
+                for sign in [1.0, -1.0] {
+                    let tip = at + sign * f * (length / top);
+                    if let (Some(a), Some(b)) = (to_screen(at), to_screen(tip)) {
+                        painter.arrow(a, b - a, egui::Stroke::new(2.0, egui::Color32::BLACK));
+                    }
+                }
+            }
+        }
+        if let Some((from, to)) = self.snap.grab
+            && let (Some(a), Some(b)) = (to_screen(from), to_screen(to))
+        {
+            painter.line_segment([a, b], egui::Stroke::new(2.0, egui::Color32::DARK_GREEN));
+            painter.circle_filled(b, 4.0, egui::Color32::DARK_GREEN);
+        }
+    }
+
+    /// The phase bar and the two live plots.
+    fn hud_charts(&self, ui: &mut egui::Ui) {
+        ui.horizontal(|ui| {
+            let (rect, response) =
+                ui.allocate_exact_size(egui::vec2(300.0, 14.0), egui::Sense::hover());
+            let painter = ui.painter_at(rect);
+            let mut x = rect.min.x;
+            let mut tip = String::new();
+            for (k, (&share, phase)) in self.snap.phase_share.iter().zip(Phase::ALL).enumerate() {
+                let wdt = share as f32 * rect.width();
+                let hue = k as f32 / 10.0;
+                let colour: egui::Color32 = egui::ecolor::Hsva::new(hue, 0.55, 0.85, 1.0).into();
+                painter.rect_filled(
+                    egui::Rect::from_min_size(
+                        egui::pos2(x, rect.min.y),
+                        egui::vec2(wdt, rect.height()),
+                    ),
+                    0.0,
+                    colour,
+                );
+                x += wdt;
+                tip.push_str(&format!("{}: {:.0}%\n", phase.name(), 100.0 * share));
+            }
+            response.on_hover_text(tip);
+            ui.label("phases");
+            for (series, name, unit) in [
+                (&self.energy, "energy", "J"),
+                (&self.penetration, "penetration", "mm"),
+            ] {
+                plot(ui, series, name, unit);
+            }
+        });
+    }
+
+    /// Saves the window once the wanted state is drawn, then closes.
+    fn screenshot(&mut self, ctx: &egui::Context) {
+        let Some(path) = self.opts.screenshot.clone() else {
+            return;
+        };
+        if self.snap.done
+            && self.drawn.is_some_and(|d| d.0 == self.snap.steps)
+            && !self.shot_requested
+        {
+            self.shot_requested = true;
+            let slot = self.shot_taken.clone();
+            ctx.request_screenshot(move |img| *slot.lock().expect("shot lock") = Some(img));
+        }
+        let Some(img) = self.shot_taken.lock().expect("shot lock").take() else {
+            return;
+        };
+        let rgb: Vec<u8> = img
+            .pixels
+            .iter()
+            .flat_map(|p| [p.r(), p.g(), p.b()])
+            .collect();
+        let out = Image {
+            width: img.width() as u32,
+            height: img.height() as u32,
+            rgb,
+        };
+        let result = out
+            .write_png(&path)
+            .map_err(|e| format!("--screenshot {}: {e}", path.display()));
+        self.close(ctx, result);
+    }
+
+    /// Prints the report (if asked) and closes the window.
+    fn close(&mut self, ctx: &egui::Context, result: Result<(), String>) {
+        if self.opts.report && result.is_ok() {
+            println!("{}", self.report());
+        }
+        *self.exit.lock().expect("exit lock") = Some(result);
+        if let Source::Live { shared, .. } = &self.source {
+            shared.quit.store(true, Ordering::Relaxed);
+        }
+        ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+    }
+
+    /// One JSON line: the run's figures over the window's life and the state shown.
+    fn report(&self) -> String {
+        let seconds = self.opened.elapsed().as_secs_f64();
+        let s = &self.snap;
+        let v = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
+        let objects: Vec<String> = s
+            .objects
+            .iter()
+            .map(|(name, c, lo, hi)| {
+                format!(
+                    "{{\"name\": {:?}, \"centre\": {}, \"min\": {}, \"max\": {}}}",
+                    name,
+                    v(*c),
+                    v(*lo),
+                    v(*hi)
+                )
+            })
+            .collect();
+        let tool = s.tool.map_or("null".to_string(), |(c, r, f)| {
+            format!(
+                "{{\"centre\": {}, \"radius\": {r}, \"reaction\": {}}}",
+                v(c),
+                v(f)
+            )
+        });
+        let camera = self.camera().map_or("null".to_string(), |c| {
+            format!(
+                "{{\"position\": {}, \"target\": {}, \"up\": {}, \"fov\": {}}}",
+                v(c.position.into()),
+                v(c.target.into()),
+                v(c.up.into()),
+                c.fov
+            )
+        });
+        let image = self.image_rect.map_or("null".to_string(), |r| {
+            format!("[{}, {}, {}, {}]", r.min.x, r.min.y, r.width(), r.height())
+        });
+        format!(
+            "{{\"seconds\": {seconds:.3}, \"steps\": {}, \"time\": {}, \"steps_per_second\": {:.1}, \
+             \"real_time\": {:.3}, \"frames_per_second\": {:.1}, \"objects\": [{}], \"tool\": {tool}, \
+             \"camera\": {camera}, \"image\": {image}}}",
+            s.steps,
+            s.time,
+            s.steps as f64 / seconds,
+            s.time / seconds,
+            self.frames as f64 / seconds,
+            objects.join(", ")
+        )
+    }
+}
+
+/// A number without trailing zeros (0.5, 2, 0.015625).
+fn trim(x: f64) -> String {
+    let s = format!("{x:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// A small line plot of `series` with its name and latest value.
+fn plot(ui: &mut egui::Ui, series: &VecDeque<f64>, name: &str, unit: &str) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(160.0, 28.0), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 2.0, egui::Color32::from_gray(245));
+    let (lo, hi) = series
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
+            (a.min(v), b.max(v))
+        });
+    if series.len() >= 2 && lo.is_finite() && hi.is_finite() {
+        let span = (hi - lo).max(1e-12);
+        let n = (series.len() - 1) as f32;
+        let points: Vec<egui::Pos2> = series
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                egui::pos2(
+                    rect.min.x + i as f32 / n * rect.width(),
+                    rect.max.y - ((v - lo) / span) as f32 * rect.height(),
+                )
+            })
+            .collect();
+        painter.add(egui::Shape::line(
+            points,
+            egui::Stroke::new(1.5, egui::Color32::from_rgb(40, 90, 170)),
+        ));
+    }
+    let last = series.back().copied().unwrap_or(0.0);
+    ui.label(format!("{name} {last:.4} {unit}"));
+}
+
+impl eframe::App for Viewer {
+    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+        let ctx = ui.ctx().clone();
+        self.frames += 1;
+        if let Some(limit) = self.opts.seconds
+            && self.opened.elapsed().as_secs_f64() >= limit
+        {
+            self.opts.seconds = None;
+            self.opts.report = true;
+            self.close(&ctx, Ok(()));
+            return;
+        }
+        self.refresh();
+        if let Some(e) = self.snap.error.clone()
+            && !matches!(self.source, Source::Replay(_))
+        {
+            self.close(&ctx, Err(e));
+            return;
+        }
+        self.keys(&ctx);
+        self.watch_file();
+        let line = self.hud_line();
+        egui::Panel::top("hud").show(ui, |ui| {
+            ui.label(line);
+            if matches!(self.source, Source::Live { .. }) {
+                self.hud_charts(ui);
+            }
+        });
+        egui::Panel::bottom("help").show(ui, |ui| {
+            if let Source::Replay(r) = &mut self.source {
+                let last = r.len().saturating_sub(1);
+                ui.add(egui::Slider::new(&mut r.index, 0..=last).text("frame"));
+            }
+            let notice = self
+                .notice
+                .as_ref()
+                .filter(|n| n.1.elapsed() < Duration::from_secs(4))
+                .map(|n| format!("   — {}", n.0))
+                .unwrap_or_default();
+            let help = if self.help {
+                match self.source {
+                    Source::Live { .. } => {
+                        "space pause · . step · r reset · b backend · g gravity · [ ] speed · \
+                         t tool (wheel: push) · ctrl-drag grab/throw · n drop · p phyxels · \
+                         c pressure · f forces · drag orbit · right-drag pan · wheel zoom · \
+                         home view · h hide"
+                    }
+                    Source::Replay(_) => {
+                        "space play/pause · slider: frame · drag orbit · right-drag pan · \
+                         wheel zoom · home view · h hide"
+                    }
+                }
+            } else {
+                "h: keys"
+            };
+            ui.label(format!("{help}{notice}"));
+        });
+        egui::CentralPanel::default().show(ui, |ui| {
+            let avail = ui.available_size();
+            let (w, h) = (avail.x.max(16.0) as u32, avail.y.max(16.0) as u32);
+            self.draw(&ctx, w, h);
+            if let Some(t) = &self.texture {
+                let response = ui.add(
+                    egui::Image::new((t.id(), egui::vec2(w as f32, h as f32)))
+                        .sense(egui::Sense::click_and_drag()),
+                );
+                self.image_rect = Some(response.rect);
+                self.overlay(ui.painter(), response.rect);
+                self.mouse(&ctx, &response);
+            }
+        });
+        self.screenshot(&ctx);
+        ctx.request_repaint_after(FRAME_INTERVAL);
+    }
+}
