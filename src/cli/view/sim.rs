@@ -77,6 +77,9 @@ pub(crate) struct Snapshot {
     pub done: bool,
     /// Counts the snapshots published: the window copies only a new one.
     pub version: u64,
+    /// The render surface right after the build: the window fits its camera to it,
+    /// whenever it starts drawing.
+    pub first: Option<Arc<Frame>>,
 }
 
 /// Between the threads.
@@ -104,6 +107,9 @@ const GRAB_PHYXELS: usize = 8;
 /// The tool's radius over the size (box diagonal) of the scene's moving bodies.
 const TOOL_SIZE: f32 = 0.08;
 
+/// The tool's Young's modulus over the body it copies (only contact reads it).
+const TOOL_STIFFNESS: f32 = 10.0;
+
 /// A grab spring.
 struct Grab {
     object: u32,
@@ -130,6 +136,7 @@ struct Sim {
     pace_from: Option<(Instant, f64)>,
     script: Script,
     published: std::cell::Cell<u64>,
+    first: Option<Arc<Frame>>,
 }
 
 /// Builds the world and steps it until asked to quit, publishing snapshots.
@@ -156,6 +163,7 @@ pub(crate) fn simulate(
         pace_from: None,
         script,
         published: std::cell::Cell::new(0),
+        first: None,
     };
     let quit = || shared.quit.load(std::sync::atomic::Ordering::Relaxed);
     'build: loop {
@@ -176,6 +184,7 @@ pub(crate) fn simulate(
         (sim.tool, sim.grab, sim.pace_from, sim.drops) = (None, None, None, 0);
         sim.script.rewind();
         let mut times = world.record.times.clone();
+        sim.first = None;
         sim.publish(&world, 0.0, &mut times, &shared);
         let (mut last, mut counted, mut since) = (Instant::now(), 0u64, Instant::now());
         let mut rate = 0.0;
@@ -338,7 +347,7 @@ impl Sim {
     }
 
     /// Publishes the world's state for the window.
-    fn publish(&self, world: &World, rate: f64, times: &mut PhaseTimes, shared: &Shared) {
+    fn publish(&mut self, world: &World, rate: f64, times: &mut PhaseTimes, shared: &Shared) {
         let mut frame = if self.show_phyxels {
             phyxel_frame(world)
         } else {
@@ -353,7 +362,8 @@ impl Sim {
             .map(|&p| now.seconds(p) - times.seconds(p))
             .collect();
         let total: f64 = spent.iter().sum();
-        let mut phase_share = [0.0; 10];
+        // Without a step since the last snapshot, the last shares stay.
+        let mut phase_share = shared.snapshot.lock().expect("snapshot lock").phase_share;
         if total > 0.0 {
             for (s, t) in phase_share.iter_mut().zip(&spent) {
                 *s = t / total;
@@ -408,6 +418,10 @@ impl Sim {
             .iter()
             .find(|o| !o.is_static() && Some(o.id) != self.tool)
             .map_or(String::new(), |o| o.dynamics.name().to_string());
+        let first = self
+            .first
+            .get_or_insert_with(|| Arc::new(frame.clone()))
+            .clone();
         let snapshot = Snapshot {
             frame,
             steps: world.steps,
@@ -429,6 +443,7 @@ impl Sim {
             error: None,
             done: world.steps >= shared.stop_at || world.non_finite.is_some(),
             version: self.published.get() + 1,
+            first: Some(first),
         };
         self.published.set(snapshot.version);
         *shared.snapshot.lock().expect("snapshot lock") = snapshot;
@@ -493,7 +508,11 @@ fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> Result<u32, 
     } else {
         0.5 * bounds(template).map_or(0.1, |(a, b)| 0.5 * (b - a).max_element())
     };
-    let material = template.material.clone();
+    let mut material = template.material.clone();
+    if tool {
+        // A probe stiffer than the tissue it presses (contact stiffness grows with both).
+        material.young *= TOOL_STIFFNESS;
+    }
     let backend = if tool {
         phyxel::backends::KINEMATIC.to_string()
     } else {

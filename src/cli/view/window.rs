@@ -21,6 +21,10 @@ use std::time::{Duration, Instant, SystemTime};
 /// The display's shortest frame interval (about 60 frames a second).
 const FRAME_INTERVAL: Duration = Duration::from_millis(16);
 
+/// Heights (points) of the heads-up panel above the image and the key line below.
+const HUD_HEIGHT: f32 = 56.0;
+const HELP_HEIGHT: f32 = 22.0;
+
 /// Points kept in each live plot (at one per snapshot, about 15 s).
 const PLOT_POINTS: usize = 500;
 
@@ -91,6 +95,8 @@ pub(crate) struct Viewer {
     jumped: bool,
     /// The key list shown (`h`).
     help: bool,
+    /// The first frame drawn: the camera is fitted to it.
+    first: Option<Frame>,
 }
 
 impl Viewer {
@@ -128,6 +134,7 @@ impl Viewer {
             image_rect: None,
             jumped: false,
             help: false,
+            first: None,
         }
     }
 
@@ -440,13 +447,18 @@ impl Viewer {
         }
         self.drawn = Some(key);
         self.size = (w, h);
-        if self.base.is_none() {
+        // Fitted to the first frame, again at each new image size (the first frames of
+        // a window are laid out before the panels have their sizes).
+        let first = self
+            .first
+            .get_or_insert_with(|| self.snap.first.as_deref().unwrap_or(frame).clone());
+        if self.base.is_none() || resized {
             let fit = RenderOptions {
                 width: w,
                 height: h,
                 ..RenderOptions::default()
             };
-            self.base = Some(camera_for(frame, &fit));
+            self.base = Some(camera_for(first, &fit));
         }
         let opts = RenderOptions {
             width: w,
@@ -625,13 +637,15 @@ impl Viewer {
         });
         format!(
             "{{\"seconds\": {seconds:.3}, \"steps\": {}, \"time\": {}, \"steps_per_second\": {:.1}, \
-             \"real_time\": {:.3}, \"frames_per_second\": {:.1}, \"objects\": [{}], \"tool\": {tool}, \
+             \"real_time\": {:.3}, \"frames_per_second\": {:.1}, \"dt\": {}, \"max_penetration\": {}, \"objects\": [{}], \"tool\": {tool}, \
              \"camera\": {camera}, \"image\": {image}}}",
             s.steps,
             s.time,
             s.steps as f64 / seconds,
             s.time / seconds,
             self.frames as f64 / seconds,
+            s.dt,
+            s.max_penetration,
             objects.join(", ")
         )
     }
@@ -697,41 +711,49 @@ impl eframe::App for Viewer {
         self.keys(&ctx);
         self.watch_file();
         let line = self.hud_line();
-        egui::Panel::top("hud").show(ui, |ui| {
-            ui.label(line);
-            if matches!(self.source, Source::Live { .. }) {
-                self.hud_charts(ui);
-            }
-        });
-        egui::Panel::bottom("help").show(ui, |ui| {
-            if let Source::Replay(r) = &mut self.source {
-                let last = r.len().saturating_sub(1);
-                ui.add(egui::Slider::new(&mut r.index, 0..=last).text("frame"));
-            }
-            let notice = self
-                .notice
-                .as_ref()
-                .filter(|n| n.1.elapsed() < Duration::from_secs(4))
-                .map(|n| format!("   — {}", n.0))
-                .unwrap_or_default();
-            let help = if self.help {
-                match self.source {
-                    Source::Live { .. } => {
-                        "space pause · . step · r reset · b backend · g gravity · [ ] speed · \
+        // Fixed heights and one-line labels: the image has the same size live and in a
+        // replay, so a replay draws the same picture.
+        egui::Panel::top("hud")
+            .exact_size(HUD_HEIGHT)
+            .resizable(false)
+            .show(ui, |ui| {
+                ui.add(egui::Label::new(line).truncate());
+                match &mut self.source {
+                    Source::Live { .. } => self.hud_charts(ui),
+                    Source::Replay(r) => {
+                        let last = r.len().saturating_sub(1);
+                        ui.add(egui::Slider::new(&mut r.index, 0..=last).text("frame"));
+                    }
+                }
+            });
+        egui::Panel::bottom("help")
+            .exact_size(HELP_HEIGHT)
+            .resizable(false)
+            .show(ui, |ui| {
+                let notice = self
+                    .notice
+                    .as_ref()
+                    .filter(|n| n.1.elapsed() < Duration::from_secs(4))
+                    .map(|n| format!("   — {}", n.0))
+                    .unwrap_or_default();
+                let help = if self.help {
+                    match self.source {
+                        Source::Live { .. } => {
+                            "space pause · . step · r reset · b backend · g gravity · [ ] speed · \
                          t tool (wheel: push) · ctrl-drag grab/throw · n drop · p phyxels · \
                          c pressure · f forces · drag orbit · right-drag pan · wheel zoom · \
                          home view · h hide"
-                    }
-                    Source::Replay(_) => {
-                        "space play/pause · slider: frame · drag orbit · right-drag pan · \
+                        }
+                        Source::Replay(_) => {
+                            "space play/pause · slider: frame · drag orbit · right-drag pan · \
                          wheel zoom · home view · h hide"
+                        }
                     }
-                }
-            } else {
-                "h: keys"
-            };
-            ui.label(format!("{help}{notice}"));
-        });
+                } else {
+                    "h: keys"
+                };
+                ui.add(egui::Label::new(format!("{help}{notice}")).truncate());
+            });
         egui::CentralPanel::default().show(ui, |ui| {
             let avail = ui.available_size();
             let (w, h) = (avail.x.max(16.0) as u32, avail.y.max(16.0) as u32);
