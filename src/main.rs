@@ -196,6 +196,13 @@ enum Command {
         /// line when the window closes
         #[arg(long)]
         json: bool,
+        /// Image pixels per window pixel, in (0, 1] [default: at most 409,600 pixels]
+        #[arg(long, value_name = "S")]
+        render_scale: Option<f32>,
+        /// Simulation threads [default: RAYON_NUM_THREADS, else one less than the cores,
+        /// at least 1: the window keeps a core]
+        #[arg(long, value_name = "N")]
+        threads: Option<usize>,
     },
     /// List the built-in scenes, or print one as TOML.
     Scenes {
@@ -226,7 +233,21 @@ fn main() -> ExitCode {
             input,
             frames,
             json,
+            render_scale,
+            threads,
         } => {
+            let threads = threads
+                .or_else(|| std::env::var("RAYON_NUM_THREADS").ok()?.parse().ok())
+                .unwrap_or_else(|| {
+                    std::thread::available_parallelism().map_or(1, |n| n.get().saturating_sub(1))
+                })
+                .max(1);
+            if let Some(s) = render_scale
+                && !(s > 0.0 && s <= 1.0)
+            {
+                eprintln!("error: --render-scale {s}: must be in (0, 1]");
+                return ExitCode::FAILURE;
+            }
             if !(speed.is_finite() && speed >= 0.0) {
                 eprintln!(
                     "error: --speed {speed}: must be finite and ≥ 0 (0: as fast as it steps)"
@@ -268,6 +289,8 @@ fn main() -> ExitCode {
                     frames,
                     json,
                     file,
+                    render_scale,
+                    threads,
                 },
             )
         }

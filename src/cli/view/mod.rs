@@ -40,6 +40,10 @@ pub(crate) struct ViewOptions {
     pub json: bool,
     /// The scene's file, watched for changes (`None` for a built-in scene).
     pub file: Option<PathBuf>,
+    /// Image pixels per window pixel (`None`: automatic).
+    pub render_scale: Option<f32>,
+    /// Threads of the simulation.
+    pub threads: usize,
 }
 
 /// Runs `phyxel view` on `scene` (ignored with `--frames`).
@@ -50,6 +54,7 @@ pub(crate) fn view(scene: Option<Scene>, opts: ViewOptions) -> ExitCode {
         after: opts.after,
         seconds: opts.seconds,
         report: opts.json,
+        render_scale: opts.render_scale,
     };
     let (source, sim, shared, title) = match (&opts.frames, scene) {
         (Some(dir), _) => match replay::Replay::open(dir) {
@@ -87,9 +92,9 @@ pub(crate) fn view(scene: Option<Scene>, opts: ViewOptions) -> ExitCode {
             let (send, receive) = std::sync::mpsc::channel();
             let thread = {
                 let (shared, scene, build) = (shared.clone(), scene.clone(), opts.build.clone());
-                let speed = opts.speed;
+                let (speed, threads) = (opts.speed, opts.threads);
                 std::thread::spawn(move || {
-                    sim::simulate(scene, build, speed, script, receive, shared)
+                    sim::simulate(scene, build, speed, script, receive, shared, threads)
                 })
             };
             let file = opts.file.clone().map(|p| {

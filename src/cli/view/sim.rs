@@ -147,6 +147,7 @@ pub(crate) fn simulate(
     script: Script,
     commands: Receiver<Command>,
     shared: Arc<Shared>,
+    threads: usize,
 ) {
     let mut sim = Sim {
         scene,
@@ -165,83 +166,98 @@ pub(crate) fn simulate(
         published: std::cell::Cell::new(0),
         first: None,
     };
-    let quit = || shared.quit.load(std::sync::atomic::Ordering::Relaxed);
-    'build: loop {
-        let mut world = match sim.scene.build(&sim.build) {
-            Ok(w) => w,
-            Err(e) => {
-                let mut s = shared.snapshot.lock().expect("snapshot lock");
-                s.error = Some(e.to_string());
-                s.version += 1;
-                return;
-            }
-        };
-        world.render_contacts = true;
-        sim.gravity = world.gravity;
-        if !sim.gravity_on {
-            world.gravity = Vec3::ZERO;
-        }
-        (sim.tool, sim.grab, sim.pace_from, sim.drops) = (None, None, None, 0);
-        sim.script.rewind();
-        let mut times = world.record.times.clone();
-        sim.first = None;
-        sim.publish(&world, 0.0, &mut times, &shared);
-        let (mut last, mut counted, mut since) = (Instant::now(), 0u64, Instant::now());
-        let mut rate = 0.0;
-        while !quit() {
-            let mut single = false;
-            while let Ok(c) = commands.try_recv() {
-                match c {
-                    Command::Rebuild(backend) => {
-                        if backend.is_some() {
-                            sim.build.backend = backend;
-                        }
-                        continue 'build;
-                    }
-                    Command::Reload(scene) => {
-                        sim.scene = *scene;
-                        continue 'build;
-                    }
-                    Command::Step => single = true,
-                    c => sim.apply(c, &mut world),
-                }
-            }
-            for c in sim.script.due(world.steps) {
-                sim.apply(c, &mut world);
-            }
-            let done = world.steps >= shared.stop_at || world.non_finite.is_some();
-            if (sim.paused && !single) || done {
-                sim.pace_from = None;
-                if last.elapsed() >= PUBLISH_EVERY {
-                    sim.publish(&world, rate, &mut times, &shared);
-                    last = Instant::now();
-                }
-                std::thread::sleep(Duration::from_millis(5));
-                continue;
-            }
-            if let Some(wait) = sim.ahead(world.time) {
-                std::thread::sleep(wait);
-                continue;
-            }
-            sim.pull(&mut world);
-            world.step();
-            counted += 1;
-            let window = since.elapsed().as_secs_f64();
-            rate = counted as f64 / window.max(1e-9);
-            if window >= 0.5 {
-                (counted, since) = (0, Instant::now());
-            }
-            let last_step = world.steps >= shared.stop_at || world.non_finite.is_some();
-            if last.elapsed() >= PUBLISH_EVERY || single || last_step {
-                sim.publish(&world, rate, &mut times, &shared);
-                last = Instant::now();
-            }
-        }
-        return;
+    // The simulation's own pool, one thread short of the cores: the window (and the
+    // software rasteriser) keeps a core, so a worker is not preempted in the middle of a
+    // fork-join (on 2 cores, a 2-thread pool beside the window stepped no faster than
+    // this 1-thread one, docs/PERFORMANCE.md). Stepping inside the pool also keeps the
+    // parallel loops off rayon's cold path from an outside thread.
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) => pool.install(move || sim.run(&commands, &shared)),
+        Err(_) => rayon::scope(move |_| sim.run(&commands, &shared)),
     }
 }
 
 impl Sim {
+    /// The stepping loop: builds the world (again on a rebuild) and steps it until asked
+    /// to quit.
+    fn run(&mut self, commands: &Receiver<Command>, shared: &Shared) {
+        let sim = self;
+        let quit = || shared.quit.load(std::sync::atomic::Ordering::Relaxed);
+        'build: loop {
+            let mut world = match sim.scene.build(&sim.build) {
+                Ok(w) => w,
+                Err(e) => {
+                    let mut s = shared.snapshot.lock().expect("snapshot lock");
+                    s.error = Some(e.to_string());
+                    s.version += 1;
+                    return;
+                }
+            };
+            world.render_contacts = true;
+            sim.gravity = world.gravity;
+            if !sim.gravity_on {
+                world.gravity = Vec3::ZERO;
+            }
+            (sim.tool, sim.grab, sim.pace_from, sim.drops) = (None, None, None, 0);
+            sim.script.rewind();
+            let mut times = world.record.times.clone();
+            sim.first = None;
+            sim.publish(&world, 0.0, &mut times, shared);
+            let (mut last, mut counted, mut since) = (Instant::now(), 0u64, Instant::now());
+            let mut rate = 0.0;
+            while !quit() {
+                let mut single = false;
+                while let Ok(c) = commands.try_recv() {
+                    match c {
+                        Command::Rebuild(backend) => {
+                            if backend.is_some() {
+                                sim.build.backend = backend;
+                            }
+                            continue 'build;
+                        }
+                        Command::Reload(scene) => {
+                            sim.scene = *scene;
+                            continue 'build;
+                        }
+                        Command::Step => single = true,
+                        c => sim.apply(c, &mut world),
+                    }
+                }
+                for c in sim.script.due(world.steps) {
+                    sim.apply(c, &mut world);
+                }
+                let done = world.steps >= shared.stop_at || world.non_finite.is_some();
+                if (sim.paused && !single) || done {
+                    sim.pace_from = None;
+                    if last.elapsed() >= PUBLISH_EVERY {
+                        sim.publish(&world, rate, &mut times, shared);
+                        last = Instant::now();
+                    }
+                    std::thread::sleep(Duration::from_millis(5));
+                    continue;
+                }
+                if let Some(wait) = sim.ahead(world.time) {
+                    std::thread::sleep(wait);
+                    continue;
+                }
+                sim.pull(&mut world);
+                world.step();
+                counted += 1;
+                let window = since.elapsed().as_secs_f64();
+                rate = counted as f64 / window.max(1e-9);
+                if window >= 0.5 {
+                    (counted, since) = (0, Instant::now());
+                }
+                let last_step = world.steps >= shared.stop_at || world.non_finite.is_some();
+                if last.elapsed() >= PUBLISH_EVERY || single || last_step {
+                    sim.publish(&world, rate, &mut times, shared);
+                    last = Instant::now();
+                }
+            }
+            return;
+        }
+    }
+
     /// Applies one command between steps.
     fn apply(&mut self, c: Command, world: &mut World) {
         match c {

@@ -18,12 +18,19 @@ use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant, SystemTime};
 
-/// The display's shortest frame interval (about 60 frames a second).
-const FRAME_INTERVAL: Duration = Duration::from_millis(16);
+/// How often the window looks for a new snapshot (as often as the simulation publishes
+/// one: a pass without a new state would cost a whole frame of software OpenGL for
+/// nothing). Input repaints at once.
+const FRAME_INTERVAL: Duration = super::sim::PUBLISH_EVERY;
 
 /// Heights (points) of the heads-up panel above the image and the key line below.
 const HUD_HEIGHT: f32 = 56.0;
 const HELP_HEIGHT: f32 = 22.0;
+
+/// Most pixels the software splat renderer draws per frame (the texture is scaled up to
+/// the window by OpenGL): a 1280 × 720 window is drawn at 853 × 480, in a third of
+/// the time, leaving the cores to the simulation.
+const MAX_RENDER_PIXELS: u32 = 409_600;
 
 /// Points kept in each live plot (at one per snapshot, about 15 s).
 const PLOT_POINTS: usize = 500;
@@ -48,6 +55,8 @@ pub(crate) struct WindowOptions {
     pub seconds: Option<f64>,
     /// Print a JSON line with the state and the figures when closing.
     pub report: bool,
+    /// Image pixels per window pixel; `None`: automatic.
+    pub render_scale: Option<f32>,
 }
 
 /// The window's outcome: `Err` with a message for the user.
@@ -97,10 +106,13 @@ pub(crate) struct Viewer {
     help: bool,
     /// The first frame drawn: the camera is fitted to it.
     first: Option<Frame>,
+    /// Image pixels per window pixel (`--render-scale`); `None`: within MAX_RENDER_PIXELS.
+    render_scale: Option<f32>,
 }
 
 impl Viewer {
     pub(crate) fn new(source: Source, opts: WindowOptions, speed: f64, exit: Exit) -> Self {
+        let render_scale = opts.render_scale;
         Self {
             source,
             opts,
@@ -135,6 +147,7 @@ impl Viewer {
             jumped: false,
             help: false,
             first: None,
+            render_scale,
         }
     }
 
@@ -757,7 +770,15 @@ impl eframe::App for Viewer {
         egui::CentralPanel::default().show(ui, |ui| {
             let avail = ui.available_size();
             let (w, h) = (avail.x.max(16.0) as u32, avail.y.max(16.0) as u32);
-            self.draw(&ctx, w, h);
+            // The splats are drawn on the CPU: at most MAX_RENDER_PIXELS, scaled up by GL.
+            let scale = self
+                .render_scale
+                .unwrap_or_else(|| (MAX_RENDER_PIXELS as f32 / (w * h) as f32).sqrt().min(1.0));
+            let (rw, rh) = (
+                ((w as f32 * scale).round() as u32).max(16),
+                ((h as f32 * scale).round() as u32).max(16),
+            );
+            self.draw(&ctx, rw, rh);
             if let Some(t) = &self.texture {
                 let response = ui.add(
                     egui::Image::new((t.id(), egui::vec2(w as f32, h as f32)))
