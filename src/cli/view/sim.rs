@@ -43,6 +43,9 @@ pub(crate) enum Command {
     ShowPhyxels(bool),
     /// Colour the contact surface by pressure.
     Pressure(bool),
+    /// The window's input number `n` was sent before this: the snapshot after the next
+    /// step says so (`Snapshot::input`), which times input to screen.
+    Input(u64),
 }
 
 /// The latest state the simulation published.
@@ -75,6 +78,8 @@ pub(crate) struct Snapshot {
     pub error: Option<String>,
     /// True once the run reached `stop_at` (or a non-finite state).
     pub done: bool,
+    /// The last window input (`Command::Input`) followed by a step.
+    pub input: u64,
     /// Counts the snapshots published: the window copies only a new one.
     pub version: u64,
     /// The render surface right after the build: the window fits its camera to it,
@@ -137,6 +142,9 @@ struct Sim {
     script: Script,
     published: std::cell::Cell<u64>,
     first: Option<Arc<Frame>>,
+    /// The last input received, and the last one followed by a step.
+    input_received: u64,
+    input_stepped: u64,
 }
 
 /// Builds the world and steps it until asked to quit, publishing snapshots.
@@ -165,6 +173,8 @@ pub(crate) fn simulate(
         script,
         published: std::cell::Cell::new(0),
         first: None,
+        input_received: 0,
+        input_stepped: 0,
     };
     // The simulation's own pool, one thread short of the cores: the window (and the
     // software rasteriser) keeps a core, so a worker is not preempted in the middle of a
@@ -242,6 +252,9 @@ impl Sim {
                 }
                 sim.pull(&mut world);
                 world.step();
+                // New input is published at once: the user waits for it.
+                let answered = sim.input_stepped != sim.input_received;
+                sim.input_stepped = sim.input_received;
                 counted += 1;
                 let window = since.elapsed().as_secs_f64();
                 rate = counted as f64 / window.max(1e-9);
@@ -249,7 +262,7 @@ impl Sim {
                     (counted, since) = (0, Instant::now());
                 }
                 let last_step = world.steps >= shared.stop_at || world.non_finite.is_some();
-                if last.elapsed() >= PUBLISH_EVERY || single || last_step {
+                if last.elapsed() >= PUBLISH_EVERY || single || last_step || answered {
                     sim.publish(&world, rate, &mut times, shared);
                     last = Instant::now();
                 }
@@ -301,6 +314,7 @@ impl Sim {
                 self.drops += 1;
                 let _ = add_body(world, at, &format!("drop{}", self.drops), false);
             }
+            Command::Input(n) => self.input_received = n,
             Command::ShowPhyxels(on) => self.show_phyxels = on,
             Command::Pressure(on) => self.pressure = on,
             Command::Step | Command::Rebuild(_) | Command::Reload(_) => {}
@@ -458,6 +472,7 @@ impl Sim {
             backend,
             error: None,
             done: world.steps >= shared.stop_at || world.non_finite.is_some(),
+            input: self.input_stepped,
             version: self.published.get() + 1,
             first: Some(first),
         };

@@ -23,6 +23,9 @@ use std::time::{Duration, Instant, SystemTime};
 /// nothing). Input repaints at once.
 const FRAME_INTERVAL: Duration = super::sim::PUBLISH_EVERY;
 
+/// How often the window looks for the picture of an input it sent.
+const INPUT_POLL: Duration = Duration::from_millis(4);
+
 /// Heights (points) of the heads-up panel above the image and the key line below.
 const HUD_HEIGHT: f32 = 56.0;
 const HELP_HEIGHT: f32 = 22.0;
@@ -108,6 +111,11 @@ pub(crate) struct Viewer {
     first: Option<Frame>,
     /// Image pixels per window pixel (`--render-scale`); `None`: within MAX_RENDER_PIXELS.
     render_scale: Option<f32>,
+    /// Tool inputs sent (numbered) and not yet on screen, and the input-to-screen
+    /// latencies measured (s).
+    inputs: u64,
+    input_sent: VecDeque<(u64, Instant)>,
+    latencies: Vec<f64>,
 }
 
 impl Viewer {
@@ -148,6 +156,9 @@ impl Viewer {
             help: false,
             first: None,
             render_scale,
+            inputs: 0,
+            input_sent: VecDeque::new(),
+            latencies: Vec::new(),
         }
     }
 
@@ -321,8 +332,13 @@ impl Viewer {
                 {
                     let fwd = cam.basis().1;
                     let at = eye + dir * (depth / dir.dot(fwd).max(1e-3));
-                    if response.hovered() || self.snap.tool.is_none() {
+                    let moved =
+                        ctx.input(|i| i.pointer.delta() != egui::Vec2::ZERO) || scroll != 0.0;
+                    if (response.hovered() && moved) || self.snap.tool.is_none() {
                         self.send(Command::Tool(Some(at)));
+                        self.inputs += 1;
+                        self.input_sent.push_back((self.inputs, Instant::now()));
+                        self.send(Command::Input(self.inputs));
                     }
                 }
             }
@@ -490,6 +506,14 @@ impl Viewer {
                     Some(ctx.load_texture("surfels", color, egui::TextureOptions::LINEAR))
             }
         }
+        // Inputs whose step this picture shows: on screen at the end of this pass.
+        while let Some(&(n, sent)) = self.input_sent.front() {
+            if n > self.snap.input {
+                break;
+            }
+            self.latencies.push(sent.elapsed().as_secs_f64());
+            self.input_sent.pop_front();
+        }
     }
 
     /// Force arrows, the grab spring and the tool's outline over the image.
@@ -648,8 +672,21 @@ impl Viewer {
         let image = self.image_rect.map_or("null".to_string(), |r| {
             format!("[{}, {}, {}, {}]", r.min.x, r.min.y, r.width(), r.height())
         });
+        let mut lat = self.latencies.clone();
+        lat.sort_by(f64::total_cmp);
+        let quantile = |q: f64| {
+            lat.get(((lat.len() as f64 - 1.0) * q).round() as usize)
+                .map_or("null".to_string(), |s| format!("{:.1}", 1e3 * s))
+        };
+        let latency = format!(
+            "{{\"inputs\": {}, \"median_ms\": {}, \"p95_ms\": {}, \"max_ms\": {}}}",
+            lat.len(),
+            quantile(0.5),
+            quantile(0.95),
+            quantile(1.0)
+        );
         format!(
-            "{{\"seconds\": {seconds:.3}, \"steps\": {}, \"time\": {}, \"steps_per_second\": {:.1}, \
+            "{{\"seconds\": {seconds:.3}, \"tool_latency\": {latency}, \"steps\": {}, \"time\": {}, \"steps_per_second\": {:.1}, \
              \"real_time\": {:.3}, \"frames_per_second\": {:.1}, \"dt\": {}, \"max_penetration\": {}, \"objects\": [{}], \"tool\": {tool}, \
              \"camera\": {camera}, \"image\": {image}}}",
             s.steps,
@@ -790,6 +827,11 @@ impl eframe::App for Viewer {
             }
         });
         self.screenshot(&ctx);
-        ctx.request_repaint_after(FRAME_INTERVAL);
+        // While input waits for its picture, look again soon.
+        ctx.request_repaint_after(if self.input_sent.is_empty() {
+            FRAME_INTERVAL
+        } else {
+            INPUT_POLL
+        });
     }
 }
