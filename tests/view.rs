@@ -174,22 +174,9 @@ fn share_like(image: &Image, (x, y): (u32, u32), half: u32, rgb: [f32; 3]) -> f6
     n as f64 / total as f64
 }
 
-/// A soft ball (E = 20 kPa, radius 0.1 m) anchored by its bottom cap, without gravity.
-const ANCHORED_BALL: &str = r#"
-name = "anchored-ball"
-gravity = [0.0, 0.0, 0.0]
-
-[[objects]]
-name = "ball"
-shape = { type = "sphere", radius = 0.1 }
-spacing = 0.02
-surfel_spacing = 0.005
-fixed = [{ min = [-1.0, -1.0, -1.0], max = [1.0, -0.07, 1.0] }]
-material = { density = 1000.0, young = 2.0e4, poisson = 0.3 }
-"#;
-
-/// Scripted input (`--input`) brings the tool sphere above the ball and then sends it
-/// 2.8 cm into the ball's top (tool centre at y = 0.1 m, the ball's rest top). The
+/// Scripted input (`--input docs/view/poke.toml`) brings the tool sphere above the soft
+/// ball of `docs/view/anchored-ball.toml` (E = 20 kPa, radius 0.1 m, held by its bottom
+/// cap, no gravity) and then sends it 2.8 cm into the ball's top (tool centre at y = 0.1 m, the ball's rest top). The
 /// reference is geometry and Newton's third law, not the engine: the tool ends where the
 /// script sent it (1e-4 m), it feels the ball pushing it up (reaction along +y, over ten
 /// times any sideways component), the ball is dented (its highest surfel at least 5 mm
@@ -199,17 +186,15 @@ material = { density = 1000.0, young = 2.0e4, poisson = 0.3 }
 #[test]
 fn scripted_input_moves_the_tool_into_a_soft_ball_and_dents_it() {
     let dir = common::TempDir::new("view", "tool");
-    std::fs::write(dir.0.join("ball.toml"), ANCHORED_BALL).unwrap();
-    std::fs::write(
-        dir.0.join("events.toml"),
-        "[[event]]\nstep = 0\ntool = [0.0, 0.25, 0.0]\n\
-         [[event]]\nstep = 50\ntool = [0.0, 0.1, 0.0]\n",
-    )
-    .unwrap();
+    let docs = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/view/");
+    let (ball, poke) = (
+        format!("{docs}anchored-ball.toml"),
+        format!("{docs}poke.toml"),
+    );
     let args = [
-        "ball.toml",
+        ball.as_str(),
         "--input",
-        "events.toml",
+        poke.as_str(),
         "--after",
         "600",
         "--speed",

@@ -21,7 +21,7 @@
 //! ```
 //!
 //! Other actions: `drop = [x, y, z]` (a new sphere), `gravity = false`, `speed = 0.5`,
-//! `pause = true` (toggles), `phyxels = true`, `pressure = true`.
+//! `pause = true` (toggles), `phyxels = true`, `pressure = true`, `arrows = true`.
 
 use super::sim::Command;
 use glam::Vec3;
@@ -52,6 +52,7 @@ struct Event {
     pause: Option<bool>,
     phyxels: Option<bool>,
     pressure: Option<bool>,
+    arrows: Option<bool>,
 }
 
 #[derive(Deserialize)]
@@ -133,11 +134,14 @@ impl Event {
         if let Some(on) = self.pressure {
             found.push(Command::Pressure(on));
         }
+        if let Some(on) = self.arrows {
+            found.push(Command::Arrows(on));
+        }
         match found.len() {
             1 => Ok(found.remove(0)),
             0 => Err(
                 "no action (tool, remove_tool, grab, drag, release, drop, gravity, \
-                      speed, pause, phyxels, pressure)"
+                      speed, pause, phyxels, pressure, arrows)"
                     .into(),
             ),
             n => Err(format!("{n} actions: give each its own [[event]]")),

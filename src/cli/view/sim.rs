@@ -43,6 +43,8 @@ pub(crate) enum Command {
     ShowPhyxels(bool),
     /// Colour the contact surface by pressure.
     Pressure(bool),
+    /// Publish each contact patch's total force (drawn as arrows).
+    Arrows(bool),
     /// The window's input number `n` was sent before this: the snapshot after the next
     /// step says so (`Snapshot::input`), which times input to screen.
     Input(u64),
@@ -73,6 +75,10 @@ pub(crate) struct Snapshot {
     pub objects: Vec<(String, Vec3, Vec3, Vec3)>,
     pub paused: bool,
     pub gravity: bool,
+    /// The display toggles the simulation keeps (phyxels, pressure, force arrows).
+    pub phyxels: bool,
+    pub pressure: bool,
+    pub arrows_on: bool,
     pub speed: f64,
     pub backend: String,
     pub error: Option<String>,
@@ -85,6 +91,8 @@ pub(crate) struct Snapshot {
     /// The render surface right after the build: the window fits its camera to it,
     /// whenever it starts drawing.
     pub first: Option<Arc<Frame>>,
+    /// The scene's `[camera]`, which the window starts from when given.
+    pub camera: Option<phyxel::app::render::Camera>,
 }
 
 /// Between the threads.
@@ -136,6 +144,7 @@ struct Sim {
     grab: Option<Grab>,
     show_phyxels: bool,
     pressure: bool,
+    arrows: bool,
     drops: u32,
     /// Wall time and simulated time the pace counts from.
     pace_from: Option<(Instant, f64)>,
@@ -168,6 +177,7 @@ pub(crate) fn simulate(
         grab: None,
         show_phyxels: false,
         pressure: false,
+        arrows: false,
         drops: 0,
         pace_from: None,
         script,
@@ -317,6 +327,7 @@ impl Sim {
             Command::Input(n) => self.input_received = n,
             Command::ShowPhyxels(on) => self.show_phyxels = on,
             Command::Pressure(on) => self.pressure = on,
+            Command::Arrows(on) => self.arrows = on,
             Command::Step | Command::Rebuild(_) | Command::Reload(_) => {}
         }
     }
@@ -403,7 +414,7 @@ impl Sim {
         let arrows = world
             .patches
             .iter()
-            .filter(|p| !p.surfels.is_empty())
+            .filter(|p| self.arrows && !p.surfels.is_empty())
             .map(|p| {
                 let n = p.surfels.len() as f32;
                 let centroid = p.surfels.iter().map(|c| c.pos).sum::<Vec3>() / n;
@@ -468,6 +479,9 @@ impl Sim {
             objects,
             paused: self.paused,
             gravity: self.gravity_on,
+            phyxels: self.show_phyxels,
+            pressure: self.pressure,
+            arrows_on: self.arrows,
             speed: self.speed,
             backend,
             error: None,
@@ -475,6 +489,7 @@ impl Sim {
             input: self.input_stepped,
             version: self.published.get() + 1,
             first: Some(first),
+            camera: self.scene.camera,
         };
         self.published.set(snapshot.version);
         *shared.snapshot.lock().expect("snapshot lock") = snapshot;

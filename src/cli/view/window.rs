@@ -84,10 +84,6 @@ pub(crate) struct Viewer {
     /// Tool mode: the tool follows the mouse at this view depth (m).
     tool_depth: Option<f32>,
     grabbing: bool,
-    gravity: bool,
-    phyxels: bool,
-    pressure: bool,
-    arrows: bool,
     speed: f64,
     backends: Vec<&'static str>,
     notice: Option<(String, Instant)>,
@@ -135,10 +131,6 @@ impl Viewer {
             size: (0, 0),
             tool_depth: None,
             grabbing: false,
-            gravity: true,
-            phyxels: false,
-            pressure: false,
-            arrows: false,
             speed,
             backends: phyxel::backends::NAMES.to_vec(),
             notice: None,
@@ -242,12 +234,11 @@ impl Viewer {
             self.send(Command::Rebuild(Some(next)));
         }
         if pressed(egui::Key::G) {
-            self.gravity = !self.gravity;
-            self.send(Command::Gravity(self.gravity));
+            self.send(Command::Gravity(!self.snap.gravity));
         }
         if pressed(egui::Key::OpenBracket) || pressed(egui::Key::CloseBracket) {
             let up = pressed(egui::Key::CloseBracket);
-            self.speed = match (self.speed, up) {
+            self.speed = match (self.snap.speed, up) {
                 (s, _) if s <= 0.0 => 1.0,
                 (s, true) if s >= 1.0 => 0.0,
                 (s, true) => s * 2.0,
@@ -256,15 +247,13 @@ impl Viewer {
             self.send(Command::Speed(self.speed));
         }
         if pressed(egui::Key::P) {
-            self.phyxels = !self.phyxels;
-            self.send(Command::ShowPhyxels(self.phyxels));
+            self.send(Command::ShowPhyxels(!self.snap.phyxels));
         }
         if pressed(egui::Key::C) {
-            self.pressure = !self.pressure;
-            self.send(Command::Pressure(self.pressure));
+            self.send(Command::Pressure(!self.snap.pressure));
         }
         if pressed(egui::Key::F) {
-            self.arrows = !self.arrows;
+            self.send(Command::Arrows(!self.snap.arrows_on));
         }
         if pressed(egui::Key::N) {
             self.send(Command::Drop(None));
@@ -465,7 +454,7 @@ impl Viewer {
         let view = [
             self.yaw, self.pitch, self.zoom, self.pan.x, self.pan.y, self.pan.z,
         ];
-        let key = (self.snap.steps, view, self.pressure);
+        let key = (self.snap.steps, view, self.snap.pressure);
         let resized = (w, h) != self.size;
         if self.drawn == Some(key) && !resized && self.texture.is_some() {
             return;
@@ -487,6 +476,11 @@ impl Viewer {
                 height: h,
                 ..RenderOptions::default()
             };
+            // The scene's camera, as `run --png` uses it; else one fitted to the first frame.
+            let fit = RenderOptions {
+                camera: self.snap.camera,
+                ..fit
+            };
             self.base = Some(camera_for(first, &fit));
         }
         let opts = RenderOptions {
@@ -494,7 +488,7 @@ impl Viewer {
             height: h,
             camera: self.camera(),
             supersample: 1,
-            contact_levels: self.pressure,
+            contact_levels: self.snap.pressure,
             ..RenderOptions::default()
         };
         let image: Image = render(frame, &opts);
@@ -528,24 +522,22 @@ impl Viewer {
                 )
             })
         };
-        if self.arrows {
+        if !self.snap.arrows.is_empty() {
             let top = self
                 .snap
                 .arrows
                 .iter()
                 .map(|a| a.1.length())
                 .fold(0.0f32, f32::max);
-            let length = 0.3 * self.scene_size();
+            let length = 0.15 * self.scene_size();
             for &(at, f) in &self.snap.arrows {
                 if top <= 0.0 {
                     break;
                 }
-                // Both bodies' forces: equal and opposite.
-                for sign in [1.0, -1.0] {
-                    let tip = at + sign * f * (length / top);
-                    if let (Some(a), Some(b)) = (to_screen(at), to_screen(tip)) {
-                        painter.arrow(a, b - a, egui::Stroke::new(2.0, egui::Color32::BLACK));
-                    }
+                // The force on the patch's second body (the first gets the opposite).
+                let tip = at - f * (length / top);
+                if let (Some(a), Some(b)) = (to_screen(at), to_screen(tip)) {
+                    painter.arrow(a, b - a, egui::Stroke::new(2.0, egui::Color32::BLACK));
                 }
             }
         }
