@@ -9,6 +9,7 @@
 //! `--screenshot FILE --after N` saves the window after N steps and exits (tests under
 //! Xvfb).
 
+mod bodies;
 mod replay;
 mod script;
 mod sim;

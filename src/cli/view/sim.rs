@@ -3,15 +3,17 @@
 //! publishes snapshots. The window never waits for a step, and a step never waits for
 //! the window.
 
+use super::bodies::{
+    GRAB_DAMPING, GRAB_OMEGA, Grab, add_body, bounds, drop_point, pick, remove_body,
+};
 use super::script::Script;
 use glam::Vec3;
 use phyxel::World;
-use phyxel::body::shape::Shape;
 use phyxel::dynamics::kinematic::Kinematic;
 use phyxel::io::frame::Frame;
-use phyxel::scene::{BuildOptions, ObjectSpec, Scene};
+use phyxel::scene::{BuildOptions, Scene};
 use phyxel::world::output::surface_frame;
-use phyxel::world::{DT_FRACTION, Phase, PhaseTimes};
+use phyxel::world::{Phase, PhaseTimes};
 use std::sync::mpsc::Receiver;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -105,32 +107,6 @@ pub(crate) struct Shared {
 
 /// How often the simulation publishes a snapshot while running.
 pub(crate) const PUBLISH_EVERY: Duration = Duration::from_millis(30);
-
-/// Angular frequency (1/s) of the grab spring on the grabbed body's whole mass: the body
-/// follows the mouse within about a sixth of a second, and stays far below the stable
-/// rate of any scene's dt.
-const GRAB_OMEGA: f32 = 2.0 * std::f32::consts::PI * 3.0;
-
-/// Damping ratio of the grab spring (critically damped would lag; 0.7 barely overshoots).
-const GRAB_DAMPING: f32 = 0.7;
-
-/// Phyxels the grab spring pulls (the nearest to the grabbed point).
-const GRAB_PHYXELS: usize = 8;
-
-/// The tool's radius over the size (box diagonal) of the scene's moving bodies.
-const TOOL_SIZE: f32 = 0.08;
-
-/// The tool's Young's modulus over the body it copies (only contact reads it).
-const TOOL_STIFFNESS: f32 = 10.0;
-
-/// A grab spring.
-struct Grab {
-    object: u32,
-    phyxels: Vec<usize>,
-    /// View depth of the grabbed point along the ray.
-    depth: f32,
-    target: Vec3,
-}
 
 /// The simulation's state besides the world.
 struct Sim {
@@ -494,158 +470,6 @@ impl Sim {
         self.published.set(snapshot.version);
         *shared.snapshot.lock().expect("snapshot lock") = snapshot;
     }
-}
-
-/// The surfel bounds of an object (m).
-fn bounds(o: &phyxel::Object) -> Option<(Vec3, Vec3)> {
-    let s = &o.surfels;
-    (!s.is_empty()).then(|| {
-        s.pos
-            .iter()
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
-                (lo.min(p), hi.max(p))
-            })
-    })
-}
-
-/// The box of the scene's moving bodies (all bodies when none moves).
-fn scene_box(world: &World) -> (Vec3, Vec3) {
-    let moving = world.objects.iter().any(|o| !o.is_static());
-    world
-        .objects
-        .iter()
-        .filter(|o| !moving || !o.is_static())
-        .filter_map(bounds)
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), (a, b)| {
-            (lo.min(a), hi.max(b))
-        })
-}
-
-/// Where the `n`-th dropped sphere starts: above the scene's moving bodies, a little
-/// aside each time so that drops pile rather than stack.
-fn drop_point(world: &World, n: u32) -> Vec3 {
-    let (lo, hi) = scene_box(world);
-    let size = (hi - lo).length();
-    let angle = n as f32 * 2.4;
-    let aside = 0.15 * size * Vec3::new(angle.cos(), 0.0, angle.sin());
-    Vec3::new(0.5 * (lo.x + hi.x), hi.y + 0.6 * size, 0.5 * (lo.z + hi.z)) + aside
-}
-
-/// Adds a sphere at `at`: the tool (kinematic, sized by [`TOOL_SIZE`]) or a dropped body
-/// (the first moving body's material and backend, half its size). Its surfels are as
-/// fine as the finest moving body's, so that contact with it is resolved as finely.
-/// Returns its id.
-fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> Result<u32, String> {
-    let (lo, hi) = scene_box(world);
-    let size = (hi - lo).length().max(1e-3);
-    let template = world
-        .objects
-        .iter()
-        .find(|o| !o.is_static() && o.dynamics_as::<Kinematic>().is_none())
-        .ok_or("no moving body to copy")?;
-    let surfel_spacing = world
-        .objects
-        .iter()
-        .filter(|o| !o.is_static() && !o.surfels.is_empty())
-        .map(|o| o.surfel_spacing)
-        .fold(f32::INFINITY, f32::min);
-    let radius = if tool {
-        TOOL_SIZE * size
-    } else {
-        0.5 * bounds(template).map_or(0.1, |(a, b)| 0.5 * (b - a).max_element())
-    };
-    let mut material = template.material.clone();
-    if tool {
-        // A probe stiffer than the tissue it presses (contact stiffness grows with both).
-        material.young *= TOOL_STIFFNESS;
-    }
-    let backend = if tool {
-        phyxel::backends::KINEMATIC.to_string()
-    } else {
-        template.dynamics.name().to_string()
-    };
-    let spec = ObjectSpec {
-        name: name.to_string(),
-        shape: Shape::Sphere { radius },
-        spacing: radius / if tool { 2.5 } else { 4.0 },
-        surfel_spacing: Some(surfel_spacing.max(radius / 25.0)),
-        phyxels: None,
-        surfels: None,
-        backend: Some(backend.clone()),
-        is_static: false,
-        position: at.to_array(),
-        rotation: [0.0; 3],
-        velocity: [0.0; 3],
-        material,
-        fixed: Vec::new(),
-        load: [0.0; 3],
-        load_ramp: 0.0,
-        self_collision: false,
-    };
-    let id = world
-        .objects
-        .iter()
-        .map(|o| o.id)
-        .max()
-        .map_or(0, |m| m + 1);
-    let mut object = spec.build(id, &backend)?;
-    if let Some(k) = object.dynamics_mut::<Kinematic>() {
-        k.target = Some(at);
-        k.max_speed = (4.0 * size).max(0.5);
-    }
-    world.objects.push(object);
-    // A new body may bound the step more tightly.
-    let (bound, _) = world.stable_dt();
-    if bound.is_finite() && bound > 0.0 && bound < world.dt {
-        world.dt = bound * DT_FRACTION;
-    }
-    Ok(id)
-}
-
-/// Removes body `id`; the contact lists, which index objects, are dropped with it (the
-/// next step finds them again).
-fn remove_body(world: &mut World, id: u32) {
-    world.objects.retain(|o| o.id != id);
-    world.pairs.clear();
-    world.detections.clear();
-    world.patches.clear();
-}
-
-/// The moving body whose surfel the ray (eye, unit `dir`) meets first (within its disc
-/// radius, doubled: a thin body is still caught), with its nearest phyxels.
-fn pick(world: &World, eye: Vec3, dir: Vec3) -> Option<Grab> {
-    let mut best: Option<(f32, usize, Vec3)> = None;
-    for (k, o) in world.objects.iter().enumerate() {
-        if o.is_static() || o.dynamics_as::<Kinematic>().is_some() {
-            continue;
-        }
-        let s = &o.surfels;
-        for i in 0..s.len() {
-            let q = s.pos.get(i) - eye;
-            let t = q.dot(dir);
-            let r = 2.0 * s.radius[i];
-            if t > 0.0 && (q - t * dir).length_squared() < r * r && best.is_none_or(|b| t < b.0) {
-                best = Some((t, k, s.pos.get(i)));
-            }
-        }
-    }
-    let (depth, k, point) = best?;
-    let o = &world.objects[k];
-    let p = &o.phyxels;
-    let mut near: Vec<usize> = (0..p.len()).collect();
-    near.sort_by(|&a, &b| {
-        let da = (p.pos.get(a) - point).length_squared();
-        let db = (p.pos.get(b) - point).length_squared();
-        da.total_cmp(&db)
-    });
-    near.truncate(GRAB_PHYXELS);
-    near.retain(|&i| p.fixed[i] == 0);
-    (!near.is_empty()).then_some(Grab {
-        object: o.id,
-        phyxels: near,
-        depth,
-        target: point,
-    })
 }
 
 /// The phyxels as a frame: discs of a third of their spacing, facing the camera.

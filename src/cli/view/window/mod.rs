@@ -3,14 +3,15 @@
 //! spring, shows the heads-up display (figures, phase bar, live plots) and turns mouse
 //! and keys into commands for the simulation thread.
 
+mod hud;
+mod input;
+
 use super::replay::Replay;
 use super::sim::{Command, Shared, Snapshot};
 use eframe::egui;
 use glam::{Quat, Vec3};
 use phyxel::app::render::{Camera, Image, RenderOptions, camera_for, render};
 use phyxel::io::frame::Frame;
-use phyxel::scene::Scene;
-use phyxel::world::Phase;
 use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::sync::atomic::Ordering;
@@ -194,181 +195,6 @@ impl Viewer {
         })
     }
 
-    /// Keys: the same in live view and replay where they make sense.
-    fn keys(&mut self, ctx: &egui::Context) {
-        let pressed = |k| ctx.input(|i| i.key_pressed(k));
-        let live = matches!(self.source, Source::Live { .. });
-        if pressed(egui::Key::Space) {
-            match &mut self.source {
-                Source::Replay(r) => r.playing = !r.playing,
-                Source::Live { .. } => self.send(Command::TogglePause),
-            }
-        }
-        if pressed(egui::Key::H) {
-            self.help = !self.help;
-        }
-        if pressed(egui::Key::Home) {
-            (self.yaw, self.pitch, self.zoom, self.pan) = (0.0, 0.0, 1.0, Vec3::ZERO);
-        }
-        if !live {
-            return;
-        }
-        if pressed(egui::Key::Period) {
-            self.send(Command::Step);
-        }
-        if pressed(egui::Key::R) {
-            self.tool_depth = None;
-            self.send(Command::Rebuild(None));
-            self.notify("rebuilt");
-        }
-        if pressed(egui::Key::B) {
-            let now = self.snap.backend.clone();
-            let k = self
-                .backends
-                .iter()
-                .position(|b| *b == now)
-                .map_or(0, |k| k + 1);
-            let next = self.backends[k % self.backends.len()].to_string();
-            self.tool_depth = None;
-            self.notify(format!("backend {next}: rebuilt"));
-            self.send(Command::Rebuild(Some(next)));
-        }
-        if pressed(egui::Key::G) {
-            self.send(Command::Gravity(!self.snap.gravity));
-        }
-        if pressed(egui::Key::OpenBracket) || pressed(egui::Key::CloseBracket) {
-            let up = pressed(egui::Key::CloseBracket);
-            self.speed = match (self.snap.speed, up) {
-                (s, _) if s <= 0.0 => 1.0,
-                (s, true) if s >= 1.0 => 0.0,
-                (s, true) => s * 2.0,
-                (s, false) => (s / 2.0).max(1.0 / 64.0),
-            };
-            self.send(Command::Speed(self.speed));
-        }
-        if pressed(egui::Key::P) {
-            self.send(Command::ShowPhyxels(!self.snap.phyxels));
-        }
-        if pressed(egui::Key::C) {
-            self.send(Command::Pressure(!self.snap.pressure));
-        }
-        if pressed(egui::Key::F) {
-            self.send(Command::Arrows(!self.snap.arrows_on));
-        }
-        if pressed(egui::Key::N) {
-            self.send(Command::Drop(None));
-        }
-        if pressed(egui::Key::T) {
-            self.tool_depth = match self.tool_depth {
-                Some(_) => {
-                    self.send(Command::Tool(None));
-                    None
-                }
-                // In front of the scene's centre by half its size: not inside a body.
-                None => self.base.map(|b| {
-                    (Vec3::from(b.position) - Vec3::from(b.target)).length() * self.zoom
-                        - 0.6 * self.scene_size()
-                }),
-            };
-        }
-    }
-
-    /// Mouse on the image: orbit (drag), pan (right or shift drag), zoom (wheel), grab
-    /// (ctrl drag or middle drag), and the tool following the pointer (wheel: deeper).
-    fn mouse(&mut self, ctx: &egui::Context, response: &egui::Response) {
-        let (modifiers, scroll, pointer) =
-            ctx.input(|i| (i.modifiers, i.smooth_scroll_delta.y, i.pointer.hover_pos()));
-        let d = response.drag_delta();
-        let grab_button = response.dragged_by(egui::PointerButton::Middle)
-            || (response.dragged_by(egui::PointerButton::Primary) && modifiers.ctrl);
-        if grab_button {
-            if let Some((eye, dir)) = pointer.and_then(|p| self.ray_at(p)) {
-                let c = if self.grabbing {
-                    Command::DragTo(eye, dir)
-                } else {
-                    Command::Grab(eye, dir)
-                };
-                self.grabbing = true;
-                self.send(c);
-            }
-        } else {
-            if self.grabbing {
-                self.grabbing = false;
-                self.send(Command::Release);
-            }
-            let pan = response.dragged_by(egui::PointerButton::Secondary)
-                || (response.dragged_by(egui::PointerButton::Primary) && modifiers.shift);
-            if pan {
-                if let Some(cam) = self.camera() {
-                    let (_, _, right, up) = cam.basis();
-                    let per_px = 2.0 * self.scene_size() * self.zoom / self.size.1.max(1) as f32;
-                    self.pan += per_px * (-d.x * right + d.y * up);
-                }
-            } else if response.dragged_by(egui::PointerButton::Primary) {
-                self.yaw -= 0.01 * d.x;
-                self.pitch = (self.pitch - 0.01 * d.y).clamp(-1.4, 1.4);
-            }
-        }
-        let size = self.scene_size();
-        match &mut self.tool_depth {
-            Some(depth) => {
-                if response.hovered() {
-                    *depth = (*depth - 0.0005 * scroll * size).max(1e-3);
-                }
-                let depth = *depth;
-                if let (Some(p), Some(cam)) = (pointer, self.camera())
-                    && let Some((eye, dir)) = self.ray_at(p)
-                {
-                    let fwd = cam.basis().1;
-                    let at = eye + dir * (depth / dir.dot(fwd).max(1e-3));
-                    let moved =
-                        ctx.input(|i| i.pointer.delta() != egui::Vec2::ZERO) || scroll != 0.0;
-                    if (response.hovered() && moved) || self.snap.tool.is_none() {
-                        self.send(Command::Tool(Some(at)));
-                        self.inputs += 1;
-                        self.input_sent.push_back((self.inputs, Instant::now()));
-                        self.send(Command::Input(self.inputs));
-                    }
-                }
-            }
-            None => {
-                if response.hovered() {
-                    self.zoom = (self.zoom * (-0.002 * scroll).exp()).clamp(0.05, 20.0);
-                }
-            }
-        }
-    }
-
-    /// Polls the scene file and sends the scene again when it changed.
-    fn watch_file(&mut self) {
-        if self.last_file_check.elapsed() < Duration::from_millis(500) {
-            return;
-        }
-        self.last_file_check = Instant::now();
-        let Source::Live {
-            file: Some((path, seen)),
-            commands,
-            ..
-        } = &mut self.source
-        else {
-            return;
-        };
-        let now = std::fs::metadata(&*path).and_then(|m| m.modified()).ok();
-        if now == *seen {
-            return;
-        }
-        *seen = now;
-        let text = match Scene::load(path) {
-            Ok(scene) => {
-                let _ = commands.send(Command::Reload(Box::new(scene)));
-                format!("{}: changed, reloaded", path.display())
-            }
-            Err(e) => format!("not reloaded: {e}"),
-        };
-        self.tool_depth = None;
-        self.notify(text);
-    }
-
     /// The latest state: a copy of the simulation's snapshot, or the replay's frame.
     fn refresh(&mut self) {
         match &mut self.source {
@@ -408,43 +234,6 @@ impl Viewer {
                 if series.len() > PLOT_POINTS {
                     series.pop_front();
                 }
-            }
-        }
-    }
-
-    /// The heads-up line.
-    fn hud_line(&self) -> String {
-        let s = &self.snap;
-        match &self.source {
-            Source::Replay(r) => format!(
-                "replay {}   frame {} of {}{}",
-                r.dir.display(),
-                s.steps,
-                r.len().saturating_sub(1),
-                if r.playing { "" } else { "   [paused]" }
-            ),
-            Source::Live { .. } => {
-                let speed = if s.speed > 0.0 {
-                    format!("speed ≤ {}×", trim(s.speed))
-                } else {
-                    "speed: flat out".into()
-                };
-                format!(
-                    "{}   step {}   t = {:.4} s   dt = {:.2e} s   {:.0} steps/s   {:.2}× real time   \
-                     {speed}   deepest penetration {:.2} mm{}{}{}",
-                    s.backend,
-                    s.steps,
-                    s.time,
-                    s.dt,
-                    s.steps_per_second,
-                    s.steps_per_second * s.dt as f64,
-                    1e3 * s.max_penetration,
-                    if s.gravity { "" } else { "   [no gravity]" },
-                    s.tool
-                        .map(|t| format!("   tool feels {:.3} N", t.2.length()))
-                        .unwrap_or_default(),
-                    if s.paused { "   [paused]" } else { "" },
-                )
             }
         }
     }
@@ -549,40 +338,6 @@ impl Viewer {
         }
     }
 
-    /// The phase bar and the two live plots.
-    fn hud_charts(&self, ui: &mut egui::Ui) {
-        ui.horizontal(|ui| {
-            let (rect, response) =
-                ui.allocate_exact_size(egui::vec2(300.0, 14.0), egui::Sense::hover());
-            let painter = ui.painter_at(rect);
-            let mut x = rect.min.x;
-            let mut tip = String::new();
-            for (k, (&share, phase)) in self.snap.phase_share.iter().zip(Phase::ALL).enumerate() {
-                let wdt = share as f32 * rect.width();
-                let hue = k as f32 / 10.0;
-                let colour: egui::Color32 = egui::ecolor::Hsva::new(hue, 0.55, 0.85, 1.0).into();
-                painter.rect_filled(
-                    egui::Rect::from_min_size(
-                        egui::pos2(x, rect.min.y),
-                        egui::vec2(wdt, rect.height()),
-                    ),
-                    0.0,
-                    colour,
-                );
-                x += wdt;
-                tip.push_str(&format!("{}: {:.0}%\n", phase.name(), 100.0 * share));
-            }
-            response.on_hover_text(tip);
-            ui.label("phases");
-            for (series, name, unit) in [
-                (&self.energy, "energy", "J"),
-                (&self.penetration, "penetration", "mm"),
-            ] {
-                plot(ui, series, name, unit);
-            }
-        });
-    }
-
     /// Saves the window once the wanted state is drawn, then closes.
     fn screenshot(&mut self, ctx: &egui::Context) {
         let Some(path) = self.opts.screenshot.clone() else {
@@ -626,109 +381,6 @@ impl Viewer {
         }
         ctx.send_viewport_cmd(egui::ViewportCommand::Close);
     }
-
-    /// One JSON line: the run's figures over the window's life and the state shown.
-    fn report(&self) -> String {
-        let seconds = self.opened.elapsed().as_secs_f64();
-        let s = &self.snap;
-        let v = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
-        let objects: Vec<String> = s
-            .objects
-            .iter()
-            .map(|(name, c, lo, hi)| {
-                format!(
-                    "{{\"name\": {:?}, \"centre\": {}, \"min\": {}, \"max\": {}}}",
-                    name,
-                    v(*c),
-                    v(*lo),
-                    v(*hi)
-                )
-            })
-            .collect();
-        let tool = s.tool.map_or("null".to_string(), |(c, r, f)| {
-            format!(
-                "{{\"centre\": {}, \"radius\": {r}, \"reaction\": {}}}",
-                v(c),
-                v(f)
-            )
-        });
-        let camera = self.camera().map_or("null".to_string(), |c| {
-            format!(
-                "{{\"position\": {}, \"target\": {}, \"up\": {}, \"fov\": {}}}",
-                v(c.position.into()),
-                v(c.target.into()),
-                v(c.up.into()),
-                c.fov
-            )
-        });
-        let image = self.image_rect.map_or("null".to_string(), |r| {
-            format!("[{}, {}, {}, {}]", r.min.x, r.min.y, r.width(), r.height())
-        });
-        let mut lat = self.latencies.clone();
-        lat.sort_by(f64::total_cmp);
-        let quantile = |q: f64| {
-            lat.get(((lat.len() as f64 - 1.0) * q).round() as usize)
-                .map_or("null".to_string(), |s| format!("{:.1}", 1e3 * s))
-        };
-        let latency = format!(
-            "{{\"inputs\": {}, \"median_ms\": {}, \"p95_ms\": {}, \"max_ms\": {}}}",
-            lat.len(),
-            quantile(0.5),
-            quantile(0.95),
-            quantile(1.0)
-        );
-        format!(
-            "{{\"seconds\": {seconds:.3}, \"tool_latency\": {latency}, \"steps\": {}, \"time\": {}, \"steps_per_second\": {:.1}, \
-             \"real_time\": {:.3}, \"frames_per_second\": {:.1}, \"dt\": {}, \"max_penetration\": {}, \"objects\": [{}], \"tool\": {tool}, \
-             \"camera\": {camera}, \"image\": {image}}}",
-            s.steps,
-            s.time,
-            s.steps as f64 / seconds,
-            s.time / seconds,
-            self.frames as f64 / seconds,
-            s.dt,
-            s.max_penetration,
-            objects.join(", ")
-        )
-    }
-}
-
-/// A number without trailing zeros (0.5, 2, 0.015625).
-fn trim(x: f64) -> String {
-    let s = format!("{x:.6}");
-    s.trim_end_matches('0').trim_end_matches('.').to_string()
-}
-
-/// A small line plot of `series` with its name and latest value.
-fn plot(ui: &mut egui::Ui, series: &VecDeque<f64>, name: &str, unit: &str) {
-    let (rect, _) = ui.allocate_exact_size(egui::vec2(160.0, 28.0), egui::Sense::hover());
-    let painter = ui.painter_at(rect);
-    painter.rect_filled(rect, 2.0, egui::Color32::from_gray(245));
-    let (lo, hi) = series
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    if series.len() >= 2 && lo.is_finite() && hi.is_finite() {
-        let span = (hi - lo).max(1e-12);
-        let n = (series.len() - 1) as f32;
-        let points: Vec<egui::Pos2> = series
-            .iter()
-            .enumerate()
-            .map(|(i, &v)| {
-                egui::pos2(
-                    rect.min.x + i as f32 / n * rect.width(),
-                    rect.max.y - ((v - lo) / span) as f32 * rect.height(),
-                )
-            })
-            .collect();
-        painter.add(egui::Shape::line(
-            points,
-            egui::Stroke::new(1.5, egui::Color32::from_rgb(40, 90, 170)),
-        ));
-    }
-    let last = series.back().copied().unwrap_or(0.0);
-    ui.label(format!("{name} {last:.4} {unit}"));
 }
 
 impl eframe::App for Viewer {
