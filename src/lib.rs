@@ -111,11 +111,11 @@ pub mod backends {
     pub const KINEMATIC: &str = crate::dynamics::kinematic::NAME;
 
     /// Names accepted by `backend = "..."` in scenes and `--backend`.
-    pub const NAMES: &[&str] = &[mls::NAME, sph::NAME, lj::NAME];
+    pub const NAMES: &[&str] = &[mls::NAME, mls::implicit::NAME, sph::NAME, lj::NAME];
 
     /// The backends that model plastic flow (`plastic_yield`, `plastic_creep`,
     /// `plastic_max`); the others treat a plastic material as elastic.
-    pub const PLASTIC: &[&str] = &[mls::NAME];
+    pub const PLASTIC: &[&str] = &[mls::NAME, mls::implicit::NAME];
 
     /// Creates backend `name` for `phyxels`, or explains which names exist.
     pub fn create(
@@ -125,6 +125,7 @@ pub mod backends {
     ) -> Result<Box<dyn Dynamics>, String> {
         match name {
             mls::NAME => Ok(Box::new(mls::MlsDynamics::new(phyxels, material))),
+            mls::implicit::NAME => Ok(Box::new(mls::MlsImplicit::new(phyxels, material))),
             sph::NAME => Ok(Box::new(sph::SphDynamics::new(phyxels, material))),
             lj::NAME => Ok(Box::new(lj::LjDynamics::new(phyxels, material))),
             "static" => Ok(Box::new(StaticDynamics)),

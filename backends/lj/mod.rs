@@ -287,6 +287,7 @@ impl Dynamics for LjDynamics {
             max_strain: Some(self.max_strain),
             max_plastic_strain: None,
             flat_phyxels: None,
+            solver: None,
         }
     }
 

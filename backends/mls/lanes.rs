@@ -313,6 +313,16 @@ impl M3 {
         }
     }
 
+    /// `det(I + self) − 1 = tr + I₂ + det` (as `law::det_minus_one`).
+    #[inline(always)]
+    fn det_minus_one(&self) -> f32x8 {
+        let a = |r: usize, c: usize| self.at(r, c);
+        let i2 = (a(0, 0) * a(1, 1) - a(0, 1) * a(1, 0))
+            + (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1))
+            + (a(0, 0) * a(2, 2) - a(0, 2) * a(2, 0));
+        self.trace() + i2 + self.determinant()
+    }
+
     /// `det = x · (y × z)` over the columns.
     #[inline(always)]
     fn determinant(&self) -> f32x8 {
@@ -356,12 +366,11 @@ impl Law {
         s
     }
 
+    /// The strain of displacement gradient `g`: `g + gᵀ + gᵀg` (= `JᵀJ − I`, without
+    /// forming `J`: see `Law::strain`).
     #[inline(always)]
-    fn lane_strain(&self, j: &M3) -> M3 {
-        let mut c = j.tr_mul(j);
-        for k in 0..3 {
-            c.c[4 * k] -= f32x8::ONE;
-        }
+    fn lane_strain(&self, g: &M3) -> M3 {
+        let c = g.add(&g.transpose()).add(&g.tr_mul(g));
         if self.paper {
             c
         } else {
@@ -379,7 +388,7 @@ impl Law {
         volume: f32x8,
     ) -> (M3, f32x8) {
         let j = grad.identity_plus();
-        let strain = self.lane_strain(&j);
+        let strain = self.lane_strain(grad);
         let mut elastic = strain;
         if let Some(ep) = plastic {
             let e = strain.sub(ep);
@@ -404,7 +413,7 @@ impl Law {
         let s = if self.paper { 2.0 } else { 1.0 };
         let mut p = j.mul(&sigma).scale(-volume * f32x8::splat(s));
         if self.kv > 0.0 {
-            let k = volume * f32x8::splat(self.kv) * (j.determinant() - f32x8::ONE);
+            let k = volume * f32x8::splat(self.kv) * grad.det_minus_one();
             p = p.sub(&j.cofactor().scale(k));
         }
         (p, strain.frobenius())

@@ -24,8 +24,11 @@ use phyxel::dynamics::{
 };
 use rayon::prelude::*;
 
+pub mod implicit;
 mod lanes;
 mod law;
+mod skyline;
+pub use implicit::MlsImplicit;
 use lanes::{LaneInputs, LaneOutputs, LaneStencil};
 use law::{Law, frobenius};
 
@@ -370,7 +373,7 @@ impl MlsDynamics {
     /// Stress `σ = C(ε − ε_p)` of phyxel i at the last force evaluation (Pa).
     pub fn stress(&self, material: &Material, i: usize) -> Mat3 {
         let law = Law::new(material, 0.0, 0.0);
-        let mut e = law.strain(Mat3::IDENTITY + self.grad[i]);
+        let mut e = law.strain(self.grad[i]);
         if let Some(ep) = self.plastic.get(i) {
             e -= *ep;
         }
@@ -516,7 +519,7 @@ impl Dynamics for MlsDynamics {
     fn rest_replaced(&mut self, phyxels: &Phyxels, material: &Material) {
         let law = Law::new(material, 0.0, 0.0);
         for (ep, g) in self.plastic.iter_mut().zip(&self.grad) {
-            *ep -= law.strain(Mat3::IDENTITY + *g);
+            *ep -= law.strain(*g);
             let norm = frobenius(*ep);
             if norm > material.plastic_max {
                 *ep *= material.plastic_max / norm;
@@ -553,6 +556,7 @@ impl Dynamics for MlsDynamics {
                     .fold(0.0, f32::max)
             }),
             flat_phyxels: Some(self.ill_conditioned()),
+            solver: None,
         }
     }
 }

@@ -576,6 +576,7 @@ impl Dynamics for SphDynamics {
             max_strain: Some(self.max_strain),
             max_plastic_strain: None,
             flat_phyxels: None,
+            solver: None,
         }
     }
 }

@@ -55,6 +55,22 @@ pub struct BodySummary {
     pub max_plastic_strain: Option<f32>,
     /// Elastic energy (J), where the backend reports it.
     pub elastic_energy: Option<f64>,
+    /// Iterations and residuals of an implicit backend's solves (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solver: Option<crate::dynamics::SolverStats>,
+}
+
+/// A body whose implicit solves stopped above their tolerance: a result that is not the
+/// backward-Euler step it claims to be must be said, never silently accepted.
+fn solver_warning(b: &BodySummary) -> Option<String> {
+    let s = b.solver?;
+    (s.unconverged > 0).then(|| {
+        format!(
+            "object '{}': backend {}: {} of {} steps stopped above the solver tolerance {:e} \
+             (largest relative residual {:e}): lower dt (--dt)",
+            b.name, b.backend, s.unconverged, s.steps, s.tolerance, s.max_residual
+        )
+    })
 }
 
 /// What `phyxel run --json` prints.
@@ -253,6 +269,7 @@ pub fn summarize(
                 max_strain: d.max_strain,
                 max_plastic_strain: d.max_plastic_strain,
                 elastic_energy: d.elastic_energy,
+                solver: d.solver,
             }
         })
         .collect();
@@ -295,7 +312,13 @@ pub fn summarize(
         energy_initial,
         energy_final,
         energy_warning: energy_warning(world, energy_initial, energy_final),
-        warnings: world.record.warnings.clone(),
+        warnings: world
+            .record
+            .warnings
+            .iter()
+            .cloned()
+            .chain(bodies.iter().filter_map(solver_warning))
+            .collect(),
         momentum_final,
         kinetic_energy,
         max_penetration: world.record.max_penetration,

@@ -51,6 +51,29 @@ pub struct Diagnostics {
     /// moment matrix), where the backend fits one (`None`: it does not). Such a phyxel
     /// has no stiffness along the missing direction: a body one phyxel layer thick.
     pub flat_phyxels: Option<usize>,
+    /// Work and convergence of an implicit backend's solves (`None`: it solves nothing).
+    pub solver: Option<SolverStats>,
+}
+
+/// Work and convergence of an implicit backend's per-step solves, over the run so far.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SolverStats {
+    /// Steps solved.
+    pub steps: u64,
+    /// Newton iterations and conjugate-gradient iterations, summed over the steps.
+    pub newton_iterations: u64,
+    pub cg_iterations: u64,
+    /// Most CG iterations in one step.
+    pub max_cg_per_step: u32,
+    /// Final relative residual of the last step, and the largest of any step.
+    pub last_residual: f32,
+    pub max_residual: f32,
+    /// The tolerance on the relative residual.
+    pub tolerance: f32,
+    /// Steps accepted at the solver's floor (its f32 rounding) above the tolerance.
+    pub at_floor: u64,
+    /// Steps whose solve stopped above the tolerance without reaching the floor.
+    pub unconverged: u64,
 }
 
 /// A dynamics backend for the phyxels of one object.

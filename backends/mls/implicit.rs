@@ -1,0 +1,586 @@
+//! `mls-implicit`: the MLS elasticity of [`MlsDynamics`] stepped by backward Euler, so
+//! that a stiff body takes frame-rate steps.
+//!
+//! Each step solves for the new velocities `v` the nonlinear system
+//! `g(v) = M (v − vₙ) − dt (f(xₙ + dt v, v) + f_ext + M g) = 0` by Newton's method. Each
+//! Newton step solves `(M + (dt² + dt τ) K) δ = −g` by conjugate gradients, with
+//! `K = −∂f/∂x` the tangent stiffness of the MLS law at the current iterate. `K` is
+//! applied matrix-free through the stencil ([`MlsImplicit::tangent`]). The
+//! preconditioner is the same system at rest, `M + (dt² + dt τ) K₀`, assembled once per
+//! dt and factored by a skyline Cholesky in reverse Cuthill–McKee order. Near rest (and
+//! under small rotations) it is close to the true system, and CG needs a few iterations.
+//!
+//! The residual uses the exact forces of `MlsDynamics` (the SIMD lane kernel, plastic
+//! flow and Kelvin–Voigt viscosity included), so a converged step is the backward-Euler
+//! step of the same discretisation as `mls`. The Jacobian leaves out two small terms:
+//! `k_v (det J − 1) ∂cof J`, and the geometric part of the viscous term. They slow
+//! Newton's convergence slightly but do not change the solution.
+//!
+//! Contact forces arrive in `phyxels.force` from the previous step and are held fixed
+//! over the step (explicit), so the contact's stable bound still limits dt in contact.
+
+use super::skyline::{Skyline, rcm_order};
+use super::*;
+use phyxel::dynamics::SolverStats;
+
+/// The backend's name in scenes and on the command line.
+pub const NAME: &str = "mls-implicit";
+
+/// Newton stops when the residual's `M⁻¹` norm falls to this fraction of its size at the
+/// start of the step (or of the momentum `‖vₙ‖_M`, whichever is larger). The forces are
+/// f32: the residual of a body at rest under gravity cannot go much below 1e-6 of the
+/// weight's impulse.
+pub const NEWTON_TOLERANCE: f32 = 1e-4;
+
+/// A step whose Newton iteration stagnates (the residual no longer halves) below this
+/// fraction of its scale is accepted: it has reached the f32 rounding of the forces.
+/// A displacement of 1 cm is resolved to 1e-9 m, which a stiff body's stiffness (2.5e6
+/// N/m per phyxel for the E = 1e8 Pa cantilever) turns into force noise of a few percent
+/// of a phyxel's weight; the cantilever's steps stagnate at 0.2–1.5% of their impulses.
+pub const FLOOR_TOLERANCE: f64 = 0.05;
+
+/// Newton iterations per step at most.
+pub const MAX_NEWTON: u32 = 10;
+
+/// CG iterations per Newton step at most.
+pub const MAX_CG: u32 = 200;
+
+/// CG stops at this fraction of the Newton residual (inexact Newton: the outer loop
+/// corrects the rest).
+const CG_FORCING: f64 = 0.05;
+
+/// The linearisation of the law at phyxel i: `J`, `σ` (Hooke of the elastic strain), the
+/// cofactor of `J` and the volume weight.
+#[derive(Clone, Copy, Default)]
+struct Linear {
+    j: Mat3,
+    sigma: Mat3,
+    cof: Mat3,
+    volume: f32,
+}
+
+/// The rest-state system `M + c K₀` (c = dt² + dt τ), factored.
+struct Preconditioner {
+    factor: Skyline,
+    /// Node at each position, and position of each node (RCM order).
+    position: Vec<u32>,
+    /// The `c` and `τ` it was built for.
+    built_for: (f32, f32),
+}
+
+/// MLS elasticity stepped by backward Euler (see the module doc).
+pub struct MlsImplicit {
+    mls: MlsDynamics,
+    pre: Option<Preconditioner>,
+    /// Newton tolerance on the relative residual (default [`NEWTON_TOLERANCE`]).
+    pub tolerance: f32,
+    /// Newton and CG iteration caps (defaults [`MAX_NEWTON`], [`MAX_CG`]).
+    pub max_newton: u32,
+    pub max_cg: u32,
+    stats: SolverStats,
+    // Per-step buffers, sized once (no allocation in the step).
+    x0: Vec<Vec3>,
+    carry0: Vec<Vec3>,
+    v0: Vec<Vec3>,
+    v: Vec<Vec3>,
+    f_ext: Vec<Vec3>,
+    g: Vec<Vec3>,
+    r: Vec<Vec3>,
+    z: Vec<Vec3>,
+    p: Vec<Vec3>,
+    ap: Vec<Vec3>,
+    delta: Vec<Vec3>,
+    dp: Vec<Mat3>,
+    linear: Vec<Linear>,
+    plastic0: Vec<Mat3>,
+    dofs: Vec<f64>,
+}
+
+impl MlsImplicit {
+    /// Builds the rest stencil of `phyxels` (as `mls`); the preconditioner is built at
+    /// the first step (it depends on dt).
+    pub fn new(phyxels: &Phyxels, material: &Material) -> Self {
+        let n = phyxels.len();
+        let zero = vec![Vec3::ZERO; n];
+        Self {
+            mls: MlsDynamics::new(phyxels, material),
+            pre: None,
+            tolerance: NEWTON_TOLERANCE,
+            max_newton: MAX_NEWTON,
+            max_cg: MAX_CG,
+            stats: SolverStats {
+                tolerance: NEWTON_TOLERANCE,
+                ..SolverStats::default()
+            },
+            x0: zero.clone(),
+            carry0: zero.clone(),
+            v0: zero.clone(),
+            v: zero.clone(),
+            f_ext: zero.clone(),
+            g: zero.clone(),
+            r: zero.clone(),
+            z: zero.clone(),
+            p: zero.clone(),
+            ap: zero.clone(),
+            delta: zero,
+            dp: vec![Mat3::ZERO; n],
+            linear: vec![Linear::default(); n],
+            plastic0: Vec::new(),
+            dofs: vec![0.0; 3 * n],
+        }
+    }
+
+    /// The explicit backend underneath (stencil, stress, plastic strain).
+    pub fn mls(&self) -> &MlsDynamics {
+        &self.mls
+    }
+
+    /// Work and convergence of the solves so far.
+    pub fn solver_stats(&self) -> SolverStats {
+        self.stats
+    }
+
+    /// The strain scale of the law: `P = −v s J σ` (2 for the paper's strain, whose
+    /// energy is ½ ε:σ of `JᵀJ − I`).
+    fn strain_scale(material: &Material) -> f32 {
+        if material.strain == StrainForm::Paper {
+            2.0
+        } else {
+            1.0
+        }
+    }
+
+    /// Builds `M + c K₀` in RCM order and factors it. Fixed phyxels get an identity row.
+    fn build_preconditioner(&self, phyxels: &Phyxels, material: &Material, c: f32, tau: f32) -> Option<Preconditioner> {
+        let st = &self.mls.stencil;
+        let n = st.len();
+        let free = |j: usize| phyxels.fixed[j] == 0;
+        // Nodes coupled through a row (the row's phyxel and its neighbours).
+        let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for i in 0..n {
+            let nodes: Vec<u32> = std::iter::once(i as u32)
+                .chain(st.row(i).map(|k| st.neighbours[k]))
+                .filter(|&j| free(j as usize))
+                .collect();
+            for &a in &nodes {
+                adjacency[a as usize].extend(nodes.iter().copied().filter(|&b| b != a));
+            }
+        }
+        for list in &mut adjacency {
+            list.sort_unstable();
+            list.dedup();
+        }
+        let order = rcm_order(&adjacency);
+        let mut position = vec![0u32; n];
+        for (k, &v) in order.iter().enumerate() {
+            position[v as usize] = k as u32;
+        }
+        let mut first = vec![0usize; 3 * n];
+        for node in 0..n {
+            let p = position[node] as usize;
+            let lowest = adjacency[node]
+                .iter()
+                .map(|&b| position[b as usize] as usize)
+                .fold(p, usize::min);
+            for a in 0..3 {
+                first[3 * p + a] = 3 * lowest;
+            }
+        }
+        let mut m = Skyline::new(first);
+        for node in 0..n {
+            let p = 3 * position[node] as usize;
+            let mass = if free(node) { phyxels.mass[node] as f64 } else { 1.0 };
+            for a in 0..3 {
+                m.add(p + a, p + a, mass);
+            }
+        }
+        let (lambda, mu) = material.lame();
+        let s = if material.strain == StrainForm::Paper { 4.0 } else { 1.0 };
+        let (a_coef, m_coef) = ((s * lambda + material.k_volume()) as f64, (s * mu) as f64);
+        let c = c as f64;
+        let _ = tau;
+        for i in 0..n {
+            let nodes: Vec<(usize, Vec3)> = std::iter::once((i, st.d_self[i]))
+                .chain(st.row(i).map(|k| (st.neighbours[k] as usize, st.d[k])))
+                .filter(|&(j, _)| free(j))
+                .collect();
+            let w = c * phyxels.volume[i] as f64;
+            for &(j, cj) in &nodes {
+                for &(k, ck) in &nodes {
+                    let (pj, pk) = (3 * position[j] as usize, 3 * position[k] as usize);
+                    if pj < pk {
+                        continue;
+                    }
+                    let dot = cj.dot(ck) as f64;
+                    for a in 0..3 {
+                        for e in 0..3 {
+                            if pj == pk && e > a {
+                                continue;
+                            }
+                            let block = a_coef * (cj[a] * ck[e]) as f64
+                                + m_coef * (if a == e { dot } else { 0.0 } + (cj[e] * ck[a]) as f64);
+                            m.add(pj + a, pk + e, w * block);
+                        }
+                    }
+                }
+            }
+        }
+        m.factor().ok()?;
+        Some(Preconditioner {
+            factor: m,
+            position,
+            built_for: (c as f32, tau),
+        })
+    }
+
+    /// `z = P⁻¹ r`: the rest-state factor, or the mass (Jacobi) without one.
+    fn precondition(&mut self, phyxels: &Phyxels) {
+        let free = |j: usize| phyxels.fixed[j] == 0;
+        match &self.pre {
+            Some(pre) => {
+                for (j, r) in self.r.iter().enumerate() {
+                    let p = 3 * pre.position[j] as usize;
+                    let r = if free(j) { *r } else { Vec3::ZERO };
+                    self.dofs[p..p + 3].copy_from_slice(&[r.x as f64, r.y as f64, r.z as f64]);
+                }
+                pre.factor.solve(&mut self.dofs);
+                for (j, z) in self.z.iter_mut().enumerate() {
+                    let p = 3 * pre.position[j] as usize;
+                    let d = &self.dofs[p..p + 3];
+                    *z = if free(j) {
+                        Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)
+                    } else {
+                        Vec3::ZERO
+                    };
+                }
+            }
+            None => {
+                for j in 0..self.z.len() {
+                    self.z[j] = if free(j) { self.r[j] / phyxels.mass[j] } else { Vec3::ZERO };
+                }
+            }
+        }
+    }
+
+    /// The law linearised at the state of the last force evaluation.
+    fn linearise(&mut self, phyxels: &Phyxels, material: &Material) {
+        let law = Law::new(material, 0.0, 0.0);
+        let (grad, plastic) = (&self.mls.grad, &self.mls.plastic);
+        self.linear.par_iter_mut().enumerate().for_each(|(i, l)| {
+            let j = Mat3::IDENTITY + grad[i];
+            let mut e = law.strain(grad[i]);
+            if let Some(ep) = plastic.get(i) {
+                e -= *ep;
+            }
+            *l = Linear {
+                j,
+                sigma: law.hooke(e),
+                cof: cofactor(j),
+                volume: phyxels.volume[i],
+            };
+        });
+    }
+
+    /// `ap = A p = M p + c K p` with `K` the tangent stiffness at the last
+    /// linearisation: `dPᵢ = −vᵢ (s (dJ σ + J σ(dε)) + k_v (cof J : dJ) cof J)`, gathered
+    /// over the stencil as the forces are. Fixed phyxels are held (identity rows).
+    fn tangent(&mut self, phyxels: &Phyxels, material: &Material, c: f32) {
+        let st = &self.mls.stencil;
+        let law = Law::new(material, 0.0, 0.0);
+        let s = Self::strain_scale(material);
+        let kv = material.k_volume();
+        let w = &self.p;
+        let linear = &self.linear;
+        self.dp.par_iter_mut().enumerate().for_each(|(i, dp)| {
+            let l = &linear[i];
+            let dj = st.gradient_of(i, |j| w[j]);
+            let dc = law.strain_rate(l.j, dj);
+            let mut d = (dj * l.sigma + l.j * law.hooke(dc)) * s;
+            if kv > 0.0 {
+                let cof_dj = (0..3).map(|k| l.cof.col(k).dot(dj.col(k))).sum::<f32>();
+                d += l.cof * (kv * cof_dj);
+            }
+            *dp = d * (-l.volume);
+        });
+        let (in_off, incoming, dp) = (&self.mls.in_off, &self.mls.incoming, &self.dp);
+        let fixed = &phyxels.fixed;
+        let mass = &phyxels.mass;
+        self.ap.par_iter_mut().enumerate().for_each(|(j, out)| {
+            if fixed[j] != 0 {
+                *out = Vec3::ZERO;
+                return;
+            }
+            let mut df = dp[j] * st.d_self[j];
+            for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
+                df += dp[i as usize] * st.d[k as usize];
+            }
+            *out = w[j] * mass[j] - df * c;
+        });
+    }
+
+    /// Sets the trial state `x = xₙ + dt v`, `v`, evaluates the forces and the residual
+    /// `g`; returns `‖g‖_{M⁻¹}` and the size of the step's impulses, `dt` times the
+    /// larger `M⁻¹` norm of the internal forces and of the external ones (gravity,
+    /// contact, loads): the scale of the forces' own f32 rounding.
+    fn residual(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) -> (f64, f64) {
+        let dt = ctx.dt;
+        // The step's displacement goes into the position carry, which the force kernel
+        // adds to `pos − rest`: rounded into the f32 position it lost up to half an ulp
+        // (3e-8 m at 0.5 m), which a stiff bar (E = 1e8 Pa) turned into force noise as
+        // large as its weight, and Newton stalled at a fifth of the first residual.
+        for j in 0..phyxels.len() {
+            if phyxels.fixed[j] == 0 {
+                phyxels.pos_carry.set(j, self.carry0[j] + self.v[j] * dt);
+                phyxels.vel.set(j, self.v[j]);
+            }
+        }
+        if !self.plastic0.is_empty() {
+            self.mls.plastic.copy_from_slice(&self.plastic0);
+        }
+        self.mls.compute_forces(phyxels, ctx.material, dt);
+        let f = &self.mls.internal;
+        let (mut sum, mut internal, mut external) = (0.0f64, 0.0f64, 0.0f64);
+        for j in 0..phyxels.len() {
+            if phyxels.fixed[j] != 0 {
+                self.g[j] = Vec3::ZERO;
+                continue;
+            }
+            let m = phyxels.mass[j];
+            let outside = self.f_ext[j] + ctx.gravity * m;
+            let g = (self.v[j] - self.v0[j]) * m - (f.get(j) + outside) * dt;
+            self.g[j] = g;
+            sum += g.length_squared() as f64 / m as f64;
+            internal += f.get(j).length_squared() as f64 / m as f64;
+            external += outside.length_squared() as f64 / m as f64;
+        }
+        (sum.sqrt(), dt as f64 * internal.max(external).sqrt())
+    }
+
+    /// Solves `A δ = −g` by preconditioned CG from δ = 0, to [`CG_FORCING`] of `‖g‖`;
+    /// returns the iterations. Stops early on a direction of non-positive curvature
+    /// (the tangent is indefinite there: a buckling body), keeping the last iterate.
+    fn solve_cg(&mut self, phyxels: &Phyxels, material: &Material, c: f32) -> u32 {
+        let n = phyxels.len();
+        let dot = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum::<f64>();
+        for j in 0..n {
+            self.delta[j] = Vec3::ZERO;
+            self.r[j] = -self.g[j];
+        }
+        let r0 = dot(&self.r, &self.r).sqrt();
+        if r0 == 0.0 {
+            return 0;
+        }
+        self.precondition(phyxels);
+        self.p.copy_from_slice(&self.z);
+        let mut rz = dot(&self.r, &self.z);
+        let mut it = 0;
+        while it < self.max_cg {
+            it += 1;
+            self.tangent(phyxels, material, c);
+            let pap = dot(&self.p, &self.ap);
+            if !(pap > 0.0) {
+                if it == 1 {
+                    // The preconditioned direction itself: better than nothing.
+                    self.delta.copy_from_slice(&self.p);
+                }
+                break;
+            }
+            let alpha = (rz / pap) as f32;
+            for j in 0..n {
+                self.delta[j] += self.p[j] * alpha;
+                self.r[j] -= self.ap[j] * alpha;
+            }
+            if dot(&self.r, &self.r).sqrt() <= CG_FORCING * r0 {
+                break;
+            }
+            self.precondition(phyxels);
+            let rz_new = dot(&self.r, &self.z);
+            let beta = (rz_new / rz) as f32;
+            rz = rz_new;
+            for j in 0..n {
+                self.p[j] = self.z[j] + self.p[j] * beta;
+            }
+        }
+        it
+    }
+}
+
+impl Dynamics for MlsImplicit {
+    fn name(&self) -> &str {
+        NAME
+    }
+
+    fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) {
+        let n = phyxels.len();
+        let dt = ctx.dt;
+        let tau = self.mls.tau(ctx.material);
+        let c = dt * dt + dt * tau;
+        if self.pre.as_ref().is_none_or(|p| p.built_for != (c, tau)) {
+            self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
+        }
+        for j in 0..n {
+            self.x0[j] = phyxels.pos.get(j);
+            self.carry0[j] = phyxels.pos_carry.get(j);
+            self.v0[j] = phyxels.vel.get(j);
+            self.v[j] = self.v0[j];
+            self.f_ext[j] = phyxels.force.get(j);
+        }
+        if !self.mls.plastic.is_empty() {
+            self.plastic0.clear();
+            self.plastic0.extend_from_slice(&self.mls.plastic);
+        }
+        let momentum = (0..n)
+            .filter(|&j| phyxels.fixed[j] == 0)
+            .map(|j| (phyxels.mass[j] * self.v0[j].length_squared()) as f64)
+            .sum::<f64>()
+            .sqrt();
+        let (mut newton, mut cg, mut scale) = (0u32, 0u32, 0.0f64);
+        let (mut previous, mut stagnated) = (f64::INFINITY, false);
+        let mut rel;
+        loop {
+            let (norm, impulse) = self.residual(phyxels, ctx);
+            if newton == 0 {
+                // Relative to the step's momentum change, its momentum or its impulses,
+                // whichever is largest: near equilibrium the first residual is small,
+                // but the forces' rounding is not.
+                scale = norm.max(momentum).max(impulse).max(1e-30);
+            }
+            rel = norm / scale;
+            if rel <= self.tolerance as f64 || newton >= self.max_newton || !rel.is_finite() {
+                break;
+            }
+            // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE).
+            if rel > 0.5 * previous && rel <= FLOOR_TOLERANCE {
+                stagnated = true;
+                break;
+            }
+            previous = rel;
+            self.linearise(phyxels, ctx.material);
+            cg += self.solve_cg(phyxels, ctx.material, c);
+            for j in 0..n {
+                self.v[j] += self.delta[j];
+            }
+            newton += 1;
+        }
+        // The last residual was evaluated at the final velocities: commit them with the
+        // compensated position sum (as the explicit step does).
+        for j in 0..n {
+            if phyxels.fixed[j] != 0 {
+                phyxels.vel.set(j, Vec3::ZERO);
+                continue;
+            }
+            let (x, carry) = (self.x0[j], self.carry0[j]);
+            let y = self.v[j] * dt + carry;
+            let t = x + y;
+            phyxels.pos_carry.set(j, y - (t - x));
+            phyxels.pos.set(j, t);
+            phyxels.vel.set(j, self.v[j]);
+        }
+        phyxels.force.fill_zero();
+        let s = &mut self.stats;
+        s.steps += 1;
+        s.newton_iterations += newton as u64;
+        s.cg_iterations += cg as u64;
+        s.max_cg_per_step = s.max_cg_per_step.max(cg);
+        s.max_residual = s.max_residual.max(rel as f32);
+        s.last_residual = rel as f32;
+        s.tolerance = self.tolerance;
+        let converged = rel <= self.tolerance as f64 || (stagnated && rel <= FLOOR_TOLERANCE);
+        if stagnated && converged && rel > self.tolerance as f64 {
+            s.at_floor += 1;
+        }
+        if !converged {
+            s.unconverged += 1;
+        }
+    }
+
+    /// Backward Euler has no stability bound: dt is chosen for accuracy.
+    fn stable_dt(&self, _phyxels: &Phyxels, _m: &Material) -> f32 {
+        f32::INFINITY
+    }
+
+    fn displacement_gradient(&self) -> Option<&[Mat3]> {
+        self.mls.displacement_gradient()
+    }
+
+    fn fragment(&self, phyxels: &Phyxels, material: &Material) -> Option<Box<dyn Dynamics>> {
+        Some(Box::new(MlsImplicit::new(phyxels, material)))
+    }
+
+    fn can_fracture(&self, material: &Material) -> bool {
+        self.mls.can_fracture(material)
+    }
+
+    fn wants_new_rest(&self) -> bool {
+        self.mls.wants_new_rest()
+    }
+
+    /// As `mls`, and the preconditioner is rebuilt for the new rest state.
+    fn rest_replaced(&mut self, phyxels: &Phyxels, material: &Material) {
+        self.mls.rest_replaced(phyxels, material);
+        self.pre = None;
+    }
+
+    fn diagnostics(&self, phyxels: &Phyxels, material: &Material) -> Diagnostics {
+        Diagnostics {
+            solver: Some(self.stats),
+            ..self.mls.diagnostics(phyxels, material)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use phyxel::body::shape::Shape;
+
+    /// A sphere under a smooth finite deformation (rotation, stretch, shear).
+    fn deformed() -> (Phyxels, Material) {
+        let mat = Material::default();
+        let v = Shape::Sphere { radius: 0.1 }.sample_volume(0.02);
+        let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
+        let rot = glam::Quat::from_rotation_z(0.3);
+        for i in 0..p.len() {
+            let x = p.rest.get(i);
+            let y = rot * Vec3::new(1.03 * x.x + 0.02 * x.y, 0.99 * x.y, x.z + 0.5 * x.x * x.x);
+            p.pos.set(i, y);
+        }
+        (p, mat)
+    }
+
+    /// The matrix-free tangent `K p` against a central difference of the forces
+    /// `(f(x − εp) − f(x + εp)) / 2ε` on a deformed sphere, within 2% (the tangent
+    /// leaves out `k_v (det J − 1) ∂cof`, small at these strains, and f32 forces limit
+    /// the difference's accuracy).
+    #[test]
+    fn tangent_matches_a_difference_of_forces() {
+        let (mut p, mat) = deformed();
+        let n = p.len();
+        let mut imp = MlsImplicit::new(&p, &mat);
+        let w: Vec<Vec3> = (0..n)
+            .map(|j| {
+                let x = p.rest.get(j);
+                Vec3::new((7.0 * x.y).sin(), (5.0 * x.z).cos(), 3.0 * x.x)
+            })
+            .collect();
+        imp.mls.compute_forces(&p, &mat, 0.0);
+        imp.linearise(&p, &mat);
+        imp.p.copy_from_slice(&w);
+        imp.tangent(&p, &mat, 1.0);
+        let kw: Vec<Vec3> = (0..n).map(|j| imp.ap[j] - w[j] * p.mass[j]).collect();
+        let eps = 1e-4;
+        let x0: Vec<Vec3> = (0..n).map(|j| p.pos.get(j)).collect();
+        let mut force = |sign: f32| {
+            for j in 0..n {
+                p.pos.set(j, x0[j] + w[j] * (sign * eps));
+            }
+            imp.mls.compute_forces(&p, &mat, 0.0);
+            (0..n).map(|j| imp.mls.internal.get(j)).collect::<Vec<_>>()
+        };
+        let (plus, minus) = (force(1.0), force(-1.0));
+        let fd: Vec<Vec3> = (0..n).map(|j| (minus[j] - plus[j]) / (2.0 * eps)).collect();
+        let err: f32 = (0..n).map(|j| (kw[j] - fd[j]).length_squared()).sum::<f32>().sqrt();
+        let size: f32 = fd.iter().map(|v| v.length_squared()).sum::<f32>().sqrt();
+        assert!(err < 0.02 * size, "|Kw − FD| = {err}, |FD| = {size}");
+    }
+}
