@@ -521,8 +521,21 @@ impl Dynamics for MlsImplicit {
         self.pre = None;
     }
 
+    /// As `mls`, but the elastic energy is that of the current positions (the explicit
+    /// backend's last gradient is that of the positions before its step; this one's
+    /// would be its last Newton iterate's), and with the solver's figures.
     fn diagnostics(&self, phyxels: &Phyxels, material: &Material) -> Diagnostics {
+        let law = Law::new(material, 0.0, 0.0);
+        let st = &self.mls.stencil;
+        let u = |j: usize| (phyxels.pos.get(j) - phyxels.rest.get(j)) + phyxels.pos_carry.get(j);
+        let energy = (0..phyxels.len())
+            .map(|i| {
+                let g = st.gradient_of(i, u);
+                law.energy_density(g, self.mls.plastic.get(i)) as f64 * phyxels.volume[i] as f64
+            })
+            .sum();
         Diagnostics {
+            elastic_energy: Some(energy),
             solver: Some(self.stats),
             ..self.mls.diagnostics(phyxels, material)
         }

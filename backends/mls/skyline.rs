@@ -102,10 +102,6 @@ impl Skyline {
         self.first.len()
     }
 
-    /// Stored entries (the envelope's size).
-    pub(super) fn stored(&self) -> usize {
-        self.values.len()
-    }
 
     /// Adds `v` at (r, c) of the lower triangle (`c ≤ r`, inside the envelope).
     #[inline]
