@@ -12,7 +12,7 @@ rounds=${3:-3}
 bin=${PHYXEL_BIN:-target/release/phyxel}
 rows=()
 for _ in $(seq "$rounds"); do
-  view=$(xvfb-run -a -s "-screen 0 1920x1080x24" "$bin" view "$scene" --speed 0 \
+  view=$(xvfb-run -a -s "-screen 0 1920x1080x24" "$bin" view "$scene" --speed 0 --json \
     --seconds "$seconds" --size 1280x720)
   steps=$(python3 -c 'import json,sys; print(json.loads(sys.argv[1])["steps"])' "$view")
   one=$(RAYON_NUM_THREADS=1 "$bin" run "$scene" --steps "$steps" --json 2>/dev/null)

@@ -177,8 +177,7 @@ enum Command {
         /// Steps before the screenshot
         #[arg(long, default_value_t = 0, requires = "screenshot")]
         after: u64,
-        /// Close after this many wall seconds and print steps/s, × real time and frames/s
-        /// as one JSON line
+        /// Close after this many wall seconds (with `--json`: print the run's figures)
         #[arg(long, value_name = "S")]
         seconds: Option<f64>,
         /// Simulated seconds per wall second at most (0: as fast as the machine steps;
@@ -246,6 +245,12 @@ fn main() -> ExitCode {
                 && !(s > 0.0 && s <= 1.0)
             {
                 eprintln!("error: --render-scale {s}: must be in (0, 1]");
+                return ExitCode::FAILURE;
+            }
+            if let Some(s) = seconds
+                && !(s.is_finite() && s > 0.0)
+            {
+                eprintln!("error: --seconds {s}: must be finite and > 0");
                 return ExitCode::FAILURE;
             }
             if !(speed.is_finite() && speed >= 0.0) {

@@ -251,6 +251,10 @@ fn a_replay_draws_what_the_live_run_drew() {
     let (replay, rj) = view_json(&dir.0, &["--frames", "frames", "--after", "12"], "replay");
     let (live, lj) = view_json(&dir.0, &["two-spheres", "--after", "120"], "live");
     assert_eq!(rj["image"], lj["image"], "the same image rectangle");
+    // Not two blank pictures: both spheres are drawn.
+    for colour in [object_colour(0), object_colour(1)] {
+        assert!(pixels_like(&live, colour).0 > 1000, "a sphere drawn");
+    }
     assert_eq!(rj["steps"], 12, "frame 12 shown");
     let r: Vec<u32> = lj["image"]
         .as_array()
@@ -270,4 +274,123 @@ fn a_replay_draws_what_the_live_run_drew() {
         (differ as f64) <= 1e-3 * total as f64,
         "{differ} of {total} pixels differ"
     );
+}
+
+/// Grabbing a finely sampled soft ball (3,000 phyxels) and dragging it sideways pulls it
+/// towards the drag, and the state stays finite: the grab spring's damping acts on the
+/// few grabbed phyxels only, and with the whole ball's mass it made this ball NaN within
+/// 7 steps. Reference: the drag's direction (+x) and finiteness; the ball's centre moves
+/// at least 1 mm along +x in 100 steps.
+#[test]
+fn grabbing_a_fine_ball_pulls_it_and_stays_finite() {
+    let dir = common::TempDir::new("view", "grab");
+    std::fs::write(
+        dir.0.join("grab.toml"),
+        "[[event]]\nstep = 0\ngrab = { eye = [0.0, 0.05, 1.0], at = [0.0, 0.05, 0.0] }\n\
+         [[event]]\nstep = 1\ndrag = { eye = [0.0, 0.05, 1.0], at = [0.15, 0.05, 0.0] }\n",
+    )
+    .unwrap();
+    let ball = concat!(env!("CARGO_MANIFEST_DIR"), "/docs/view/anchored-ball.toml");
+    let args = [
+        ball,
+        "--phyxel-count",
+        "3000",
+        "--input",
+        "grab.toml",
+        "--after",
+        "100",
+        "--speed",
+        "0",
+    ];
+    let (_, json) = view_json(&dir.0, &args, "grab");
+    assert!(json["non_finite"].is_null(), "{}", json["non_finite"]);
+    let centre = &json["objects"][0]["centre"];
+    assert!(
+        centre
+            .as_array()
+            .unwrap()
+            .iter()
+            .all(|c| c.as_f64().is_some()),
+        "finite centre: {centre}"
+    );
+    assert!(vec3(centre).x > 1e-3, "pulled towards +x: {centre}");
+}
+
+/// Hostile input ends with a message and a failure, never a hang: an event script that
+/// names two actions in one event, a replay folder whose only frame is empty (under
+/// `--screenshot`), and `--seconds nan`. A script that pauses before the screenshot's
+/// step ends the screenshot run at the pause instead of waiting for ever.
+#[test]
+fn bad_input_fails_with_a_message_and_a_pause_ends_a_screenshot_run() {
+    let dir = common::TempDir::new("view", "hostile");
+    let run = |args: &[&str]| {
+        Command::new("timeout")
+            .current_dir(&dir.0)
+            .arg("60")
+            .arg("xvfb-run")
+            .args(["-a", "-s", "-screen 0 1280x1024x24"])
+            .arg(env!("CARGO_BIN_EXE_phyxel"))
+            .arg("view")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    std::fs::write(
+        dir.0.join("two.toml"),
+        "[[event]]\nstep = 0\nrelease = true\ngravity = false\n",
+    )
+    .unwrap();
+    let out = run(&[
+        "two-spheres",
+        "--input",
+        "two.toml",
+        "--screenshot",
+        "a.png",
+        "--after",
+        "5",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("event[0] (step 0): 2 actions"),
+        "{err}"
+    );
+
+    std::fs::create_dir_all(dir.0.join("odd")).unwrap();
+    std::fs::write(dir.0.join("odd/surfels_00000.ply"), "").unwrap();
+    let out = run(&["--frames", "odd", "--screenshot", "b.png"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("surfels_00000.ply"),
+        "{err}"
+    );
+
+    let out = run(&["two-spheres", "--seconds", "nan"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("--seconds NaN"),
+        "{err}"
+    );
+
+    std::fs::write(
+        dir.0.join("pause.toml"),
+        "[[event]]\nstep = 3\npause = true\n",
+    )
+    .unwrap();
+    let out = run(&[
+        "two-spheres",
+        "--input",
+        "pause.toml",
+        "--screenshot",
+        "c.png",
+        "--after",
+        "50",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["steps"], 3, "stopped at the scripted pause");
 }

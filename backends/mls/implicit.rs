@@ -151,7 +151,13 @@ impl MlsImplicit {
     }
 
     /// Builds `M + c K₀` in RCM order and factors it. Fixed phyxels get an identity row.
-    fn build_preconditioner(&self, phyxels: &Phyxels, material: &Material, c: f32, tau: f32) -> Option<Preconditioner> {
+    fn build_preconditioner(
+        &self,
+        phyxels: &Phyxels,
+        material: &Material,
+        c: f32,
+        tau: f32,
+    ) -> Option<Preconditioner> {
         let st = &self.mls.stencil;
         let n = st.len();
         let free = |j: usize| phyxels.fixed[j] == 0;
@@ -187,15 +193,23 @@ impl MlsImplicit {
             }
         }
         let mut m = Skyline::new(first);
-        for node in 0..n {
-            let p = 3 * position[node] as usize;
-            let mass = if free(node) { phyxels.mass[node] as f64 } else { 1.0 };
+        for (node, &at) in position.iter().enumerate() {
+            let p = 3 * at as usize;
+            let mass = if free(node) {
+                phyxels.mass[node] as f64
+            } else {
+                1.0
+            };
             for a in 0..3 {
                 m.add(p + a, p + a, mass);
             }
         }
         let (lambda, mu) = material.lame();
-        let s = if material.strain == StrainForm::Paper { 4.0 } else { 1.0 };
+        let s = if material.strain == StrainForm::Paper {
+            4.0
+        } else {
+            1.0
+        };
         let (a_coef, m_coef) = ((s * lambda + material.k_volume()) as f64, (s * mu) as f64);
         let c = c as f64;
         let _ = tau;
@@ -218,7 +232,8 @@ impl MlsImplicit {
                                 continue;
                             }
                             let block = a_coef * (cj[a] * ck[e]) as f64
-                                + m_coef * (if a == e { dot } else { 0.0 } + (cj[e] * ck[a]) as f64);
+                                + m_coef
+                                    * (if a == e { dot } else { 0.0 } + (cj[e] * ck[a]) as f64);
                             m.add(pj + a, pk + e, w * block);
                         }
                     }
@@ -256,7 +271,11 @@ impl MlsImplicit {
             }
             None => {
                 for j in 0..self.z.len() {
-                    self.z[j] = if free(j) { self.r[j] / phyxels.mass[j] } else { Vec3::ZERO };
+                    self.z[j] = if free(j) {
+                        self.r[j] / phyxels.mass[j]
+                    } else {
+                        Vec3::ZERO
+                    };
                 }
             }
         }
@@ -361,7 +380,8 @@ impl MlsImplicit {
     /// (the tangent is indefinite there: a buckling body), keeping the last iterate.
     fn solve_cg(&mut self, phyxels: &Phyxels, material: &Material, c: f32) -> u32 {
         let n = phyxels.len();
-        let dot = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum::<f64>();
+        let dot =
+            |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum::<f64>();
         for j in 0..n {
             self.delta[j] = Vec3::ZERO;
             self.r[j] = -self.g[j];
@@ -378,7 +398,7 @@ impl MlsImplicit {
             it += 1;
             self.tangent(phyxels, material, c);
             let pap = dot(&self.p, &self.ap);
-            if !(pap > 0.0) {
+            if pap.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                 if it == 1 {
                     // The preconditioned direction itself: better than nothing.
                     self.delta.copy_from_slice(&self.p);
@@ -592,7 +612,10 @@ mod tests {
         };
         let (plus, minus) = (force(1.0), force(-1.0));
         let fd: Vec<Vec3> = (0..n).map(|j| (minus[j] - plus[j]) / (2.0 * eps)).collect();
-        let err: f32 = (0..n).map(|j| (kw[j] - fd[j]).length_squared()).sum::<f32>().sqrt();
+        let err: f32 = (0..n)
+            .map(|j| (kw[j] - fd[j]).length_squared())
+            .sum::<f32>()
+            .sqrt();
         let size: f32 = fd.iter().map(|v| v.length_squared()).sum::<f32>().sqrt();
         assert!(err < 0.02 * size, "|Kw − FD| = {err}, |FD| = {size}");
     }

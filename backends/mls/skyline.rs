@@ -102,7 +102,6 @@ impl Skyline {
         self.first.len()
     }
 
-
     /// Adds `v` at (r, c) of the lower triangle (`c ≤ r`, inside the envelope).
     #[inline]
     pub(super) fn add(&mut self, r: usize, c: usize, v: f64) {
@@ -184,9 +183,9 @@ mod tests {
         let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
         let mut x = b.clone();
         m.solve(&mut x);
-        for r in 0..n {
+        for (r, &br) in b.iter().enumerate() {
             let ax: f64 = (0..n).map(|c| entry(r.max(c), r.min(c)) * x[c]).sum();
-            assert!((ax - b[r]).abs() < 1e-10, "row {r}: {ax} against {}", b[r]);
+            assert!((ax - br).abs() < 1e-10, "row {r}: {ax} against {br}");
         }
     }
 

@@ -347,7 +347,13 @@ pub fn cradle(spacing: f32, time: f32, backend: &str) -> Result<(f64, f64, RunIn
     // down the row (19.5–21.7% lost at every spacing, not falling with it): the implicit
     // backend runs the cradle at 0.1 ms, where the waves are resolved.
     let dt = (backend == crate::backends::mls::implicit::NAME).then_some(1e-4);
-    let mut w = build(&scene, &BuildOptions { dt, ..opts(backend) })?;
+    let mut w = build(
+        &scene,
+        &BuildOptions {
+            dt,
+            ..opts(backend)
+        },
+    )?;
     let p_in = w.objects[0].phyxels.momentum()[0];
     let steps = (time / w.dt) as usize;
     let info = timed(&mut w, steps, |_| true);

@@ -66,6 +66,16 @@ pub const CASES: &[(&str, &str, bool)] = &[
         true,
     ),
     (
+        "cantilever-dt-deflection",
+        "mls-implicit only: tip deflection (m) at 4 phyxels through the thickness and dt = 1/240, 1/120, 1/60 s vs Euler–Bernoulli qL⁴/(8EI)",
+        false,
+    ),
+    (
+        "cantilever-dt-frequency",
+        "mls-implicit only: first bending frequency (Hz) at the same dt vs backward Euler's atan(ω dt)/(ω dt) × (1.875²/2π)√(EI/(ρAL⁴))",
+        false,
+    ),
+    (
         "hertz-indentation",
         "approach of the centres (m) of two spheres pressed by 5 N vs Hertz (9F²/(16E*²R*))^(1/3)",
         false,
@@ -333,7 +343,12 @@ pub type CaseFn = fn(&str, bool) -> Result<Vec<Row>, String>;
 pub const RUNNERS: &[(&[&str], CaseFn)] = &[
     (&["mls-consistency"], case_mls_consistency),
     (
-        &["cantilever-deflection", "cantilever-frequency"],
+        &[
+            "cantilever-deflection",
+            "cantilever-frequency",
+            "cantilever-dt-deflection",
+            "cantilever-dt-frequency",
+        ],
         case_cantilever,
     ),
     (&["hertz-indentation", "hertz-exponent"], case_hertz),

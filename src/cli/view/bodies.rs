@@ -76,23 +76,31 @@ pub(super) fn drop_point(world: &World, n: u32) -> Vec3 {
 pub(super) fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> Result<u32, String> {
     let (lo, hi) = scene_box(world);
     let size = (hi - lo).length().max(1e-3);
+    if !size.is_finite() {
+        return Err(format!(
+            "the scene's bodies span {size} m: no room for a sphere"
+        ));
+    }
+    // The first moving body lends its material and backend; a scene of static bodies
+    // only gets the default material on `mls`.
     let template = world
         .objects
         .iter()
-        .find(|o| !o.is_static() && o.dynamics_as::<Kinematic>().is_none())
-        .ok_or("no moving body to copy")?;
+        .find(|o| !o.is_static() && o.dynamics_as::<Kinematic>().is_none());
     let surfel_spacing = world
         .objects
         .iter()
-        .filter(|o| !o.is_static() && !o.surfels.is_empty())
+        .filter(|o| (template.is_none() || !o.is_static()) && !o.surfels.is_empty())
         .map(|o| o.surfel_spacing)
         .fold(f32::INFINITY, f32::min);
     let radius = if tool {
         TOOL_SIZE * size
     } else {
-        0.5 * bounds(template).map_or(0.1, |(a, b)| 0.5 * (b - a).max_element())
+        template
+            .and_then(bounds)
+            .map_or(TOOL_SIZE * size, |(a, b)| 0.25 * (b - a).max_element())
     };
-    let mut material = template.material.clone();
+    let mut material = template.map_or_else(Default::default, |t| t.material.clone());
     if tool {
         // A probe stiffer than the tissue it presses (contact stiffness grows with both).
         material.young *= TOOL_STIFFNESS;
@@ -100,7 +108,9 @@ pub(super) fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> R
     let backend = if tool {
         phyxel::backends::KINEMATIC.to_string()
     } else {
-        template.dynamics.name().to_string()
+        template
+            .map_or(phyxel::backends::mls::NAME, |t| t.dynamics.name())
+            .to_string()
     };
     let spec = ObjectSpec {
         name: name.to_string(),
@@ -152,22 +162,24 @@ pub(super) fn remove_body(world: &mut World, id: u32) {
 /// The moving body whose surfel the ray (eye, unit `dir`) meets first (within its disc
 /// radius, doubled: a thin body is still caught), with its nearest phyxels.
 pub(super) fn pick(world: &World, eye: Vec3, dir: Vec3) -> Option<Grab> {
-    let mut best: Option<(f32, usize, Vec3)> = None;
+    let mut best: Option<(f32, usize, Vec3, bool)> = None;
     for (k, o) in world.objects.iter().enumerate() {
-        if o.is_static() || o.dynamics_as::<Kinematic>().is_some() {
-            continue;
-        }
+        // Static bodies hide what is behind them but cannot be grabbed; nor the tool.
+        let grabbable = !o.is_static() && o.dynamics_as::<Kinematic>().is_none();
         let s = &o.surfels;
         for i in 0..s.len() {
             let q = s.pos.get(i) - eye;
             let t = q.dot(dir);
             let r = 2.0 * s.radius[i];
             if t > 0.0 && (q - t * dir).length_squared() < r * r && best.is_none_or(|b| t < b.0) {
-                best = Some((t, k, s.pos.get(i)));
+                best = Some((t, k, s.pos.get(i), grabbable));
             }
         }
     }
-    let (depth, k, point) = best?;
+    let (depth, k, point, grabbable) = best?;
+    if !grabbable {
+        return None;
+    }
     let o = &world.objects[k];
     let p = &o.phyxels;
     let mut near: Vec<usize> = (0..p.len()).collect();

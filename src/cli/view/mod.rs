@@ -128,8 +128,11 @@ pub(crate) fn view(scene: Option<Scene>, opts: ViewOptions) -> ExitCode {
     if let Some(shared) = shared {
         shared.quit.store(true, Ordering::Relaxed);
     }
-    if let Some(t) = sim {
-        let _ = t.join();
+    if let Some(t) = sim
+        && t.join().is_err()
+    {
+        eprintln!("error: phyxel view: the simulation thread failed");
+        return ExitCode::FAILURE;
     }
     if let Err(e) = ran {
         eprintln!("error: phyxel view: cannot open a window: {e} (no display? run under xvfb-run)");

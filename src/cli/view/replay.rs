@@ -19,6 +19,8 @@ pub(crate) struct Replay {
     pub playing: bool,
     last_advance: Instant,
     loaded: Option<(u64, Frame)>,
+    /// The frame that could not be read (not read again until another is shown).
+    failed: Option<u64>,
     pub error: Option<String>,
 }
 
@@ -29,6 +31,7 @@ impl Replay {
             std::fs::read_dir(dir).map_err(|e| format!("--frames {}: {e}", dir.display()))?;
         let mut files: Vec<(u64, PathBuf)> = entries
             .filter_map(|e| e.ok())
+            .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
             .filter_map(|e| {
                 let name = e.file_name().to_string_lossy().into_owned();
                 let number = name.strip_prefix("surfels_")?.strip_suffix(".ply")?;
@@ -50,6 +53,7 @@ impl Replay {
             playing: false,
             last_advance: Instant::now(),
             loaded: None,
+            failed: None,
             error: None,
         })
     }
@@ -71,6 +75,9 @@ impl Replay {
     /// cannot be read.
     pub(crate) fn current(&mut self) -> Option<(&Frame, u64)> {
         let i = self.index.min(self.len() - 1);
+        if self.failed == Some(i) {
+            return None;
+        }
         if self.loaded.as_ref().is_none_or(|l| l.0 != i) {
             match read_frame(&self.files[i as usize]) {
                 Ok(f) => {
@@ -79,6 +86,7 @@ impl Replay {
                 }
                 Err(e) => {
                     self.error = Some(e);
+                    self.failed = Some(i);
                     return None;
                 }
             }

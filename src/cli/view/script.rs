@@ -28,6 +28,10 @@ use glam::Vec3;
 use serde::Deserialize;
 use std::path::Path;
 
+/// Largest coordinate (m) a script may name: far beyond any scene, and small enough that
+/// differences of coordinates stay finite in f32.
+const MAX_COORDINATE: f32 = 1e6;
+
 /// A ray as a script writes it: from `eye` through `at`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -72,13 +76,13 @@ pub(crate) struct Script {
 /// The unit ray of a script's `eye` and `at`, or why not.
 fn ray(r: &Ray, what: &str) -> Result<Command, String> {
     let (eye, at) = (Vec3::from(r.eye), Vec3::from(r.at));
-    let d = at - eye;
-    if !(eye.is_finite() && at.is_finite()) || d.length() <= 0.0 {
+    let d = (at - eye).normalize_or_zero();
+    let bounded = |p: Vec3| p.abs().max_element() <= MAX_COORDINATE;
+    if !(bounded(eye) && bounded(at)) || d == Vec3::ZERO {
         return Err(format!(
-            "{what}: eye {eye} and at {at} must be finite and distinct"
+            "{what}: eye {eye} and at {at} must be distinct, within ±{MAX_COORDINATE:e} m"
         ));
     }
-    let d = d.normalize();
     Ok(if what == "grab" {
         Command::Grab(eye, d)
     } else {
@@ -91,12 +95,25 @@ impl Event {
     fn command(&self) -> Result<Command, String> {
         let point = |p: [f32; 3], what: &str| {
             let v = Vec3::from(p);
-            if v.is_finite() {
+            if v.abs().max_element() <= MAX_COORDINATE {
                 Ok(v)
             } else {
-                Err(format!("{what} = {p:?}: not finite"))
+                Err(format!(
+                    "{what} = {p:?}: must be within ±{MAX_COORDINATE:e} m"
+                ))
             }
         };
+        for (key, value, meaning) in [
+            ("pause", self.pause, "toggles pause"),
+            ("release", self.release, "lets go"),
+            ("remove_tool", self.remove_tool, "removes the tool"),
+        ] {
+            if value == Some(false) {
+                return Err(format!(
+                    "{key} = false does nothing: `{key} = true` {meaning}; leave the event out"
+                ));
+            }
+        }
         let mut found = Vec::new();
         if let Some(p) = self.tool {
             found.push(Command::Tool(Some(point(p, "tool")?)));
@@ -176,6 +193,11 @@ impl Script {
         self.next = 0;
     }
 
+    /// True when every event has been applied.
+    pub(crate) fn finished(&self) -> bool {
+        self.next >= self.events.len()
+    }
+
     /// The commands due before step `step` that have not been applied yet.
     pub(crate) fn due(&mut self, step: u64) -> Vec<Command> {
         let start = self.next;
@@ -218,7 +240,11 @@ mod tests {
         let none = Script::parse("[[event]]\nstep = 1\n").unwrap_err();
         assert!(none.starts_with("event[0] (step 1): no action"), "{none}");
         let ray = Script::parse("[[event]]\nstep = 1\ngrab = { eye = [0,0,0], at = [0,0,0] }\n");
-        assert!(ray.unwrap_err().contains("must be finite and distinct"));
+        assert!(ray.unwrap_err().contains("must be distinct"));
+        let far = Script::parse("[[event]]\nstep = 1\ndrop = [1e30, 0, 0]\n").unwrap_err();
+        assert!(far.contains("within"), "{far}");
+        let off = Script::parse("[[event]]\nstep = 1\npause = false\n").unwrap_err();
+        assert!(off.contains("pause = true` toggles pause"), "{off}");
         let unknown = Script::parse("[[event]]\nstep = 1\nteleport = true\n").unwrap_err();
         assert!(unknown.contains("teleport"), "{unknown}");
     }

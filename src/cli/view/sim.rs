@@ -55,7 +55,8 @@ pub(crate) enum Command {
 /// The latest state the simulation published.
 #[derive(Clone, Default)]
 pub(crate) struct Snapshot {
-    pub frame: Frame,
+    /// Shared: the window copies a snapshot without copying its points.
+    pub frame: Arc<Frame>,
     pub steps: u64,
     pub time: f64,
     pub dt: f32,
@@ -84,8 +85,12 @@ pub(crate) struct Snapshot {
     pub speed: f64,
     pub backend: String,
     pub error: Option<String>,
-    /// True once the run reached `stop_at` (or a non-finite state).
+    /// True once the run reached `stop_at` (or a non-finite state, or a scripted pause).
     pub done: bool,
+    /// The state went non-finite: where (the run stops there).
+    pub non_finite: Option<String>,
+    /// A message for the user (a failed rebuild, a body that could not be added).
+    pub notice: Option<String>,
     /// The last window input (`Command::Input`) followed by a step.
     pub input: u64,
     /// Counts the snapshots published: the window copies only a new one.
@@ -127,6 +132,8 @@ struct Sim {
     script: Script,
     published: std::cell::Cell<u64>,
     first: Option<Arc<Frame>>,
+    /// A message for the next snapshot.
+    notice: Option<String>,
     /// The last input received, and the last one followed by a step.
     input_received: u64,
     input_stepped: u64,
@@ -159,6 +166,7 @@ pub(crate) fn simulate(
         script,
         published: std::cell::Cell::new(0),
         first: None,
+        notice: None,
         input_received: 0,
         input_stepped: 0,
     };
@@ -167,9 +175,24 @@ pub(crate) fn simulate(
     // fork-join (on 2 cores, a 2-thread pool beside the window stepped no faster than
     // this 1-thread one, docs/PERFORMANCE.md). Stepping inside the pool also keeps the
     // parallel loops off rayon's cold path from an outside thread.
-    match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-        Ok(pool) => pool.install(move || sim.run(&commands, &shared)),
-        Err(_) => rayon::scope(move |_| sim.run(&commands, &shared)),
+    let report = shared.clone();
+    let run = std::panic::AssertUnwindSafe(move || {
+        match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+            Ok(pool) => pool.install(move || sim.run(&commands, &shared)),
+            Err(_) => rayon::scope(move |_| sim.run(&commands, &shared)),
+        }
+    });
+    // A panic in the engine must reach the window (which then closes with its message),
+    // not leave it drawing a frozen picture.
+    if let Err(panic) = std::panic::catch_unwind(run) {
+        let what = panic
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "unknown panic".into());
+        let mut s = report.snapshot.lock().unwrap_or_else(|p| p.into_inner());
+        s.error = Some(format!("the simulation stopped: {what}"));
+        s.version += 1;
     }
 }
 
@@ -179,9 +202,20 @@ impl Sim {
     fn run(&mut self, commands: &Receiver<Command>, shared: &Shared) {
         let sim = self;
         let quit = || shared.quit.load(std::sync::atomic::Ordering::Relaxed);
+        let mut last_good: Option<(Scene, BuildOptions)> = None;
         'build: loop {
             let mut world = match sim.scene.build(&sim.build) {
-                Ok(w) => w,
+                Ok(w) => {
+                    last_good = Some((sim.scene.clone(), sim.build.clone()));
+                    w
+                }
+                // A reloaded file or another backend that does not build: say so and go
+                // on with what ran before.
+                Err(e) if last_good.is_some() => {
+                    (sim.scene, sim.build) = last_good.take().expect("checked");
+                    sim.notice = Some(format!("not rebuilt: {e}"));
+                    continue 'build;
+                }
                 Err(e) => {
                     let mut s = shared.snapshot.lock().expect("snapshot lock");
                     s.error = Some(e.to_string());
@@ -222,7 +256,10 @@ impl Sim {
                 for c in sim.script.due(world.steps) {
                     sim.apply(c, &mut world);
                 }
-                let done = world.steps >= shared.stop_at || world.non_finite.is_some();
+                // Paused by the script with nothing left to resume it: a screenshot run
+                // ends here rather than waiting for ever.
+                let stuck = sim.paused && shared.stop_at != u64::MAX && sim.script.finished();
+                let done = world.steps >= shared.stop_at || world.non_finite.is_some() || stuck;
                 if (sim.paused && !single) || done {
                     sim.pace_from = None;
                     if last.elapsed() >= PUBLISH_EVERY {
@@ -281,7 +318,10 @@ impl Sim {
                         k.target = Some(p);
                     }
                 }
-                None => self.tool = add_body(world, p, "tool", true).ok(),
+                None => match add_body(world, p, "tool", true) {
+                    Ok(id) => self.tool = Some(id),
+                    Err(e) => self.notice = Some(format!("no tool: {e}")),
+                },
             },
             Command::Tool(None) => {
                 if let Some(id) = self.tool.take() {
@@ -298,7 +338,9 @@ impl Sim {
             Command::Drop(at) => {
                 let at = at.unwrap_or_else(|| drop_point(world, self.drops));
                 self.drops += 1;
-                let _ = add_body(world, at, &format!("drop{}", self.drops), false);
+                if let Err(e) = add_body(world, at, &format!("drop{}", self.drops), false) {
+                    self.notice = Some(format!("no sphere dropped: {e}"));
+                }
             }
             Command::Input(n) => self.input_received = n,
             Command::ShowPhyxels(on) => self.show_phyxels = on,
@@ -330,6 +372,7 @@ impl Sim {
     /// Adds the grab spring's force to the grabbed phyxels: `k (target − x̄) − c v̄` on
     /// the body's whole mass, spread over the grabbed phyxels by mass.
     fn pull(&mut self, world: &mut World) {
+        let dt = world.dt;
         let Some(g) = &self.grab else { return };
         let Some(o) = world.object_mut(g.object) else {
             self.grab = None;
@@ -353,7 +396,10 @@ impl Sim {
             .map(|&i| p.mass[i] * p.vel.get(i))
             .sum::<Vec3>()
             / mass;
-        let body = p.total_mass() as f32;
+        // The spring pulls the whole body at GRAB_OMEGA, but acts on the grabbed phyxels
+        // alone: its damping, integrated explicitly on their mass, is stable only while
+        // c dt < m (a 3,000-phyxel ball went NaN in 7 steps with the whole mass).
+        let body = (p.total_mass() as f32).min(0.5 * mass / (GRAB_DAMPING * GRAB_OMEGA * dt));
         let k = body * GRAB_OMEGA * GRAB_OMEGA;
         let c = 2.0 * GRAB_DAMPING * body * GRAB_OMEGA;
         let f = k * (g.target - x) - c * v;
@@ -435,10 +481,8 @@ impl Sim {
             .iter()
             .find(|o| !o.is_static() && Some(o.id) != self.tool)
             .map_or(String::new(), |o| o.dynamics.name().to_string());
-        let first = self
-            .first
-            .get_or_insert_with(|| Arc::new(frame.clone()))
-            .clone();
+        let frame = Arc::new(frame);
+        let first = self.first.get_or_insert_with(|| frame.clone()).clone();
         let snapshot = Snapshot {
             frame,
             steps: world.steps,
@@ -447,7 +491,12 @@ impl Sim {
             steps_per_second: rate,
             max_penetration: world.record.max_penetration,
             penetration,
-            energy: world.energy().total(),
+            // Without the tool's motion, which the user supplies.
+            energy: world.energy().total()
+                - self
+                    .tool
+                    .and_then(|id| world.object(id))
+                    .map_or(0.0, |o| o.phyxels.kinetic_energy()),
             phase_share,
             arrows,
             tool,
@@ -461,7 +510,11 @@ impl Sim {
             speed: self.speed,
             backend,
             error: None,
-            done: world.steps >= shared.stop_at || world.non_finite.is_some(),
+            done: world.steps >= shared.stop_at
+                || world.non_finite.is_some()
+                || (self.paused && shared.stop_at != u64::MAX && self.script.finished()),
+            non_finite: world.non_finite.as_ref().map(|e| e.to_string()),
+            notice: self.notice.take(),
             input: self.input_stepped,
             version: self.published.get() + 1,
             first: Some(first),

@@ -13,11 +13,15 @@ impl Viewer {
         let s = &self.snap;
         match &self.source {
             Source::Replay(r) => format!(
-                "replay {}   frame {} of {}{}",
+                "replay {}   frame {} of {}{}{}",
                 r.dir.display(),
                 s.steps,
                 r.len().saturating_sub(1),
-                if r.playing { "" } else { "   [paused]" }
+                if r.playing { "" } else { "   [paused]" },
+                r.error
+                    .as_ref()
+                    .map(|e| format!("   cannot read: {e}"))
+                    .unwrap_or_default()
             ),
             Source::Live { .. } => {
                 let speed = if s.speed > 0.0 {
@@ -40,7 +44,11 @@ impl Viewer {
                         .map(|t| format!("   tool feels {:.3} N", t.2.length()))
                         .unwrap_or_default(),
                     if s.paused { "   [paused]" } else { "" },
-                )
+                ) + &s
+                    .non_finite
+                    .as_ref()
+                    .map(|e| format!("   STOPPED: {e}"))
+                    .unwrap_or_default()
             }
         }
     }
@@ -81,67 +89,58 @@ impl Viewer {
 
     /// One JSON line: the run's figures over the window's life and the state shown.
     pub(super) fn report(&self) -> String {
+        use serde_json::json;
         let seconds = self.opened.elapsed().as_secs_f64();
         let s = &self.snap;
-        let v = |p: Vec3| format!("[{}, {}, {}]", p.x, p.y, p.z);
-        let objects: Vec<String> = s
+        // Non-finite numbers become null (serde_json): the line stays JSON.
+        let v = |p: Vec3| json!([p.x, p.y, p.z]);
+        let objects: Vec<_> = s
             .objects
             .iter()
-            .map(|(name, c, lo, hi)| {
-                format!(
-                    "{{\"name\": {:?}, \"centre\": {}, \"min\": {}, \"max\": {}}}",
-                    name,
-                    v(*c),
-                    v(*lo),
-                    v(*hi)
-                )
-            })
+            .map(|(name, c, lo, hi)| json!({"name": name, "centre": v(*c), "min": v(*lo), "max": v(*hi)}))
             .collect();
-        let tool = s.tool.map_or("null".to_string(), |(c, r, f)| {
-            format!(
-                "{{\"centre\": {}, \"radius\": {r}, \"reaction\": {}}}",
-                v(c),
-                v(f)
-            )
+        let tool = s
+            .tool
+            .map(|(c, r, f)| json!({"centre": v(c), "radius": r, "reaction": v(f)}));
+        let camera = self.camera().map(|c| {
+            json!({
+                "position": v(c.position.into()),
+                "target": v(c.target.into()),
+                "up": v(c.up.into()),
+                "fov": c.fov,
+            })
         });
-        let camera = self.camera().map_or("null".to_string(), |c| {
-            format!(
-                "{{\"position\": {}, \"target\": {}, \"up\": {}, \"fov\": {}}}",
-                v(c.position.into()),
-                v(c.target.into()),
-                v(c.up.into()),
-                c.fov
-            )
-        });
-        let image = self.image_rect.map_or("null".to_string(), |r| {
-            format!("[{}, {}, {}, {}]", r.min.x, r.min.y, r.width(), r.height())
-        });
+        let image = self
+            .image_rect
+            .map(|r| json!([r.min.x, r.min.y, r.width(), r.height()]));
         let mut lat = self.latencies.clone();
         lat.sort_by(f64::total_cmp);
         let quantile = |q: f64| {
             lat.get(((lat.len() as f64 - 1.0) * q).round() as usize)
-                .map_or("null".to_string(), |s| format!("{:.1}", 1e3 * s))
+                .map(|s| (1e4 * s).round() / 10.0)
         };
-        let latency = format!(
-            "{{\"inputs\": {}, \"median_ms\": {}, \"p95_ms\": {}, \"max_ms\": {}}}",
-            lat.len(),
-            quantile(0.5),
-            quantile(0.95),
-            quantile(1.0)
-        );
-        format!(
-            "{{\"seconds\": {seconds:.3}, \"tool_latency\": {latency}, \"steps\": {}, \"time\": {}, \"steps_per_second\": {:.1}, \
-             \"real_time\": {:.3}, \"frames_per_second\": {:.1}, \"dt\": {}, \"max_penetration\": {}, \"objects\": [{}], \"tool\": {tool}, \
-             \"camera\": {camera}, \"image\": {image}}}",
-            s.steps,
-            s.time,
-            s.steps as f64 / seconds,
-            s.time / seconds,
-            self.frames as f64 / seconds,
-            s.dt,
-            s.max_penetration,
-            objects.join(", ")
-        )
+        json!({
+            "seconds": seconds,
+            "tool_latency": {
+                "inputs": lat.len(),
+                "median_ms": quantile(0.5),
+                "p95_ms": quantile(0.95),
+                "max_ms": quantile(1.0),
+            },
+            "steps": s.steps,
+            "time": s.time,
+            "steps_per_second": s.steps as f64 / seconds,
+            "real_time": s.time / seconds,
+            "frames_per_second": self.frames as f64 / seconds,
+            "dt": s.dt,
+            "max_penetration": s.max_penetration,
+            "non_finite": s.non_finite,
+            "objects": objects,
+            "tool": tool,
+            "camera": camera,
+            "image": image,
+        })
+        .to_string()
     }
 }
 

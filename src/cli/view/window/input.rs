@@ -80,10 +80,18 @@ impl Viewer {
                     None
                 }
                 // In front of the scene's centre by half its size: not inside a body.
-                None => self.base.map(|b| {
-                    (Vec3::from(b.position) - Vec3::from(b.target)).length() * self.zoom
-                        - 0.6 * self.scene_size()
-                }),
+                None => {
+                    let depth = self.base.map(|b| {
+                        let size = self.scene_size();
+                        ((Vec3::from(b.position) - Vec3::from(b.target)).length() * self.zoom
+                            - 0.6 * size)
+                            .max(0.1 * size)
+                    });
+                    if depth.is_none() {
+                        self.notify("no tool before the first picture");
+                    }
+                    depth
+                }
             };
         }
     }
@@ -140,9 +148,12 @@ impl Viewer {
                         ctx.input(|i| i.pointer.delta() != egui::Vec2::ZERO) || scroll != 0.0;
                     if (response.hovered() && moved) || self.snap.tool.is_none() {
                         self.send(Command::Tool(Some(at)));
-                        self.inputs += 1;
-                        self.input_sent.push_back((self.inputs, Instant::now()));
-                        self.send(Command::Input(self.inputs));
+                        // Timed only while stepping: a paused simulation answers nothing.
+                        if !self.snap.paused {
+                            self.inputs += 1;
+                            self.input_sent.push_back((self.inputs, Instant::now()));
+                            self.send(Command::Input(self.inputs));
+                        }
                     }
                 }
             }
@@ -176,11 +187,12 @@ impl Viewer {
         let text = match Scene::load(path) {
             Ok(scene) => {
                 let _ = commands.send(Command::Reload(Box::new(scene)));
+                // The rebuilt world has no tool.
+                self.tool_depth = None;
                 format!("{}: changed, reloaded", path.display())
             }
             Err(e) => format!("not reloaded: {e}"),
         };
-        self.tool_depth = None;
         self.notify(text);
     }
 }

@@ -106,6 +106,8 @@ pub(crate) struct Viewer {
     help: bool,
     /// The first frame drawn: the camera is fitted to it.
     first: Option<Frame>,
+    /// The simulation's first frame the camera was fitted to (a new one: refit).
+    fitted_to: Option<Arc<Frame>>,
     /// Image pixels per window pixel (`--render-scale`); `None`: within MAX_RENDER_PIXELS.
     render_scale: Option<f32>,
     /// Tool inputs sent (numbered) and not yet on screen, and the input-to-screen
@@ -148,6 +150,7 @@ impl Viewer {
             jumped: false,
             help: false,
             first: None,
+            fitted_to: None,
             render_scale,
             inputs: 0,
             input_sent: VecDeque::new(),
@@ -202,6 +205,16 @@ impl Viewer {
                 let s = shared.snapshot.lock().expect("snapshot lock");
                 if s.version != self.snap.version {
                     self.snap = s.clone();
+                    drop(s);
+                    if let Some(n) = self.snap.notice.take() {
+                        self.notify(n);
+                    }
+                    // A rebuilt or reloaded scene: the camera is fitted to it again.
+                    if let (Some(new), Some(old)) = (&self.snap.first, &self.fitted_to)
+                        && !Arc::ptr_eq(new, old)
+                    {
+                        (self.base, self.first) = (None, None);
+                    }
                 }
             }
             Source::Replay(r) => {
@@ -217,7 +230,7 @@ impl Viewer {
                 if (self.snap.steps != r.index || self.snap.frame.is_empty())
                     && let Some((frame, index)) = r.current()
                 {
-                    self.snap.frame = frame.clone();
+                    self.snap.frame = Arc::new(frame.clone());
                     self.snap.steps = index;
                 }
                 self.snap.done = self.snap.steps >= self.opts.after.min(r.len() - 1);
@@ -256,6 +269,9 @@ impl Viewer {
         self.size = (w, h);
         // Fitted to the first frame, again at each new image size (the first frames of
         // a window are laid out before the panels have their sizes).
+        if self.first.is_none() {
+            self.fitted_to = self.snap.first.clone();
+        }
         let first = self
             .first
             .get_or_insert_with(|| self.snap.first.as_deref().unwrap_or(frame).clone());
@@ -372,9 +388,6 @@ impl Viewer {
 
     /// Prints the report (if asked) and closes the window.
     fn close(&mut self, ctx: &egui::Context, result: Result<(), String>) {
-        if self.opts.report && result.is_ok() {
-            println!("{}", self.report());
-        }
         *self.exit.lock().expect("exit lock") = Some(result);
         if let Source::Live { shared, .. } = &self.source {
             shared.quit.store(true, Ordering::Relaxed);
@@ -384,6 +397,15 @@ impl Viewer {
 }
 
 impl eframe::App for Viewer {
+    /// `--json`: one line however the window closes (a screenshot, `--seconds`, the
+    /// user), unless it closes on an error.
+    fn on_exit(&mut self, _gl: Option<&eframe::glow::Context>) {
+        let failed = matches!(*self.exit.lock().expect("exit lock"), Some(Err(_)));
+        if self.opts.report && !failed {
+            println!("{}", self.report());
+        }
+    }
+
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.frames += 1;
@@ -391,13 +413,14 @@ impl eframe::App for Viewer {
             && self.opened.elapsed().as_secs_f64() >= limit
         {
             self.opts.seconds = None;
-            self.opts.report = true;
             self.close(&ctx, Ok(()));
             return;
         }
         self.refresh();
+        // A live error ends the session; a replay's (a frame that cannot be read) is
+        // shown, and ends only a headless screenshot run.
         if let Some(e) = self.snap.error.clone()
-            && !matches!(self.source, Source::Replay(_))
+            && (matches!(self.source, Source::Live { .. }) || self.opts.screenshot.is_some())
         {
             self.close(&ctx, Err(e));
             return;
