@@ -372,7 +372,8 @@ impl MlsImplicit {
             internal += f.get(j).length_squared() as f64 / m as f64;
             external += outside.length_squared() as f64 / m as f64;
         }
-        (sum.sqrt(), dt as f64 * internal.max(external).sqrt())
+        let _ = internal;
+        (sum.sqrt(), dt as f64 * external.sqrt())
     }
 
     /// Solves `A δ = −g` by preconditioned CG from δ = 0, to [`CG_FORCING`] of `‖g‖`;
