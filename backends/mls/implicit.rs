@@ -5,7 +5,7 @@
 //! `g(v) = M (v − vₙ) − dt (f(xₙ + dt v, v) + f_ext + M g) = 0` by Newton's method. Each
 //! Newton step solves `(M + (dt² + dt τ) K) δ = −g` by conjugate gradients, with
 //! `K = −∂f/∂x` the tangent stiffness of the MLS law at the current iterate. `K` is
-//! applied matrix-free through the stencil ([`MlsImplicit::tangent`]). The
+//! applied matrix-free through the stencil (`MlsImplicit::tangent`). The
 //! preconditioner is the same system at rest, `M + (dt² + dt τ) K₀`, assembled once per
 //! dt and factored by a skyline Cholesky in reverse Cuthill–McKee order. Near rest (and
 //! under small rotations) it is close to the true system, and CG needs a few iterations.
