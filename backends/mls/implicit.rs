@@ -26,10 +26,10 @@ use phyxel::dynamics::SolverStats;
 /// The backend's name in scenes and on the command line.
 pub const NAME: &str = "mls-implicit";
 
-/// Newton stops when the residual's `M⁻¹` norm falls to this fraction of its size at the
-/// start of the step (or of the momentum `‖vₙ‖_M`, whichever is larger). The forces are
-/// f32: the residual of a body at rest under gravity cannot go much below 1e-6 of the
-/// weight's impulse.
+/// Newton stops when the residual's `M⁻¹` norm falls to this fraction of the step's
+/// scale: the largest of its first residual, its momentum `‖vₙ‖_M` and its external
+/// impulse. The forces are f32: the residual of a stiff body cannot go much below a few
+/// percent of its weight's impulse ([`FLOOR_TOLERANCE`]).
 pub const NEWTON_TOLERANCE: f32 = 1e-4;
 
 /// A step whose Newton iteration stagnates (the residual no longer halves) below this
@@ -212,7 +212,6 @@ impl MlsImplicit {
         };
         let (a_coef, m_coef) = ((s * lambda + material.k_volume()) as f64, (s * mu) as f64);
         let c = c as f64;
-        let _ = tau;
         for i in 0..n {
             let nodes: Vec<(usize, Vec3)> = std::iter::once((i, st.d_self[i]))
                 .chain(st.row(i).map(|k| (st.neighbours[k] as usize, st.d[k])))
@@ -338,9 +337,9 @@ impl MlsImplicit {
     }
 
     /// Sets the trial state `x = xₙ + dt v`, `v`, evaluates the forces and the residual
-    /// `g`; returns `‖g‖_{M⁻¹}` and the size of the step's impulses, `dt` times the
-    /// larger `M⁻¹` norm of the internal forces and of the external ones (gravity,
-    /// contact, loads): the scale of the forces' own f32 rounding.
+    /// `g`; returns `‖g‖_{M⁻¹}` and the step's external impulse, `dt` times the `M⁻¹`
+    /// norm of gravity, contact and loads. (The internal forces' norm is no scale: near
+    /// the clamp they are large and balance each other, not the load.)
     fn residual(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) -> (f64, f64) {
         let dt = ctx.dt;
         // The step's displacement goes into the position carry, which the force kernel
@@ -358,7 +357,7 @@ impl MlsImplicit {
         }
         self.mls.compute_forces(phyxels, ctx.material, dt);
         let f = &self.mls.internal;
-        let (mut sum, mut internal, mut external) = (0.0f64, 0.0f64, 0.0f64);
+        let (mut sum, mut external) = (0.0f64, 0.0f64);
         for j in 0..phyxels.len() {
             if phyxels.fixed[j] != 0 {
                 self.g[j] = Vec3::ZERO;
@@ -369,10 +368,8 @@ impl MlsImplicit {
             let g = (self.v[j] - self.v0[j]) * m - (f.get(j) + outside) * dt;
             self.g[j] = g;
             sum += g.length_squared() as f64 / m as f64;
-            internal += f.get(j).length_squared() as f64 / m as f64;
             external += outside.length_squared() as f64 / m as f64;
         }
-        let _ = internal;
         (sum.sqrt(), dt as f64 * external.sqrt())
     }
 
