@@ -212,10 +212,18 @@ fn energy_warning(
     if world.objects.iter().any(|o| o.load != glam::Vec3::ZERO) {
         return None;
     }
+    // Energy a kinematic body's prescribed motion put in is a load's, not a gain.
+    let supplied: f64 = world
+        .objects
+        .iter()
+        .filter_map(|o| o.dynamics_as::<crate::dynamics::kinematic::Kinematic>())
+        .map(|k| k.supplied())
+        .sum();
     let scale = (e0.kinetic + e0.elastic + e0.contact)
         .max(e1.kinetic + e1.elastic + e1.contact)
-        .max((e1.potential - e0.potential).abs());
-    let gain = e1.total() - e0.total();
+        .max((e1.potential - e0.potential).abs())
+        .max(supplied.abs());
+    let gain = e1.total() - e0.total() - supplied;
     (gain > ENERGY_GAIN_WARNING * scale).then(|| {
         format!(
             "the energy grew from {:.4e} to {:.4e} J (kinetic {:.4e} → {:.4e} J) with no \
