@@ -34,6 +34,25 @@ pub(super) struct Grab {
     pub target: Vec3,
 }
 
+impl Grab {
+    /// Mass (kg) and mass-weighted mean position and velocity of the grabbed phyxels in
+    /// `p`; `None` once they no longer fit the body (it was replaced or split).
+    pub(super) fn mean(&self, p: &phyxel::Phyxels) -> Option<(f32, Vec3, Vec3)> {
+        if self.phyxels.iter().any(|&i| i >= p.len()) {
+            return None;
+        }
+        let mass: f32 = self.phyxels.iter().map(|&i| p.mass[i]).sum();
+        let weighted = |col: &phyxel::columns::Vec3s| {
+            self.phyxels
+                .iter()
+                .map(|&i| p.mass[i] * col.get(i))
+                .sum::<Vec3>()
+                / mass
+        };
+        Some((mass, weighted(&p.pos), weighted(&p.vel)))
+    }
+}
+
 /// The surfel bounds of an object (m).
 pub(super) fn bounds(o: &phyxel::Object) -> Option<(Vec3, Vec3)> {
     let s = &o.surfels;

@@ -379,23 +379,10 @@ impl Sim {
             return;
         };
         let p = &mut o.phyxels;
-        if g.phyxels.iter().any(|&i| i >= p.len()) {
+        let Some((mass, x, v)) = g.mean(p) else {
             self.grab = None;
             return;
-        }
-        let mass: f32 = g.phyxels.iter().map(|&i| p.mass[i]).sum();
-        let x = g
-            .phyxels
-            .iter()
-            .map(|&i| p.mass[i] * p.pos.get(i))
-            .sum::<Vec3>()
-            / mass;
-        let v = g
-            .phyxels
-            .iter()
-            .map(|&i| p.mass[i] * p.vel.get(i))
-            .sum::<Vec3>()
-            / mass;
+        };
         // The spring pulls the whole body at GRAB_OMEGA, but acts on the grabbed phyxels
         // alone: its damping, integrated explicitly on their mass, is stable only while
         // c dt < m (a 3,000-phyxel ball went NaN in 7 steps with the whole mass).
@@ -451,14 +438,7 @@ impl Sim {
             Some((k.centre(), r, k.reaction()))
         });
         let grab = self.grab.as_ref().and_then(|g| {
-            let p = &world.object(g.object)?.phyxels;
-            let m: f32 = g.phyxels.iter().map(|&i| p.mass[i]).sum();
-            let x = g
-                .phyxels
-                .iter()
-                .map(|&i| p.mass[i] * p.pos.get(i))
-                .sum::<Vec3>()
-                / m;
+            let (_, x, _) = g.mean(&world.object(g.object)?.phyxels)?;
             Some((x, g.target))
         });
         let objects = world
