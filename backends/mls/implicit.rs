@@ -16,38 +16,20 @@
 //! `k_v (det J − 1) ∂cof J`, and the geometric part of the viscous term. They slow
 //! Newton's convergence slightly but do not change the solution.
 //!
-//! Contact forces arrive in `phyxels.force` from the previous step and are held fixed
-//! over the step (explicit), so the contact's stable bound still limits dt in contact.
+//! The Newton–CG loop is the library's ([`phyxel::dynamics::implicit::solve`]): this
+//! backend gives its operators ([`Implicit`]). In a world, bodies of this backend that
+//! touch are solved together, with their contact springs (and those against static
+//! objects) in the system, so stiff contact does not limit dt; against an explicit body
+//! the contact force is explicit (held over the step).
 
 use super::skyline::{Skyline, rcm_order};
 use super::*;
 use phyxel::dynamics::SolverStats;
+use phyxel::dynamics::implicit::{self, Implicit, Member, SolveReport, SolveScratch, SolveSettings};
+pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
 
 /// The backend's name in scenes and on the command line.
 pub const NAME: &str = "mls-implicit";
-
-/// Newton stops when the residual's `M⁻¹` norm falls to this fraction of the step's
-/// scale: the largest of its first residual, its momentum `‖vₙ‖_M` and its external
-/// impulse. The forces are f32: the residual of a stiff body cannot go much below a few
-/// percent of its weight's impulse ([`FLOOR_TOLERANCE`]).
-pub const NEWTON_TOLERANCE: f32 = 1e-4;
-
-/// A step whose Newton iteration stagnates (the residual no longer halves) below this
-/// fraction of its scale is accepted: it has reached the f32 rounding of the forces.
-/// A displacement of 1 cm is resolved to 1e-9 m, which a stiff body's stiffness (2.5e6
-/// N/m per phyxel for the E = 1e8 Pa cantilever) turns into force noise of a few percent
-/// of a phyxel's weight; the cantilever's steps stagnate at 0.2–1.5% of their impulses.
-pub const FLOOR_TOLERANCE: f64 = 0.05;
-
-/// Newton iterations per step at most.
-pub const MAX_NEWTON: u32 = 10;
-
-/// CG iterations per Newton step at most.
-pub const MAX_CG: u32 = 200;
-
-/// CG stops at this fraction of the Newton residual (inexact Newton: the outer loop
-/// corrects the rest).
-const CG_FORCING: f64 = 0.05;
 
 /// The linearisation of the law at phyxel i: `J`, `σ` (Hooke of the elastic strain), the
 /// cofactor of `J` and the volume weight.
@@ -78,18 +60,13 @@ pub struct MlsImplicit {
     pub max_newton: u32,
     pub max_cg: u32,
     stats: SolverStats,
+    /// The solve's buffers when stepped alone ([`Dynamics::step`]).
+    scratch: SolveScratch,
     // Per-step buffers, sized once (no allocation in the step).
     x0: Vec<Vec3>,
     carry0: Vec<Vec3>,
     v0: Vec<Vec3>,
-    v: Vec<Vec3>,
     f_ext: Vec<Vec3>,
-    g: Vec<Vec3>,
-    r: Vec<Vec3>,
-    z: Vec<Vec3>,
-    p: Vec<Vec3>,
-    ap: Vec<Vec3>,
-    delta: Vec<Vec3>,
     dp: Vec<Mat3>,
     linear: Vec<Linear>,
     plastic0: Vec<Mat3>,
@@ -112,17 +89,11 @@ impl MlsImplicit {
                 tolerance: NEWTON_TOLERANCE,
                 ..SolverStats::default()
             },
+            scratch: SolveScratch::default(),
             x0: zero.clone(),
             carry0: zero.clone(),
             v0: zero.clone(),
-            v: zero.clone(),
-            f_ext: zero.clone(),
-            g: zero.clone(),
-            r: zero.clone(),
-            z: zero.clone(),
-            p: zero.clone(),
-            ap: zero.clone(),
-            delta: zero,
+            f_ext: zero,
             dp: vec![Mat3::ZERO; n],
             linear: vec![Linear::default(); n],
             plastic0: Vec::new(),
@@ -248,17 +219,17 @@ impl MlsImplicit {
     }
 
     /// `z = P⁻¹ r`: the rest-state factor, or the mass (Jacobi) without one.
-    fn precondition(&mut self, phyxels: &Phyxels) {
+    fn precondition_into(&mut self, phyxels: &Phyxels, r: &[Vec3], z: &mut [Vec3]) {
         let free = |j: usize| phyxels.fixed[j] == 0;
         match &self.pre {
             Some(pre) => {
-                for (j, r) in self.r.iter().enumerate() {
+                for (j, r) in r.iter().enumerate() {
                     let p = 3 * pre.position[j] as usize;
                     let r = if free(j) { *r } else { Vec3::ZERO };
                     self.dofs[p..p + 3].copy_from_slice(&[r.x as f64, r.y as f64, r.z as f64]);
                 }
                 pre.factor.solve(&mut self.dofs);
-                for (j, z) in self.z.iter_mut().enumerate() {
+                for (j, z) in z.iter_mut().enumerate() {
                     let p = 3 * pre.position[j] as usize;
                     let d = &self.dofs[p..p + 3];
                     *z = if free(j) {
@@ -269,9 +240,9 @@ impl MlsImplicit {
                 }
             }
             None => {
-                for j in 0..self.z.len() {
-                    self.z[j] = if free(j) {
-                        self.r[j] / phyxels.mass[j]
+                for j in 0..z.len() {
+                    z[j] = if free(j) {
+                        r[j] / phyxels.mass[j]
                     } else {
                         Vec3::ZERO
                     };
@@ -281,7 +252,7 @@ impl MlsImplicit {
     }
 
     /// The law linearised at the state of the last force evaluation.
-    fn linearise(&mut self, phyxels: &Phyxels, material: &Material) {
+    fn linearise_law(&mut self, phyxels: &Phyxels, material: &Material) {
         let law = Law::new(material, 0.0, 0.0);
         let (grad, plastic) = (&self.mls.grad, &self.mls.plastic);
         self.linear.par_iter_mut().enumerate().for_each(|(i, l)| {
@@ -302,12 +273,18 @@ impl MlsImplicit {
     /// `ap = A p = M p + c K p` with `K` the tangent stiffness at the last
     /// linearisation: `dPᵢ = −vᵢ (s (dJ σ + J σ(dε)) + k_v (cof J : dJ) cof J)`, gathered
     /// over the stencil as the forces are. Fixed phyxels are held (identity rows).
-    fn tangent(&mut self, phyxels: &Phyxels, material: &Material, c: f32) {
+    fn tangent(
+        &mut self,
+        phyxels: &Phyxels,
+        material: &Material,
+        c: f32,
+        w: &[Vec3],
+        ap: &mut [Vec3],
+    ) {
         let st = &self.mls.stencil;
         let law = Law::new(material, 0.0, 0.0);
         let s = Self::strain_scale(material);
         let kv = material.k_volume();
-        let w = &self.p;
         let linear = &self.linear;
         self.dp.par_iter_mut().enumerate().for_each(|(i, dp)| {
             let l = &linear[i];
@@ -323,7 +300,7 @@ impl MlsImplicit {
         let (in_off, incoming, dp) = (&self.mls.in_off, &self.mls.incoming, &self.dp);
         let fixed = &phyxels.fixed;
         let mass = &phyxels.mass;
-        self.ap.par_iter_mut().enumerate().for_each(|(j, out)| {
+        ap.par_iter_mut().enumerate().for_each(|(j, out)| {
             if fixed[j] != 0 {
                 *out = Vec3::ZERO;
                 return;
@@ -335,12 +312,36 @@ impl MlsImplicit {
             *out = w[j] * mass[j] - df * c;
         });
     }
+}
 
-    /// Sets the trial state `x = xₙ + dt v`, `v`, evaluates the forces and the residual
-    /// `g`; returns `‖g‖_{M⁻¹}` and the step's external impulse, `dt` times the `M⁻¹`
-    /// norm of gravity, contact and loads. (The internal forces' norm is no scale: near
-    /// the clamp they are large and balance each other, not the load.)
-    fn residual(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) -> (f64, f64) {
+impl Implicit for MlsImplicit {
+    fn begin(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>) {
+        let dt = ctx.dt;
+        let tau = self.mls.tau(ctx.material);
+        let c = dt * dt + dt * tau;
+        if self.pre.as_ref().is_none_or(|p| p.built_for != (c, tau)) {
+            self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
+        }
+        for j in 0..phyxels.len() {
+            self.x0[j] = phyxels.pos.get(j);
+            self.carry0[j] = phyxels.pos_carry.get(j);
+            self.v0[j] = phyxels.vel.get(j);
+            self.f_ext[j] = phyxels.force.get(j);
+        }
+        if !self.mls.plastic.is_empty() {
+            self.plastic0.clear();
+            self.plastic0.extend_from_slice(&self.mls.plastic);
+        }
+    }
+
+    /// Sets the trial state `x = xₙ + dt v`, `v`, and evaluates the forces.
+    fn residual(
+        &mut self,
+        phyxels: &mut Phyxels,
+        ctx: &StepContext<'_>,
+        v: &[Vec3],
+        g: &mut [Vec3],
+    ) -> f64 {
         let dt = ctx.dt;
         // The step's displacement goes into the position carry, which the force kernel
         // adds to `pos − rest`: rounded into the f32 position it lost up to half an ulp
@@ -348,8 +349,8 @@ impl MlsImplicit {
         // large as its weight, and Newton stalled at a fifth of the first residual.
         for j in 0..phyxels.len() {
             if phyxels.fixed[j] == 0 {
-                phyxels.pos_carry.set(j, self.carry0[j] + self.v[j] * dt);
-                phyxels.vel.set(j, self.v[j]);
+                phyxels.pos_carry.set(j, self.carry0[j] + v[j] * dt);
+                phyxels.vel.set(j, v[j]);
             }
         }
         if !self.plastic0.is_empty() {
@@ -357,69 +358,60 @@ impl MlsImplicit {
         }
         self.mls.compute_forces(phyxels, ctx.material, dt);
         let f = &self.mls.internal;
-        let (mut sum, mut external) = (0.0f64, 0.0f64);
+        let mut external = 0.0f64;
         for j in 0..phyxels.len() {
             if phyxels.fixed[j] != 0 {
-                self.g[j] = Vec3::ZERO;
+                g[j] = Vec3::ZERO;
                 continue;
             }
             let m = phyxels.mass[j];
             let outside = self.f_ext[j] + ctx.gravity * m;
-            let g = (self.v[j] - self.v0[j]) * m - (f.get(j) + outside) * dt;
-            self.g[j] = g;
-            sum += g.length_squared() as f64 / m as f64;
+            g[j] = (v[j] - self.v0[j]) * m - (f.get(j) + outside) * dt;
             external += outside.length_squared() as f64 / m as f64;
         }
-        (sum.sqrt(), dt as f64 * external.sqrt())
+        external
     }
 
-    /// Solves `A δ = −g` by preconditioned CG from δ = 0, to [`CG_FORCING`] of `‖g‖`;
-    /// returns the iterations. Stops early on a direction of non-positive curvature
-    /// (the tangent is indefinite there: a buckling body), keeping the last iterate.
-    fn solve_cg(&mut self, phyxels: &Phyxels, material: &Material, c: f32) -> u32 {
-        let n = phyxels.len();
-        let dot =
-            |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).map(|(x, y)| x.dot(*y) as f64).sum::<f64>();
-        for j in 0..n {
-            self.delta[j] = Vec3::ZERO;
-            self.r[j] = -self.g[j];
+    fn linearise(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>) {
+        self.linearise_law(phyxels, ctx.material);
+    }
+
+    fn apply(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>, p: &[Vec3], ap: &mut [Vec3]) {
+        let c = ctx.dt * ctx.dt + ctx.dt * self.mls.tau(ctx.material);
+        self.tangent(phyxels, ctx.material, c, p, ap);
+    }
+
+    fn precondition(&mut self, phyxels: &Phyxels, r: &[Vec3], z: &mut [Vec3]) {
+        self.precondition_into(phyxels, r, z);
+    }
+
+    /// Positions by the compensated sum (as the explicit step's).
+    fn commit(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>, v: &[Vec3]) {
+        for j in 0..phyxels.len() {
+            if phyxels.fixed[j] != 0 {
+                phyxels.vel.set(j, Vec3::ZERO);
+                continue;
+            }
+            let (x, carry) = (self.x0[j], self.carry0[j]);
+            let y = v[j] * ctx.dt + carry;
+            let t = x + y;
+            phyxels.pos_carry.set(j, y - (t - x));
+            phyxels.pos.set(j, t);
+            phyxels.vel.set(j, v[j]);
         }
-        let r0 = dot(&self.r, &self.r).sqrt();
-        if r0 == 0.0 {
-            return 0;
+        phyxels.force.fill_zero();
+    }
+
+    fn record(&mut self, report: &SolveReport) {
+        self.stats.record(report);
+    }
+
+    fn settings(&self) -> SolveSettings {
+        SolveSettings {
+            tolerance: self.tolerance,
+            max_newton: self.max_newton,
+            max_cg: self.max_cg,
         }
-        self.precondition(phyxels);
-        self.p.copy_from_slice(&self.z);
-        let mut rz = dot(&self.r, &self.z);
-        let mut it = 0;
-        while it < self.max_cg {
-            it += 1;
-            self.tangent(phyxels, material, c);
-            let pap = dot(&self.p, &self.ap);
-            if pap.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                if it == 1 {
-                    // The preconditioned direction itself: better than nothing.
-                    self.delta.copy_from_slice(&self.p);
-                }
-                break;
-            }
-            let alpha = (rz / pap) as f32;
-            for j in 0..n {
-                self.delta[j] += self.p[j] * alpha;
-                self.r[j] -= self.ap[j] * alpha;
-            }
-            if dot(&self.r, &self.r).sqrt() <= CG_FORCING * r0 {
-                break;
-            }
-            self.precondition(phyxels);
-            let rz_new = dot(&self.r, &self.z);
-            let beta = (rz_new / rz) as f32;
-            rz = rz_new;
-            for j in 0..n {
-                self.p[j] = self.z[j] + self.p[j] * beta;
-            }
-        }
-        it
     }
 }
 
@@ -428,88 +420,27 @@ impl Dynamics for MlsImplicit {
         NAME
     }
 
+    /// One backward-Euler step of this body alone (the world steps it with
+    /// [`implicit::solve`] and the bodies it touches).
     fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) {
-        let n = phyxels.len();
-        let dt = ctx.dt;
-        let tau = self.mls.tau(ctx.material);
-        let c = dt * dt + dt * tau;
-        if self.pre.as_ref().is_none_or(|p| p.built_for != (c, tau)) {
-            self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
-        }
-        for j in 0..n {
-            self.x0[j] = phyxels.pos.get(j);
-            self.carry0[j] = phyxels.pos_carry.get(j);
-            self.v0[j] = phyxels.vel.get(j);
-            self.v[j] = self.v0[j];
-            self.f_ext[j] = phyxels.force.get(j);
-        }
-        if !self.mls.plastic.is_empty() {
-            self.plastic0.clear();
-            self.plastic0.extend_from_slice(&self.mls.plastic);
-        }
-        let momentum = (0..n)
-            .filter(|&j| phyxels.fixed[j] == 0)
-            .map(|j| (phyxels.mass[j] * self.v0[j].length_squared()) as f64)
-            .sum::<f64>()
-            .sqrt();
-        let (mut newton, mut cg, mut scale) = (0u32, 0u32, 0.0f64);
-        let (mut previous, mut stagnated) = (f64::INFINITY, false);
-        let mut rel;
-        loop {
-            let (norm, impulse) = self.residual(phyxels, ctx);
-            if newton == 0 {
-                // Relative to the step's momentum change, its momentum or its impulses,
-                // whichever is largest: near equilibrium the first residual is small,
-                // but the forces' rounding is not.
-                scale = norm.max(momentum).max(impulse).max(1e-30);
-            }
-            rel = norm / scale;
-            if rel <= self.tolerance as f64 || newton >= self.max_newton || !rel.is_finite() {
-                break;
-            }
-            // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE).
-            if rel > 0.5 * previous && rel <= FLOOR_TOLERANCE {
-                stagnated = true;
-                break;
-            }
-            previous = rel;
-            self.linearise(phyxels, ctx.material);
-            cg += self.solve_cg(phyxels, ctx.material, c);
-            for j in 0..n {
-                self.v[j] += self.delta[j];
-            }
-            newton += 1;
-        }
-        // The last residual was evaluated at the final velocities: commit them with the
-        // compensated position sum (as the explicit step does).
-        for j in 0..n {
-            if phyxels.fixed[j] != 0 {
-                phyxels.vel.set(j, Vec3::ZERO);
-                continue;
-            }
-            let (x, carry) = (self.x0[j], self.carry0[j]);
-            let y = self.v[j] * dt + carry;
-            let t = x + y;
-            phyxels.pos_carry.set(j, y - (t - x));
-            phyxels.pos.set(j, t);
-            phyxels.vel.set(j, self.v[j]);
-        }
-        phyxels.force.fill_zero();
-        let s = &mut self.stats;
-        s.steps += 1;
-        s.newton_iterations += newton as u64;
-        s.cg_iterations += cg as u64;
-        s.max_cg_per_step = s.max_cg_per_step.max(cg);
-        s.max_residual = s.max_residual.max(rel as f32);
-        s.last_residual = rel as f32;
-        s.tolerance = self.tolerance;
-        let converged = rel <= self.tolerance as f64 || (stagnated && rel <= FLOOR_TOLERANCE);
-        if stagnated && converged && rel > self.tolerance as f64 {
-            s.at_floor += 1;
-        }
-        if !converged {
-            s.unconverged += 1;
-        }
+        let mut scratch = std::mem::take(&mut self.scratch);
+        let mut members = [Member {
+            object: 0,
+            dynamics: self as &mut dyn Implicit,
+            phyxels,
+            material: ctx.material,
+        }];
+        let none = implicit::ContactSprings::default();
+        implicit::solve(&mut members, &none, ctx.dt, ctx.gravity, &mut scratch);
+        self.scratch = scratch;
+    }
+
+    fn implicit(&mut self) -> Option<&mut dyn Implicit> {
+        Some(self)
+    }
+
+    fn is_implicit(&self) -> bool {
+        true
     }
 
     /// Backward Euler has no stability bound: dt is chosen for accuracy.
@@ -595,10 +526,10 @@ mod tests {
             })
             .collect();
         imp.mls.compute_forces(&p, &mat, 0.0);
-        imp.linearise(&p, &mat);
-        imp.p.copy_from_slice(&w);
-        imp.tangent(&p, &mat, 1.0);
-        let kw: Vec<Vec3> = (0..n).map(|j| imp.ap[j] - w[j] * p.mass[j]).collect();
+        imp.linearise_law(&p, &mat);
+        let mut ap = vec![Vec3::ZERO; n];
+        imp.tangent(&p, &mat, 1.0, &w, &mut ap);
+        let kw: Vec<Vec3> = (0..n).map(|j| ap[j] - w[j] * p.mass[j]).collect();
         let eps = 1e-4;
         let x0: Vec<Vec3> = (0..n).map(|j| p.pos.get(j)).collect();
         let mut force = |sign: f32| {

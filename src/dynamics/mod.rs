@@ -4,6 +4,7 @@
 //! plastic strain, ...) and moves the phyxels one step at a time. External forces
 //! (contact, user loads) arrive in `phyxels.force` and act during the next step.
 
+pub mod implicit;
 pub mod kernel;
 pub mod kinematic;
 pub mod mls;
@@ -138,6 +139,21 @@ pub trait Dynamics: std::any::Any + Send + Sync {
     /// True for backends that never move their phyxels (ground planes, fixed obstacles):
     /// the pipeline skips their step and advection.
     fn is_static(&self) -> bool {
+        false
+    }
+
+    /// The operators of a backward-Euler step, for a backend that steps implicitly. The
+    /// world then steps it with [`implicit::solve`] instead of [`Dynamics::step`],
+    /// together with the implicit bodies it touches, and the contact springs between
+    /// them (and against static objects) join the solve: no contact stability bound
+    /// applies to it. Default: `None` (explicit contact forces). Must agree with
+    /// [`Dynamics::is_implicit`].
+    fn implicit(&mut self) -> Option<&mut dyn implicit::Implicit> {
+        None
+    }
+
+    /// True when [`Dynamics::implicit`] returns `Some`.
+    fn is_implicit(&self) -> bool {
         false
     }
 }
