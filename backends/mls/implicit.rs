@@ -25,7 +25,9 @@
 use super::skyline::{Skyline, rcm_order};
 use super::*;
 use phyxel::dynamics::SolverStats;
-use phyxel::dynamics::implicit::{self, Implicit, Member, SolveReport, SolveScratch, SolveSettings};
+use phyxel::dynamics::implicit::{
+    self, Implicit, Member, SolveReport, SolveScratch, SolveSettings,
+};
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
 
 /// The backend's name in scenes and on the command line.
@@ -347,10 +349,10 @@ impl Implicit for MlsImplicit {
         // adds to `pos − rest`: rounded into the f32 position it lost up to half an ulp
         // (3e-8 m at 0.5 m), which a stiff bar (E = 1e8 Pa) turned into force noise as
         // large as its weight, and Newton stalled at a fifth of the first residual.
-        for j in 0..phyxels.len() {
+        for (j, &v) in v.iter().enumerate() {
             if phyxels.fixed[j] == 0 {
-                phyxels.pos_carry.set(j, self.carry0[j] + v[j] * dt);
-                phyxels.vel.set(j, v[j]);
+                phyxels.pos_carry.set(j, self.carry0[j] + v * dt);
+                phyxels.vel.set(j, v);
             }
         }
         if !self.plastic0.is_empty() {
@@ -387,17 +389,17 @@ impl Implicit for MlsImplicit {
 
     /// Positions by the compensated sum (as the explicit step's).
     fn commit(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>, v: &[Vec3]) {
-        for j in 0..phyxels.len() {
+        for (j, &v) in v.iter().enumerate() {
             if phyxels.fixed[j] != 0 {
                 phyxels.vel.set(j, Vec3::ZERO);
                 continue;
             }
             let (x, carry) = (self.x0[j], self.carry0[j]);
-            let y = v[j] * ctx.dt + carry;
+            let y = v * ctx.dt + carry;
             let t = x + y;
             phyxels.pos_carry.set(j, y - (t - x));
             phyxels.pos.set(j, t);
-            phyxels.vel.set(j, v[j]);
+            phyxels.vel.set(j, v);
         }
         phyxels.force.fill_zero();
     }

@@ -160,26 +160,11 @@ pub(super) fn distribute_one<const SCALAR_QUERY: bool>(
     near: &mut Vec<(usize, f32)>,
     knn: &mut Vec<(usize, f32)>,
 ) {
-    near.clear();
-    if SCALAR_QUERY {
-        grid.for_each_within_scalar(c.pos, h, |i, d2| near.push((i, d2)));
-    } else {
-        grid.for_each_within(c.pos, h, |i, d2| near.push((i, d2)));
-    }
-    let mut support = h;
-    let widened = near.len() < MIN_DISTRIBUTION_PHYXELS;
-    if widened {
-        grid.k_nearest(c.pos, MIN_DISTRIBUTION_PHYXELS, knn);
-        support = knn.last().map_or(h, |e| e.1.sqrt() * 1.001 + 1e-9);
-        near.clear();
-        near.extend_from_slice(knn);
-    }
-    // Weights in place of the squared distances; the grid's order is deterministic.
+    let widened = spread_weights::<SCALAR_QUERY>(c.pos, grid, h, near, knn);
     let mut total = 0.0f32;
     let mut m1 = [0.0f32; 3];
     let mut m2 = [0.0f32; 6];
-    for e in near.iter_mut() {
-        e.1 = poly6_shape(e.1, support);
+    for e in near.iter() {
         total += e.1;
         let (w, y) = (e.1, phyxels.pos.get(e.0) - c.pos);
         let wy = w * y;
@@ -211,6 +196,37 @@ pub(super) fn distribute_one<const SCALAR_QUERY: bool>(
         let y = phyxels.pos.get(i) - centroid;
         phyxels.force.add(i, (w / total) * (f + omega.cross(y)));
     }
+}
+
+/// The phyxels that take the force of a contact surfel at `at` and their poly6 weights
+/// (not normalised), in `near`: those within `h`, or the
+/// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within it (then the support is
+/// the farthest of them, and the result is `true`). The grid's order is deterministic.
+pub(crate) fn spread_weights<const SCALAR_QUERY: bool>(
+    at: Vec3,
+    grid: &Grid,
+    h: f32,
+    near: &mut Vec<(usize, f32)>,
+    knn: &mut Vec<(usize, f32)>,
+) -> bool {
+    near.clear();
+    if SCALAR_QUERY {
+        grid.for_each_within_scalar(at, h, |i, d2| near.push((i, d2)));
+    } else {
+        grid.for_each_within(at, h, |i, d2| near.push((i, d2)));
+    }
+    let mut support = h;
+    let widened = near.len() < MIN_DISTRIBUTION_PHYXELS;
+    if widened {
+        grid.k_nearest(at, MIN_DISTRIBUTION_PHYXELS, knn);
+        support = knn.last().map_or(h, |e| e.1.sqrt() * 1.001 + 1e-9);
+        near.clear();
+        near.extend_from_slice(knn);
+    }
+    for e in near.iter_mut() {
+        e.1 = poly6_shape(e.1, support);
+    }
+    widened
 }
 
 /// A contact surfel's force `f` split over phyxels so that it acts at the surfel `s_c`:

@@ -11,6 +11,7 @@ mod forces;
 pub mod implicit;
 pub mod params;
 mod resample;
+mod springs;
 mod surface;
 
 pub use distribute::{
@@ -19,6 +20,7 @@ pub use distribute::{
 pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
 pub use params::ContactParams;
 pub use resample::resample;
+pub use springs::{keep_parted, springs, springs_apply};
 pub use surface::contact_surface;
 
 use crate::body::phyxels::Phyxels;

@@ -60,8 +60,14 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
         lambda_b: mb.young / (ma.young + mb.young),
         stiffness,
         // Explicit integration damps stably only while c·dt < 2 m for the surface layer
-        // (mass ρh per area) that takes the force: cap at 1.6 ρh/dt.
-        damping: (2.0 * zeta * (stiffness * rho * h).sqrt()).min(1.6 * rho * h / dt),
+        // (mass ρh per area) that takes the force: cap at 1.6 ρh/dt. A pair whose
+        // dashpot is in an implicit solve (backward Euler: stable for any c) is not
+        // capped.
+        damping: if super::springs_apply(a, b) {
+            2.0 * zeta * (stiffness * rho * h).sqrt()
+        } else {
+            (2.0 * zeta * (stiffness * rho * h).sqrt()).min(1.6 * rho * h / dt)
+        },
         friction: (ma.friction * mb.friction).sqrt(),
         spacing: a.surfel_spacing.min(b.surfel_spacing),
         // The denser side's carriers set the density of Φ (without thinning: the

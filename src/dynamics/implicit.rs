@@ -26,7 +26,7 @@ use glam::Vec3;
 
 /// The operators of a backward-Euler step that [`solve`] drives. Each works on the
 /// body's own phyxels, with vectors of one entry per phyxel (no padding).
-pub trait Implicit {
+pub trait Implicit: Send {
     /// Starts a step: keeps `xₙ`, `vₙ` (= `phyxels.vel`) and the external forces
     /// `phyxels.force`, and prepares the preconditioner for `ctx.dt`.
     fn begin(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>);
@@ -164,9 +164,13 @@ pub struct ContactSpring {
     pub stiffness: f32,
     /// dF/dv, `c A` (N·s/m), per m/s of approach speed.
     pub damping: f32,
-    /// The normal force on a at the start of the step (N, ≥ 0): the spring's change may
-    /// lower it to zero, not below.
+    /// The normal force on a at the start of the step (N): the spring's change may lower
+    /// the total to zero, not below. Negative for a kept spring (`applied` false): its
+    /// side has lifted off, by `−force / stiffness` metres.
     pub force: f32,
+    /// `force` is in the phyxels' external forces already (the contact pipeline spread
+    /// it): the solve adds the change only. Otherwise it adds `max(0, force + change)`.
+    pub applied: bool,
     pub a: SpringSide,
     /// `None` when the other side is a static object (it does not move).
     pub b: Option<SpringSide>,
@@ -325,7 +329,11 @@ pub fn solve(
             let change = -sp.stiffness * dt * now - sp.damping * (now - e.1);
             // Push only: the spring may take the force to zero, not pull.
             e.2 = change > -sp.force;
-            let change = change.max(-sp.force);
+            let change = if sp.applied {
+                change.max(-sp.force)
+            } else {
+                (sp.force + change).max(0.0)
+            };
             let f = sp.normal * (change * dt);
             spread(&mut s.g, &springs.weights, members, a, -f);
             if let Some(b) = b {
@@ -450,7 +458,8 @@ fn solve_cg(
     let precondition = |members: &mut [Member<'_>], s: &mut SolveScratch| {
         for (k, m) in members.iter_mut().enumerate() {
             let r = s.offset[k]..s.offset[k + 1];
-            m.dynamics.precondition(m.phyxels, &s.r[r.clone()], &mut s.z[r]);
+            m.dynamics
+                .precondition(m.phyxels, &s.r[r.clone()], &mut s.z[r]);
         }
     };
     let apply = |members: &mut [Member<'_>], s: &mut SolveScratch| {

@@ -214,7 +214,7 @@ fn python_backend_dt(
              (explicit integration would blow up); use a smaller dt or allow_unstable=True"
         ))),
         Some(dt) => Ok(dt),
-        None => Ok((crate::world::DT_FRACTION * stable).min(crate::world::MAX_DEFAULT_DT)),
+        None => Ok(world.default_dt(stable)),
     }
 }
 

@@ -114,8 +114,7 @@ impl Scene {
     }
 
     /// The time step: the scene's or the override, checked against the stable bound,
-    /// else [`DT_FRACTION`](crate::world::DT_FRACTION) of the bound (at most
-    /// [`MAX_DEFAULT_DT`](crate::world::MAX_DEFAULT_DT)).
+    /// else [`World::default_dt`].
     fn choose_dt(
         &self,
         world: &World,
@@ -163,7 +162,7 @@ impl Scene {
                 }
                 dt
             }
-            None => (crate::world::DT_FRACTION * stable).min(crate::world::MAX_DEFAULT_DT),
+            None => world.default_dt(stable),
         };
         Ok(dt)
     }

@@ -10,6 +10,7 @@ use crate::contact::detect::DetectScratch;
 use crate::contact::implicit::{ImplicitSurface, SurfelRows};
 use crate::contact::params::contact_params;
 use crate::contact::{ContactParams, DistributeScratch, PairSurfaces, PatchScratch};
+use crate::dynamics::implicit::SolveScratch;
 use crate::spatial::broad_phase::Aabb;
 use crate::spatial::grid::{Grid, LazyGrid};
 use bumpalo::Bump;
@@ -34,6 +35,15 @@ pub(super) struct StepCache {
     pub patch: Vec<PatchScratch>,
     /// Per-object distribution scratch.
     pub distribute: Vec<DistributeScratch>,
+    /// Per object, the implicit solve's buffers (used by the island it leads).
+    pub solve: Vec<SolveScratch>,
+    /// Per object, its implicit island's root (union–find), `u32::MAX` if explicit.
+    pub island: Vec<u32>,
+    /// Phyxel queries of the contact springs.
+    pub spring_near: Vec<(usize, f32)>,
+    pub spring_knn: Vec<(usize, f32)>,
+    /// The springs of the step before, kept for their buffers.
+    pub last_springs: crate::dynamics::implicit::ContactSprings,
 }
 
 /// Per object, the grids of the objects in a pair (rebuilt each step for moving objects,

@@ -15,7 +15,7 @@ mod step;
 
 pub use guard::NonFinite;
 pub use phase::{Phase, PhaseTimes};
-pub use record::{DT_FRACTION, DtChange, Energy, MAX_DEFAULT_DT, RunRecord};
+pub use record::{DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT, RunRecord};
 
 /// Where these lived in phyxel 0.1.
 #[doc(hidden)]
@@ -28,6 +28,7 @@ use crate::body::object::Object;
 use crate::contact::detect::PairDetection;
 use crate::contact::params::compliance;
 use crate::contact::{ContactPatch, ContactSurfel};
+use crate::dynamics::implicit::ContactSprings;
 use crate::spatial::broad_phase::Pair;
 use cache::StepCache;
 use glam::Vec3;
@@ -79,6 +80,10 @@ pub struct World {
     /// Contact surfaces and forces of the last step: written by `contact_surface`,
     /// `resample` and `forces`, read by `distribute` (and by callers after the step).
     pub patches: Vec<ContactPatch>,
+    /// The contact springs of the last step's patches between implicit bodies (and
+    /// between one and a static object): written by `distribute`, they join the next
+    /// step's implicit solves ([`crate::dynamics::implicit`]).
+    pub springs: ContactSprings,
     /// Statistics of the run so far: phase times, deepest penetration, splits, dt
     /// changes, warnings.
     pub record: RunRecord,
@@ -144,6 +149,7 @@ impl World {
             pairs: Vec::new(),
             detections: Vec::new(),
             patches: Vec::new(),
+            springs: ContactSprings::default(),
             record: RunRecord::default(),
             next_id: objects_next_id,
             renewals_seen: 0,
@@ -154,7 +160,8 @@ impl World {
 
     /// Largest stable time step over all objects (s) and the object that limits it:
     /// each object's own dynamics, and, where two objects may touch, its contact spring
-    /// ([`contact_stable_dt`]). A backend's bound that is not a number > 0 (a broken
+    /// ([`contact_stable_dt`]) unless every moving object is implicit (the springs are
+    /// then in their solves). A backend's bound that is not a number > 0 (a broken
     /// [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is returned with
     /// its object, not hidden.
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
@@ -177,12 +184,18 @@ impl World {
                     )
                 })
         });
+        // Where every moving object is implicit, every contact joins an implicit solve
+        // as springs ([`crate::contact::springs_apply`]): no contact bound.
+        let all_implicit = self
+            .objects
+            .iter()
+            .all(|o| o.is_static() || o.dynamics.is_implicit());
         self.objects
             .iter()
             .map(|o| {
                 let own = o.dynamics.stable_dt(&o.phyxels, &o.material);
                 let contact = match partner {
-                    Some((c, k)) if !o.is_static() => {
+                    Some((c, k)) if !o.is_static() && !all_implicit => {
                         let e_star = 1.0 / (compliance(&o.material) + c);
                         let k = 0.5 * (o.material.contact_stiffness + k);
                         let h = o.phyxel_spacing;
@@ -204,6 +217,18 @@ impl World {
                     acc
                 }
             })
+    }
+
+    /// The default time step (s) given the stable bound `stable` of
+    /// [`World::stable_dt`]: [`IMPLICIT_DEFAULT_DT`] when every moving object is implicit
+    /// (and one moves), else [`DT_FRACTION`] of the bound, at most [`MAX_DEFAULT_DT`].
+    pub fn default_dt(&self, stable: f32) -> f32 {
+        let moving = self.objects.iter().filter(|o| !o.is_static());
+        if moving.clone().next().is_some() && moving.clone().all(|o| o.dynamics.is_implicit()) {
+            IMPLICIT_DEFAULT_DT.min(stable)
+        } else {
+            (DT_FRACTION * stable).min(MAX_DEFAULT_DT)
+        }
     }
 
     /// One time step: dynamics, surfel advection, contact handling, then topology.
