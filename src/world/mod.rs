@@ -15,7 +15,7 @@ mod step;
 
 pub use guard::NonFinite;
 pub use phase::{Phase, PhaseTimes};
-pub use record::{DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT, RunRecord};
+pub use record::{DT_FRACTION, DtChange, Energy, MAX_DEFAULT_DT, RunRecord};
 
 /// Where these lived in phyxel 0.1.
 #[doc(hidden)]
@@ -160,8 +160,8 @@ impl World {
 
     /// Largest stable time step over all objects (s) and the object that limits it:
     /// each object's own dynamics, and, where two objects may touch, its contact spring
-    /// ([`contact_stable_dt`]) unless every moving object is implicit (the springs are
-    /// then in their solves). A backend's bound that is not a number > 0 (a broken
+    /// ([`contact_stable_dt`]) unless every moving object is implicit and no material
+    /// has friction (the springs are then in their solves). A backend's bound that is not a number > 0 (a broken
     /// [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is returned with
     /// its object, not hidden.
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
@@ -184,12 +184,13 @@ impl World {
                     )
                 })
         });
-        // Where every moving object is implicit, every contact joins an implicit solve
-        // as springs ([`crate::contact::springs_apply`]): no contact bound.
+        // Where every moving object is implicit and no material has friction, every
+        // contact joins an implicit solve as springs
+        // ([`crate::contact::springs_apply`]): no contact bound.
         let all_implicit = self
             .objects
             .iter()
-            .all(|o| o.is_static() || o.dynamics.is_implicit());
+            .all(|o| (o.is_static() || o.dynamics.is_implicit()) && o.material.friction == 0.0);
         self.objects
             .iter()
             .map(|o| {
@@ -220,15 +221,12 @@ impl World {
     }
 
     /// The default time step (s) given the stable bound `stable` of
-    /// [`World::stable_dt`]: [`IMPLICIT_DEFAULT_DT`] when every moving object is implicit
-    /// (and one moves), else [`DT_FRACTION`] of the bound, at most [`MAX_DEFAULT_DT`].
+    /// [`World::stable_dt`]: [`DT_FRACTION`] of the bound, at most [`MAX_DEFAULT_DT`].
+    /// Scenes of implicit bodies only (no bound) get `MAX_DEFAULT_DT` too: frame-rate
+    /// steps are the caller's choice, since friction is still explicit (a frictional
+    /// pile of `mls-implicit` bodies blows up at 1/120 s; docs/BACKENDS.md).
     pub fn default_dt(&self, stable: f32) -> f32 {
-        let moving = self.objects.iter().filter(|o| !o.is_static());
-        if moving.clone().next().is_some() && moving.clone().all(|o| o.dynamics.is_implicit()) {
-            IMPLICIT_DEFAULT_DT.min(stable)
-        } else {
-            (DT_FRACTION * stable).min(MAX_DEFAULT_DT)
-        }
+        (DT_FRACTION * stable).min(MAX_DEFAULT_DT)
     }
 
     /// One time step: dynamics, surfel advection, contact handling, then topology.

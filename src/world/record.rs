@@ -82,10 +82,3 @@ pub const DT_FRACTION: f32 = 0.9;
 /// of 2·10¹⁸ s, and its first steps under gravity fell past f32's range. No built-in
 /// scene's bound reaches it (the softest, `soft-on-plane`, runs at 0.95 ms).
 pub const MAX_DEFAULT_DT: f32 = 1e-3;
-
-/// Default `dt` (s) of a scene whose every moving object is implicit (no stability
-/// bound): a display frame at 120 Hz, two steps per 60 Hz frame. The step sets the
-/// accuracy instead: backward Euler damps a mode of period T by about 2π²(dt/T)² per
-/// period and stretches it by atan(ωdt)/(ωdt) (docs/ACCURACY.md, "Time step of the
-/// implicit backend"); an impact shorter than dt is not resolved.
-pub const IMPLICIT_DEFAULT_DT: f32 = 1.0 / 120.0;
