@@ -1,10 +1,22 @@
 //! The implicit MLS backend (`mls-implicit`): the same bar as the explicit backend at a
 //! frame-rate step, and solves that converge or say they did not.
 
+use phyxel::World;
 use phyxel::app::summary::summarize;
 use phyxel::app::validate;
 use phyxel::backends::mls::MlsImplicit;
 use phyxel::scene::{BuildOptions, Scene};
+
+/// `scene` built with every moving object on `mls-implicit`, stepped by `dt` (s).
+fn implicit_world(scene: &Scene, dt: f32) -> World {
+    scene
+        .build(&BuildOptions {
+            backend: Some("mls-implicit".into()),
+            dt: Some(dt),
+            ..BuildOptions::default()
+        })
+        .unwrap()
+}
 
 /// The cantilever (E = 1e8 Pa, 4 phyxels through the 0.1 m thickness) stepped at 1/60 s
 /// for 3 s settles (backward Euler damps its first mode by 0.2 per period) at a tip
@@ -19,13 +31,7 @@ fn a_stiff_bar_at_a_frame_rate_step_sags_as_the_explicit_one() {
     scene.objects[0].spacing = 0.025;
     scene.objects[0].surfel_spacing = Some(0.025);
     let (d_ref, _) = validate::euler_bernoulli(&scene);
-    let mut world = scene
-        .build(&BuildOptions {
-            backend: Some("mls-implicit".into()),
-            dt: Some(1.0 / 60.0),
-            ..BuildOptions::default()
-        })
-        .unwrap();
+    let mut world = implicit_world(&scene, 1.0 / 60.0);
     let bar = &world.objects[0].phyxels;
     let x_max = (0..bar.len())
         .map(|i| bar.rest.x[i])
@@ -65,13 +71,7 @@ fn a_stiff_bar_at_a_frame_rate_step_sags_as_the_explicit_one() {
 #[test]
 fn an_unconverged_solve_is_a_warning() {
     let scene = Scene::builtin("cantilever").unwrap();
-    let mut world = scene
-        .build(&BuildOptions {
-            backend: Some("mls-implicit".into()),
-            dt: Some(1.0 / 120.0),
-            ..BuildOptions::default()
-        })
-        .unwrap();
+    let mut world = implicit_world(&scene, 1.0 / 120.0);
     world.objects[0]
         .dynamics_mut::<MlsImplicit>()
         .unwrap()
@@ -145,13 +145,7 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
         o.surfel_spacing = Some(0.0125);
     }
     let dt = 1.0 / 120.0;
-    let mut world = scene
-        .build(&BuildOptions {
-            backend: Some("mls-implicit".into()),
-            dt: Some(dt),
-            ..BuildOptions::default()
-        })
-        .unwrap();
+    let mut world = implicit_world(&scene, dt);
     let incoming = world.objects[0].phyxels.momentum()[0];
     let e0 = world.energy().total();
     let mut collided = false;
@@ -211,13 +205,7 @@ fn a_stiff_box_rests_on_a_plane_at_a_frame_rate_step() {
         material = { young = 1.0e8 }
     "#;
     let scene = Scene::parse(text, "stiff-box").unwrap();
-    let mut world = scene
-        .build(&BuildOptions {
-            backend: Some("mls-implicit".into()),
-            dt: Some(1.0 / 120.0),
-            ..BuildOptions::default()
-        })
-        .unwrap();
+    let mut world = implicit_world(&scene, 1.0 / 120.0);
     for _ in 0..120 {
         world.step();
     }

@@ -202,7 +202,7 @@ pub(super) fn distribute_one<const SCALAR_QUERY: bool>(
 /// (not normalised), in `near`: those within `h`, or the
 /// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within it (then the support is
 /// the farthest of them, and the result is `true`). The grid's order is deterministic.
-pub(crate) fn spread_weights<const SCALAR_QUERY: bool>(
+pub(super) fn spread_weights<const SCALAR_QUERY: bool>(
     at: Vec3,
     grid: &Grid,
     h: f32,

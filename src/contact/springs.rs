@@ -112,23 +112,14 @@ pub fn keep_parted(
     max_gap: f32,
     out: &mut ContactSprings,
 ) {
+    // A patch of the pair (against a static side: any patch of side a).
     let touching = |a: u32, b: Option<SpringSide>| {
-        patches.iter().any(|p| {
-            let pair =
-                |x: usize, y: usize| x == a as usize && b.is_none_or(|b| y == b.object as usize);
-            // Against a static side, the pair is any patch of a with a static object.
-            let against_static =
-                |x: usize, y: usize| x == a as usize && b.is_none() && objects[y].is_static();
-            pair(p.a, p.b) || pair(p.b, p.a) || against_static(p.a, p.b) || against_static(p.b, p.a)
-        })
-    };
-    let mean = |s: &SpringSide| -> Vec3 {
-        let v = &objects[s.object as usize].phyxels.vel;
-        last.weights[s.start as usize..s.end as usize]
+        let involves = |p: &ContactPatch, k: u32| p.a == k as usize || p.b == k as usize;
+        patches
             .iter()
-            .map(|&(j, w)| v.get(j as usize) * w)
-            .sum()
+            .any(|p| involves(p, a) && b.is_none_or(|b| involves(p, b.object)))
     };
+    let mean = |s: &SpringSide| last.mean(s, |j| objects[s.object as usize].phyxels.vel.get(j));
     for sp in &last.springs {
         if touching(sp.a.object, sp.b) {
             continue;
@@ -140,8 +131,7 @@ pub fn keep_parted(
         }
         let mut copy = |s: &SpringSide| {
             let start = out.weights.len() as u32;
-            out.weights
-                .extend_from_slice(&last.weights[s.start as usize..s.end as usize]);
+            out.weights.extend_from_slice(last.weights_of(s));
             SpringSide {
                 object: s.object,
                 start,

@@ -189,6 +189,20 @@ impl ContactSprings {
         self.springs.clear();
         self.weights.clear();
     }
+
+    /// A side's (phyxel, normalised weight) list.
+    pub fn weights_of(&self, side: &SpringSide) -> &[(u32, f32)] {
+        &self.weights[side.start as usize..side.end as usize]
+    }
+
+    /// The weighted mean of `value(phyxel)` over a side's phyxels: the motion of its
+    /// contact surfel.
+    pub fn mean(&self, side: &SpringSide, value: impl Fn(usize) -> Vec3) -> Vec3 {
+        self.weights_of(side)
+            .iter()
+            .map(|&(j, w)| value(j as usize) * w)
+            .sum()
+    }
 }
 
 /// One body of an island.
@@ -224,8 +238,7 @@ pub struct SolveScratch {
 struct Side {
     offset: usize,
     member: usize,
-    start: usize,
-    end: usize,
+    spring: SpringSide,
 }
 
 /// Steps an island of implicit bodies by one backward-Euler step of `dt`, with the
@@ -241,12 +254,10 @@ pub fn solve(
     let settings = members
         .iter()
         .map(|m| m.dynamics.settings())
-        .fold(None, |acc: Option<SolveSettings>, s| {
-            Some(acc.map_or(s, |a| SolveSettings {
-                tolerance: a.tolerance.min(s.tolerance),
-                max_newton: a.max_newton.max(s.max_newton),
-                max_cg: a.max_cg.max(s.max_cg),
-            }))
+        .reduce(|a, s| SolveSettings {
+            tolerance: a.tolerance.min(s.tolerance),
+            max_newton: a.max_newton.max(s.max_newton),
+            max_cg: a.max_cg.max(s.max_cg),
         })
         .unwrap_or_default();
     let s = scratch;
@@ -308,7 +319,7 @@ pub fn solve(
     let momentum = momentum.sqrt();
     for (e, (a, b)) in s.springs.iter_mut().zip(&s.sides) {
         let sp = &springs.springs[e.0 as usize];
-        e.1 = approach(&s.v0, &springs.weights, sp.normal, a, b.as_ref());
+        e.1 = approach(&s.v0, springs, sp.normal, a, b.as_ref());
     }
     let (mut newton, mut cg, mut scale) = (0u32, 0u32, 0.0f64);
     let (mut previous, mut stagnated) = (f64::INFINITY, false);
@@ -325,7 +336,7 @@ pub fn solve(
         }
         for (e, (a, b)) in s.springs.iter_mut().zip(&s.sides) {
             let sp = &springs.springs[e.0 as usize];
-            let now = approach(&s.v, &springs.weights, sp.normal, a, b.as_ref());
+            let now = approach(&s.v, springs, sp.normal, a, b.as_ref());
             let change = -sp.stiffness * dt * now - sp.damping * (now - e.1);
             // Push only: the spring may take the force to zero, not pull.
             e.2 = change > -sp.force;
@@ -335,9 +346,9 @@ pub fn solve(
                 (sp.force + change).max(0.0)
             };
             let f = sp.normal * (change * dt);
-            spread(&mut s.g, &springs.weights, members, a, -f);
+            spread(&mut s.g, springs, members, a, -f);
             if let Some(b) = b {
-                spread(&mut s.g, &springs.weights, members, b, f);
+                spread(&mut s.g, springs, members, b, f);
             }
         }
         let mut norm = 0.0f64;
@@ -399,34 +410,26 @@ pub fn solve(
     report
 }
 
-fn side(offset: &[usize], member: usize, s: SpringSide) -> Side {
+fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
     Side {
         offset: offset[member],
         member,
-        start: s.start as usize,
-        end: s.end as usize,
+        spring,
     }
 }
 
-/// The weighted mean of `x` over a side's phyxels.
-fn mean(x: &[Vec3], weights: &[(u32, f32)], s: &Side) -> Vec3 {
-    weights[s.start..s.end]
-        .iter()
-        .map(|&(j, w)| x[s.offset + j as usize] * w)
-        .sum()
-}
-
-/// Approach speed of side a relative to side b along `n` (m/s): positive when a moves
-/// away from b (`n` pushes a out), so the spring's change is `−k dt · approach`.
-fn approach(x: &[Vec3], weights: &[(u32, f32)], n: Vec3, a: &Side, b: Option<&Side>) -> f32 {
-    let rel = mean(x, weights, a) - b.map_or(Vec3::ZERO, |b| mean(x, weights, b));
-    n.dot(rel)
+/// Approach speed of side a relative to side b along `n` (m/s) for the island's vector
+/// `x`: positive when a moves away from b (`n` pushes a out), so the spring's change is
+/// `−k dt · approach`.
+fn approach(x: &[Vec3], springs: &ContactSprings, n: Vec3, a: &Side, b: Option<&Side>) -> f32 {
+    let mean = |s: &Side| springs.mean(&s.spring, |j| x[s.offset + j]);
+    n.dot(mean(a) - b.map_or(Vec3::ZERO, mean))
 }
 
 /// Adds `f` spread by the side's weights to `out` (fixed phyxels take nothing).
-fn spread(out: &mut [Vec3], weights: &[(u32, f32)], members: &[Member<'_>], s: &Side, f: Vec3) {
+fn spread(out: &mut [Vec3], springs: &ContactSprings, members: &[Member<'_>], s: &Side, f: Vec3) {
     let fixed = &members[s.member].phyxels.fixed;
-    for &(j, w) in &weights[s.start..s.end] {
+    for &(j, w) in springs.weights_of(&s.spring) {
         if fixed[j as usize] == 0 {
             out[s.offset + j as usize] += f * w;
         }
@@ -475,11 +478,11 @@ fn solve_cg(
             }
             let sp = &springs.springs[e.0 as usize];
             let coef = sp.stiffness * dt * dt + sp.damping * dt;
-            let t = coef * approach(&s.p, &springs.weights, sp.normal, a, b.as_ref());
+            let t = coef * approach(&s.p, springs, sp.normal, a, b.as_ref());
             let f = sp.normal * t;
-            spread(&mut s.ap, &springs.weights, members, a, f);
+            spread(&mut s.ap, springs, members, a, f);
             if let Some(b) = b {
-                spread(&mut s.ap, &springs.weights, members, b, -f);
+                spread(&mut s.ap, springs, members, b, -f);
             }
         }
     };

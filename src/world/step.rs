@@ -72,13 +72,11 @@ fn dynamics(w: &mut World) -> u64 {
             u32::MAX
         }
     }));
-    let mut coupled = false;
     for sp in &w.springs.springs {
         if let Some(b) = sp.b {
             let (ra, rb) = (root(island, sp.a.object), root(island, b.object));
             if ra != rb && ra != u32::MAX && rb != u32::MAX {
                 island[ra.max(rb) as usize] = ra.min(rb);
-                coupled = true;
             }
         }
     }
@@ -94,6 +92,7 @@ fn dynamics(w: &mut World) -> u64 {
         size[r as usize] += 1;
     }
     let size = &size[..];
+    let coupled = size.iter().any(|&s| s > 1);
     let alone = |k: usize| island[k] != u32::MAX && size[island[k] as usize] == 1;
     // Explicit bodies, and implicit ones alone in their island, in parallel.
     w.objects
@@ -163,8 +162,11 @@ fn dynamics(w: &mut World) -> u64 {
             implicit::solve(group, springs, dt, gravity, &mut w.cache.solve[l]);
         }
         drop(members);
-        for o in w.objects.iter().filter(|o| !o.is_static()) {
-            check_counts(o);
+        // (The others were checked above.)
+        for (k, o) in w.objects.iter().enumerate() {
+            if island[k] != u32::MAX && !alone(k) {
+                check_counts(o);
+            }
         }
     }
     moving_phyxels(w)
