@@ -259,6 +259,33 @@ impl Couple {
     /// Directions in which the phyxels cannot take a moment (collinear phyxels: an
     /// eigenvalue of `I` below 1e-3 of the largest) are left uncorrected.
     fn at_surfel(f: Vec3, at: Vec3, total: f32, m1: [f32; 3], m2: [f32; 6]) -> Self {
+        let (centroid, d, inverse) = Self::inertia(at, total, m1, m2);
+        let rhs = -d.cross(f.as_dvec3());
+        let omega = if rhs.is_finite() {
+            (inverse * rhs).as_vec3()
+        } else {
+            Vec3::ZERO
+        };
+        Self { centroid, omega }
+    }
+
+    /// The centroid `s_c + d` and the linear map `f ↦ ω = −I⁻¹ (d × f)` of
+    /// [`Couple::at_surfel`] (zero where it is not finite).
+    pub(super) fn map(at: Vec3, total: f32, m1: [f32; 3], m2: [f32; 6]) -> (Vec3, DMat3) {
+        let (centroid, d, inverse) = Self::inertia(at, total, m1, m2);
+        // `−d × f = −[d]ₓ f`.
+        let cross = -DMat3::from_cols(
+            glam::DVec3::new(0.0, d.z, -d.y),
+            glam::DVec3::new(-d.z, 0.0, d.x),
+            glam::DVec3::new(d.y, -d.x, 0.0),
+        );
+        let map = inverse * cross;
+        (centroid, if map.is_finite() { map } else { DMat3::ZERO })
+    }
+
+    /// The centroid `s_c + d`, `d`, and the (pseudo-)inverse of the weights' inertia
+    /// tensor about the centroid (zero where it has no finite scale).
+    fn inertia(at: Vec3, total: f32, m1: [f32; 3], m2: [f32; 6]) -> (Vec3, glam::DVec3, DMat3) {
         let t = total as f64;
         let d = glam::DVec3::from_array(m1.map(|m| m as f64 / t));
         let s = m2.map(|m| m as f64 / t);
@@ -277,21 +304,16 @@ impl Couple {
         let inertia = DMat3::from_diagonal(glam::DVec3::splat(
             cov.x_axis.x + cov.y_axis.y + cov.z_axis.z,
         )) - cov;
-        let f64 = f.as_dvec3();
-        let rhs = -d.cross(f64);
         let scale = inertia.x_axis.x + inertia.y_axis.y + inertia.z_axis.z;
         let centroid = (at.as_dvec3() + d).as_vec3();
-        if scale.is_nan() || scale <= 0.0 || !rhs.is_finite() {
-            return Self {
-                centroid,
-                omega: Vec3::ZERO,
-            };
+        if scale.is_nan() || scale <= 0.0 {
+            return (centroid, d, DMat3::ZERO);
         }
         let det = inertia.determinant();
         // `det ≥ 1e-3 tr³` bounds the smallest eigenvalue above 1e-3 of the largest
         // (`λ_min ≥ det / λ_max²`); a plane of phyxels gives 0.03, a ball 0.04.
-        let omega = if det > 1e-3 * scale.powi(3) {
-            inertia.inverse() * rhs
+        let inverse = if det > 1e-3 * scale.powi(3) {
+            inertia.inverse()
         } else {
             // Nearly collinear phyxels (or weights dominated by one or two): a
             // pseudo-inverse over the directions they span.
@@ -299,12 +321,12 @@ impl Couple {
             let top = vals.iter().fold(0.0f64, |m, &v| m.max(v));
             (0..3)
                 .filter(|&k| vals[k] > 1e-3 * top)
-                .map(|k| vecs.col(k) * (vecs.col(k).dot(rhs) / vals[k]))
-                .sum()
+                .map(|k| {
+                    let v = vecs.col(k);
+                    DMat3::from_cols(v * v.x, v * v.y, v * v.z) * (1.0 / vals[k])
+                })
+                .fold(DMat3::ZERO, |a, m| a + m)
         };
-        Self {
-            centroid,
-            omega: omega.as_vec3(),
-        }
+        (centroid, d, inverse)
     }
 }

@@ -2,32 +2,27 @@
 //! ([`crate::dynamics::implicit`]): each contact surfel's penalty force (paper eqs. 3–7)
 //! differentiated along the contact normal.
 
+use super::distribute::{Couple, spread_weights};
 use super::params::{DISTRIBUTION_SUPPORT, contact_params};
 use super::*;
 use crate::body::object::Object;
 use crate::dynamics::implicit::{ContactSpring, ContactSprings, SpringSide};
+use glam::Mat3;
 
 /// True if the contact between `a` and `b` joins an implicit solve: every side that
-/// moves is implicit (and one does), and the pair is frictionless. Friction is
-/// explicit, computed from the normal force of the step's start: with the normal force
-/// changed in the solve, a block sliding on the `incline` lost 0.17% of its
-/// acceleration (docs/BACKENDS.md); a frictional pair keeps explicit contact, and its
-/// stable bound.
+/// moves is implicit, and one does.
 pub fn springs_apply(a: &Object, b: &Object) -> bool {
     let joins = |o: &Object| o.is_static() || o.dynamics.is_implicit();
-    joins(a)
-        && joins(b)
-        && !(a.is_static() && b.is_static())
-        && a.material.friction * b.material.friction == 0.0
+    joins(a) && joins(b) && !(a.is_static() && b.is_static())
 }
 
-/// Appends to `out` the springs of the patches whose pair [`springs_apply`]. A spring's
-/// side a is the patch's side a unless that one is static. The force `f = ½ k δ A` of a
-/// contact surfel ([`forces`]) changes by `½ k A` per metre of approach `δ` and by
-/// `c A` per m/s of approach speed (the dashpot acts on each side's half). Its motion is
-/// read from, and its force spread to, the phyxels that take its force in
-/// [`distribute`], with the same normalised weights and without the couple (the change
-/// is along the normal, nearly through both sides' weighted centroids).
+/// Appends to `out` the springs of the patches whose pair [`springs_apply`] (the
+/// pipeline spreads none of their force: the solve applies it). A spring's side a is
+/// the patch's side a unless that one is static. The force `f = ½ k δ A` of a contact
+/// surfel ([`forces`]) changes by `½ k A` per metre of approach `δ` and by `c A` per
+/// m/s of approach speed (the dashpot acts on each side's half); its friction is the
+/// pair's μ. Its motion is read from, and its force spread to, the phyxels that take
+/// its force in [`distribute`], with the same normalised weights and couple.
 ///
 /// `grids[k]`: the phyxel grid of object k, built this step for its pairs.
 pub fn springs(
@@ -60,18 +55,36 @@ pub fn springs(
                 }
                 let grid = grids[k].as_ref()?;
                 let h = DISTRIBUTION_SUPPORT * o.max_influence;
-                super::distribute::spread_weights::<false>(c.pos, grid, h, near, knn);
+                let widened = spread_weights::<false>(c.pos, grid, h, near, knn);
                 let total: f32 = near.iter().map(|e| e.1).sum();
                 if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                     return None;
                 }
+                // The couple of `distribute`: moments of the weights about the surfel.
+                let (mut m1, mut m2) = ([0.0f32; 3], [0.0f32; 6]);
+                for &(j, w) in near.iter() {
+                    let y = o.phyxels.pos.get(j) - c.pos;
+                    let wy = w * y;
+                    m1 = [m1[0] + wy.x, m1[1] + wy.y, m1[2] + wy.z];
+                    m2[0] += wy.x * y.x;
+                    m2[1] += wy.y * y.y;
+                    m2[2] += wy.z * y.z;
+                    m2[3] += wy.x * y.y;
+                    m2[4] += wy.x * y.z;
+                    m2[5] += wy.y * y.z;
+                }
+                let (centroid, map) = Couple::map(c.pos, total, m1, m2);
+                let couple = if widened { Mat3::ZERO } else { map.as_mat3() };
                 let start = out.weights.len() as u32;
-                out.weights
-                    .extend(near.iter().map(|&(j, w)| (j as u32, w / total)));
+                for &(j, w) in near.iter() {
+                    out.weights.push((j as u32, w / total));
+                    out.offsets.push(o.phyxels.pos.get(j) - centroid);
+                }
                 Some(SpringSide {
                     object: k as u32,
                     start,
                     end: out.weights.len() as u32,
+                    couple,
                 })
             };
             let Some(a) = side(first) else {
@@ -81,6 +94,7 @@ pub fn springs(
             if b.is_none() && !objects[second].is_static() {
                 // No phyxels to spread to (no grid): no spring rather than a wrong one.
                 out.weights.truncate(a.start as usize);
+                out.offsets.truncate(a.start as usize);
                 continue;
             }
             out.springs.push(ContactSpring {
@@ -88,7 +102,8 @@ pub fn springs(
                 stiffness: 0.5 * p.stiffness * c.area,
                 damping: p.damping * c.area,
                 force: (flip * c.force).dot(normal).max(0.0),
-                applied: true,
+                friction: p.friction,
+                slip_speed: FRICTION_SLIP_SPEED,
                 a,
                 b,
             });
@@ -97,7 +112,7 @@ pub fn springs(
 }
 
 /// Appends to `out` the springs of `last` whose pair has no patch this step (its
-/// surfaces have just parted), as springs not applied: each keeps its weights and
+/// surfaces have just parted), as gaps: each keeps its weights and
 /// normal, and its force becomes the linearised force at the current velocities,
 /// `force − k dt · approach`, negative by the gap the side opened. Such a spring pushes
 /// only once the step closes that gap, so a resting body that lifts off for a step is
@@ -119,7 +134,7 @@ pub fn keep_parted(
             .iter()
             .any(|p| involves(p, a) && b.is_none_or(|b| involves(p, b.object)))
     };
-    let mean = |s: &SpringSide| last.mean(s, |j| objects[s.object as usize].phyxels.vel.get(j));
+    let mean = |s: &SpringSide| last.velocity(s, |j| objects[s.object as usize].phyxels.vel.get(j));
     for sp in &last.springs {
         if touching(sp.a.object, sp.b) {
             continue;
@@ -131,21 +146,17 @@ pub fn keep_parted(
         }
         let mut copy = |s: &SpringSide| {
             let start = out.weights.len() as u32;
-            out.weights.extend_from_slice(last.weights_of(s));
+            let (weights, offsets) = last.weights_of(s);
+            out.weights.extend_from_slice(weights);
+            out.offsets.extend_from_slice(offsets);
             SpringSide {
-                object: s.object,
                 start,
                 end: out.weights.len() as u32,
+                ..*s
             }
         };
         let a = copy(&sp.a);
         let b = sp.b.as_ref().map(&mut copy);
-        out.springs.push(ContactSpring {
-            force,
-            applied: false,
-            a,
-            b,
-            ..*sp
-        });
+        out.springs.push(ContactSpring { force, a, b, ..*sp });
     }
 }

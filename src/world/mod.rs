@@ -160,10 +160,10 @@ impl World {
 
     /// Largest stable time step over all objects (s) and the object that limits it:
     /// each object's own dynamics, and, where two objects may touch, its contact spring
-    /// ([`contact_stable_dt`]) unless every moving object is implicit and no material
-    /// has friction (the springs are then in their solves). A backend's bound that is not a number > 0 (a broken
-    /// [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is returned with
-    /// its object, not hidden.
+    /// ([`contact_stable_dt`]) unless every moving object is implicit (its contacts are
+    /// then springs in the solves). A backend's bound that is not a number > 0 (a
+    /// broken [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is
+    /// returned with its object, not hidden.
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
         // The stiffest partner any object could meet: the pair's E* and mean
         // `contact_stiffness` are largest against it, and the spring `κE*/h` takes the
@@ -184,13 +184,12 @@ impl World {
                     )
                 })
         });
-        // Where every moving object is implicit and no material has friction, every
-        // contact joins an implicit solve as springs
-        // ([`crate::contact::springs_apply`]): no contact bound.
+        // Where every moving object is implicit, every contact joins an implicit solve
+        // as springs ([`crate::contact::springs_apply`]): no contact bound.
         let all_implicit = self
             .objects
             .iter()
-            .all(|o| (o.is_static() || o.dynamics.is_implicit()) && o.material.friction == 0.0);
+            .all(|o| o.is_static() || o.dynamics.is_implicit());
         self.objects
             .iter()
             .map(|o| {

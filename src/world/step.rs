@@ -489,29 +489,40 @@ fn forces(w: &mut World) -> u64 {
 /// Contact forces spread onto the phyxels of moving objects (their grids were built
 /// this step with the surfel grids); they act at the next step. Parallel over
 /// objects: each object takes its patches in patch order, so the sums do not depend
-/// on the thread count.
+/// on the thread count. The patches of pairs in an implicit solve become its contact
+/// springs instead (`contact::springs`), which apply their force in the solve.
 #[inline(never)] // a named frame in flamegraphs
 fn distribute(w: &mut World) -> u64 {
     let n = w.objects.len();
     w.cache.distribute.resize_with(n, Default::default);
-    let (patches, grids) = (&w.patches, &w.cache.grids.phyxel);
-    w.objects
-        .par_iter_mut()
-        .zip(w.cache.distribute.par_iter_mut())
-        .enumerate()
-        .filter(|(_, (o, _))| !o.is_static())
-        .for_each(|(k, (o, scratch))| {
-            let h = DISTRIBUTION_SUPPORT * o.max_influence;
-            for patch in patches {
-                let sign = match (patch.a == k, patch.b == k) {
-                    (true, _) => 1.0f32,
-                    (_, true) => -1.0,
-                    _ => continue,
-                };
-                let grid = grids[k].as_ref().expect("grid built for pairs");
-                contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h, scratch);
-            }
-        });
+    {
+        let c = &mut w.cache;
+        let in_solve = BumpVec::from_iter_in(
+            w.patches
+                .iter()
+                .map(|p| contact::springs_apply(&w.objects[p.a], &w.objects[p.b])),
+            &c.arena,
+        );
+        let in_solve = &in_solve[..];
+        let (patches, grids) = (&w.patches, &c.grids.phyxel);
+        w.objects
+            .par_iter_mut()
+            .zip(c.distribute.par_iter_mut())
+            .enumerate()
+            .filter(|(_, (o, _))| !o.is_static())
+            .for_each(|(k, (o, scratch))| {
+                let h = DISTRIBUTION_SUPPORT * o.max_influence;
+                for (patch, _) in patches.iter().zip(in_solve.iter()).filter(|e| !*e.1) {
+                    let sign = match (patch.a == k, patch.b == k) {
+                        (true, _) => 1.0f32,
+                        (_, true) => -1.0,
+                        _ => continue,
+                    };
+                    let grid = grids[k].as_ref().expect("grid built for pairs");
+                    contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h, scratch);
+                }
+            });
+    }
     let last = std::mem::take(&mut w.springs);
     w.springs = std::mem::take(&mut w.cache.last_springs);
     w.springs.clear();

@@ -99,7 +99,8 @@ pub type HardCaseFn = fn(&str, &BuildOptions, bool) -> Row;
 ///   the same stiffness at 1 m/s, at the default (stable) dt;
 /// - `dt-at-bound`: `sphere-on-plane` at exactly the stable bound;
 /// - `dt-above-bound`: the same at 2× the bound: must be refused up front (the message
-///   names the bound and the remedy);
+///   names the bound and the remedy); a backend without a bound runs both at a frame-rate
+///   step ([`UNBOUNDED_CASE_DT`], twice it above) and must stay stable;
 /// - `high-speed-impact`: two spheres closing at 12 m/s, each surfel moving more than a
 ///   surfel spacing per step: must not tunnel (they end up apart in their original order);
 /// - `deep-penetration`: `soft-on-plane` (the paper's Fig. 3 soft sphere);
@@ -169,12 +170,21 @@ fn at_bound_scene(o: &BuildOptions) -> Result<(Scene, f32), String> {
     Ok((s, bound))
 }
 
-/// `sphere-on-plane` at exactly the stable bound.
+/// The step an unbounded (implicit) backend runs the bound cases at instead: a
+/// frame-rate step at the bound, twice it above.
+pub const UNBOUNDED_CASE_DT: f32 = 1.0 / 120.0;
+
+/// `sphere-on-plane` at exactly the stable bound (a backend without one, and whose
+/// contacts join its solve: at [`UNBOUNDED_CASE_DT`]).
 fn dt_at_bound(backend: &str, o: &BuildOptions, quick: bool) -> Row {
     let scale = if quick { 0.5 } else { 1.0 };
     let at = |(s, bound): (Scene, f32)| {
         let at = BuildOptions {
-            dt: Some(bound),
+            dt: Some(if bound.is_finite() {
+                bound
+            } else {
+                UNBOUNDED_CASE_DT
+            }),
             ..o.clone()
         };
         build(&s, &at)
@@ -192,6 +202,17 @@ fn dt_above_bound(backend: &str, o: &BuildOptions, _quick: bool) -> Row {
         Ok(sb) => sb,
         Err(e) => return hard_error("dt-above-bound", backend, e),
     };
+    if bound == f32::INFINITY {
+        // No bound to exceed: twice the frame-rate step must still run stable.
+        let at = BuildOptions {
+            dt: Some(2.0 * UNBOUNDED_CASE_DT),
+            ..o.clone()
+        };
+        return match build(&s, &at) {
+            Ok(w) => run_hard("dt-above-bound", backend, w, 0.5, 0.01, |_| Ok(())),
+            Err(e) => hard_error("dt-above-bound", backend, e),
+        };
+    }
     let above = BuildOptions {
         dt: Some(2.0 * bound),
         ..o.clone()

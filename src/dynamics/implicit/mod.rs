@@ -7,21 +7,19 @@
 //! Newton's method with preconditioned conjugate gradients over a group of such bodies at
 //! once (an *island*), and adds to the system the linearised penalty springs and
 //! dashpots of the contact surfels between them, or between one of them and a static
-//! object ([`ContactSpring`]). A stiff contact then no longer limits dt, and the springs'
-//! forces on the two sides are equal and opposite at every iterate, so the island's
-//! momentum changes only by the external impulse and the solver's final residual.
-//!
-//! The contact force of each contact surfel is computed by the contact pipeline at the
-//! end of the previous step (positions `xₙ`) and arrives in `phyxels.force`; the spring
-//! adds its change over the step, `ΔF = −k (dt v_rel) − c (v_rel − v_rel,ₙ)` along the
-//! contact normal (`v_rel`: the velocity of side a relative to side b at the surfel),
-//! clamped so that the total normal force only pushes. This is the linearly implicit
-//! contact of Baraff and Witkin (1998): one Newton step of the contact force per time
-//! step, exact for a contact that keeps its surfels and normal over the step.
+//! object, with their friction ([`ContactSpring`]). A stiff contact
+//! then no longer limits dt, and the springs' forces on the two sides are equal and
+//! opposite at every iterate, so the island's momentum changes only by the external
+//! impulse and the solver's final residual.
+
+mod contact;
+
+pub use contact::{ContactSpring, ContactSprings, SpringSide};
 
 use super::{SolverStats, StepContext};
 use crate::body::material::Material;
 use crate::body::phyxels::Phyxels;
+use contact::{Active, Side, spread};
 use glam::Vec3;
 
 /// The operators of a backward-Euler step that [`solve`] drives. Each works on the
@@ -68,13 +66,25 @@ pub trait Implicit: Send {
 }
 
 /// Newton stops when the residual's `M⁻¹` norm falls to this fraction of the step's
-/// scale: the largest of its first residual, its momentum `‖vₙ‖_M` and its external
-/// impulse. The forces are f32: the residual of a stiff body cannot go much below a few
-/// percent of its weight's impulse ([`FLOOR_TOLERANCE`]).
+/// scale: the largest of its first residual, its external impulse and
+/// [`MOMENTUM_SHARE`] of its momentum `‖vₙ‖_M`. The forces are f32: the residual of a
+/// stiff body cannot go much below a few percent of its weight's impulse
+/// ([`FLOOR_TOLERANCE`]).
 pub const NEWTON_TOLERANCE: f32 = 1e-4;
 
+/// The share of a body's momentum in the scale of its residual, so that a moving body's
+/// steps are solved about as finely as a resting one's: with the whole momentum, a
+/// block sliding at 0.3 m/s (momentum 150 times its step's impulse at dt = 0.2 ms) was
+/// allowed a residual of 1.5% of each step's impulse, and the `incline-slide`
+/// acceleration came out 0.2% low. The f32 floor is judged against the whole momentum
+/// ([`FLOOR_TOLERANCE`]).
+pub const MOMENTUM_SHARE: f64 = 1e-2;
+
 /// A step whose Newton iteration stagnates (the residual no longer halves) below this
-/// fraction of its scale is accepted: it has reached the f32 rounding of the forces.
+/// fraction of its scale, with its whole momentum in the scale, is accepted: it has
+/// reached the f32 rounding of the forces (a body moving freely rounds its forces at
+/// about 1e-3 of its momentum per step, a thousand times its [`MOMENTUM_SHARE`]'s
+/// tolerance).
 /// A displacement of 1 cm is resolved to 1e-9 m, which a stiff body's stiffness (2.5e6
 /// N/m per phyxel for the E = 1e8 Pa cantilever) turns into force noise of a few percent
 /// of a phyxel's weight; the cantilever's steps stagnate at 0.2–1.5% of their impulses.
@@ -143,68 +153,6 @@ impl SolverStats {
     }
 }
 
-/// One side of a [`ContactSpring`]: an object and the phyxels the contact surfel's
-/// motion is read from and its force spread to.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpringSide {
-    /// The object (index into `World::objects`).
-    pub object: u32,
-    /// Its phyxels and their normalised weights: `ContactSprings::weights[start..end]`.
-    pub start: u32,
-    pub end: u32,
-}
-
-/// The linearised penalty spring and dashpot of one contact surfel (Keiser et al. 2004,
-/// eqs. 3–7, differentiated along the contact normal).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ContactSpring {
-    /// Unit normal along which the force on side a pushes it out of side b.
-    pub normal: Vec3,
-    /// dF/dδ, `½ k A` (N/m): the force on a grows by this per metre of approach.
-    pub stiffness: f32,
-    /// dF/dv, `c A` (N·s/m), per m/s of approach speed.
-    pub damping: f32,
-    /// The normal force on a at the start of the step (N): the spring's change may lower
-    /// the total to zero, not below. Negative for a kept spring (`applied` false): its
-    /// side has lifted off, by `−force / stiffness` metres.
-    pub force: f32,
-    /// `force` is in the phyxels' external forces already (the contact pipeline spread
-    /// it): the solve adds the change only. Otherwise it adds `max(0, force + change)`.
-    pub applied: bool,
-    pub a: SpringSide,
-    /// `None` when the other side is a static object (it does not move).
-    pub b: Option<SpringSide>,
-}
-
-/// The contact springs of the last step, over the whole world.
-#[derive(Clone, Debug, Default)]
-pub struct ContactSprings {
-    pub springs: Vec<ContactSpring>,
-    /// (phyxel, normalised weight) lists of the springs' sides.
-    pub weights: Vec<(u32, f32)>,
-}
-
-impl ContactSprings {
-    pub fn clear(&mut self) {
-        self.springs.clear();
-        self.weights.clear();
-    }
-
-    /// A side's (phyxel, normalised weight) list.
-    pub fn weights_of(&self, side: &SpringSide) -> &[(u32, f32)] {
-        &self.weights[side.start as usize..side.end as usize]
-    }
-
-    /// The weighted mean of `value(phyxel)` over a side's phyxels: the motion of its
-    /// contact surfel.
-    pub fn mean(&self, side: &SpringSide, value: impl Fn(usize) -> Vec3) -> Vec3 {
-        self.weights_of(side)
-            .iter()
-            .map(|&(j, w)| value(j as usize) * w)
-            .sum()
-    }
-}
-
 /// One body of an island.
 pub struct Member<'a> {
     /// Its index in `World::objects` (what [`SpringSide::object`] names).
@@ -226,19 +174,8 @@ pub struct SolveScratch {
     p: Vec<Vec3>,
     ap: Vec<Vec3>,
     delta: Vec<Vec3>,
-    /// Per spring of the island: its index, approach speed at `vₙ`, and whether it
-    /// pushes at the current iterate.
-    springs: Vec<(u32, f32, bool)>,
-    /// The island's springs' sides.
-    sides: Vec<(Side, Option<Side>)>,
-}
-
-/// Where a spring side's dofs lie in the island's vectors.
-#[derive(Clone, Copy, Debug)]
-struct Side {
-    offset: usize,
-    member: usize,
-    spring: SpringSide,
+    /// The island's springs and their state.
+    springs: Vec<Active>,
 }
 
 /// Steps an island of implicit bodies by one backward-Euler step of `dt`, with the
@@ -284,7 +221,6 @@ pub fn solve(
     let slot = |object: u32| members.iter().position(|m| m.object == object as usize);
     // The island's springs: side a a member, side b a member or static.
     s.springs.clear();
-    s.sides.clear();
     for (k, sp) in springs.springs.iter().enumerate() {
         let Some(ma) = slot(sp.a.object) else {
             continue;
@@ -296,8 +232,8 @@ pub fn solve(
             },
             None => None,
         };
-        s.springs.push((k as u32, 0.0, true));
-        s.sides.push((
+        s.springs.push(Active::new(
+            k as u32,
             side(&s.offset, ma, sp.a),
             mb.map(|(mb, b)| side(&s.offset, mb, b)),
         ));
@@ -317,11 +253,11 @@ pub fn solve(
         }
     }
     let momentum = momentum.sqrt();
-    for (e, (a, b)) in s.springs.iter_mut().zip(&s.sides) {
-        let sp = &springs.springs[e.0 as usize];
-        e.1 = approach(&s.v0, springs, sp.normal, a, b.as_ref());
+    for e in s.springs.iter_mut() {
+        let sp = &springs.springs[e.index as usize];
+        e.approach0 = sp.normal.dot(e.relative(&s.v0, springs));
     }
-    let (mut newton, mut cg, mut scale) = (0u32, 0u32, 0.0f64);
+    let (mut newton, mut cg, mut scale, mut floor_scale) = (0u32, 0u32, 0.0f64, 0.0f64);
     let (mut previous, mut stagnated) = (f64::INFINITY, false);
     let mut rel;
     loop {
@@ -334,20 +270,11 @@ pub fn solve(
                 .dynamics
                 .residual(m.phyxels, &ctx, &s.v[r.clone()], &mut s.g[r]);
         }
-        for (e, (a, b)) in s.springs.iter_mut().zip(&s.sides) {
-            let sp = &springs.springs[e.0 as usize];
-            let now = approach(&s.v, springs, sp.normal, a, b.as_ref());
-            let change = -sp.stiffness * dt * now - sp.damping * (now - e.1);
-            // Push only: the spring may take the force to zero, not pull.
-            e.2 = change > -sp.force;
-            let change = if sp.applied {
-                change.max(-sp.force)
-            } else {
-                (sp.force + change).max(0.0)
-            };
-            let f = sp.normal * (change * dt);
-            spread(&mut s.g, springs, members, a, -f);
-            if let Some(b) = b {
+        for e in s.springs.iter_mut() {
+            let sp = &springs.springs[e.index as usize];
+            let f = e.force(sp, e.relative(&s.v, springs), dt, newton) * dt;
+            spread(&mut s.g, springs, members, &e.a, -f);
+            if let Some(b) = &e.b {
                 spread(&mut s.g, springs, members, b, f);
             }
         }
@@ -362,18 +289,19 @@ pub fn solve(
         }
         let norm = norm.sqrt();
         if newton == 0 {
-            // Relative to the step's momentum change, its momentum or its impulses,
-            // whichever is largest: near equilibrium the first residual is small, but
-            // the forces' rounding is not.
+            // Relative to the step's momentum change, its impulses or a share of its
+            // momentum, whichever is largest: near equilibrium the first residual is
+            // small, but the forces' rounding is not.
             let impulse = dt as f64 * external.sqrt();
-            scale = norm.max(momentum).max(impulse).max(1e-30);
+            scale = norm.max(MOMENTUM_SHARE * momentum).max(impulse).max(1e-30);
+            floor_scale = scale.max(momentum);
         }
         rel = norm / scale;
         if rel <= settings.tolerance as f64 || newton >= settings.max_newton || !rel.is_finite() {
             break;
         }
         // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE).
-        if rel > 0.5 * previous && rel <= FLOOR_TOLERANCE {
+        if rel > 0.5 * previous && norm <= FLOOR_TOLERANCE * floor_scale {
             stagnated = true;
             break;
         }
@@ -394,7 +322,7 @@ pub fn solve(
         m.dynamics.commit(m.phyxels, &ctx, &s.v[r]);
     }
     let tolerance = settings.tolerance as f64;
-    let converged = rel <= tolerance || (stagnated && rel <= FLOOR_TOLERANCE);
+    let converged = rel <= tolerance || stagnated;
     let report = SolveReport {
         newton_iterations: newton,
         cg_iterations: cg,
@@ -418,27 +346,9 @@ fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
     }
 }
 
-/// Approach speed of side a relative to side b along `n` (m/s) for the island's vector
-/// `x`: positive when a moves away from b (`n` pushes a out), so the spring's change is
-/// `−k dt · approach`.
-fn approach(x: &[Vec3], springs: &ContactSprings, n: Vec3, a: &Side, b: Option<&Side>) -> f32 {
-    let mean = |s: &Side| springs.mean(&s.spring, |j| x[s.offset + j]);
-    n.dot(mean(a) - b.map_or(Vec3::ZERO, mean))
-}
-
-/// Adds `f` spread by the side's weights to `out` (fixed phyxels take nothing).
-fn spread(out: &mut [Vec3], springs: &ContactSprings, members: &[Member<'_>], s: &Side, f: Vec3) {
-    let fixed = &members[s.member].phyxels.fixed;
-    for &(j, w) in springs.weights_of(&s.spring) {
-        if fixed[j as usize] == 0 {
-            out[s.offset + j as usize] += f * w;
-        }
-    }
-}
-
 /// Solves `A δ = −g` over the island by preconditioned CG from δ = 0, to [`CG_FORCING`]
-/// of `‖g‖`; returns the iterations. `A` is the members' tangents plus the active
-/// springs' `(k dt² + c dt) w nnᵀ wᵀ`; the preconditioner is the members' own
+/// of `‖g‖`; returns the iterations. `A` is the members' tangents plus the pushing
+/// springs' rows (normal spring, dashpot and friction); the preconditioner is the members' own
 /// (block diagonal). Stops early on a direction of non-positive curvature (an
 /// indefinite tangent: a buckling body), keeping the last iterate.
 fn solve_cg(
@@ -472,16 +382,11 @@ fn solve_cg(
             m.dynamics
                 .apply(m.phyxels, &ctx, &s.p[r.clone()], &mut s.ap[r]);
         }
-        for (e, (a, b)) in s.springs.iter().zip(&s.sides) {
-            if !e.2 {
-                continue;
-            }
-            let sp = &springs.springs[e.0 as usize];
-            let coef = sp.stiffness * dt * dt + sp.damping * dt;
-            let t = coef * approach(&s.p, springs, sp.normal, a, b.as_ref());
-            let f = sp.normal * t;
-            spread(&mut s.ap, springs, members, a, f);
-            if let Some(b) = b {
+        for e in s.springs.iter().filter(|e| e.pushing) {
+            let sp = &springs.springs[e.index as usize];
+            let f = e.tangent(sp, e.relative(&s.p, springs), dt);
+            spread(&mut s.ap, springs, members, &e.a, f);
+            if let Some(b) = &e.b {
                 spread(&mut s.ap, springs, members, b, -f);
             }
         }

@@ -1,0 +1,242 @@
+//! The contact springs of an implicit solve: each contact surfel's penalty spring,
+//! dashpot and Coulomb friction (Keiser et al. 2004, eqs. 3–7), as forces on the
+//! island's phyxels at trial velocities and as their linearisation.
+//!
+//! A pair in a solve takes its whole contact force from it (the pipeline spreads none
+//! of it). Along the normal: the pipeline's force at the step's start plus its linear
+//! change over the step (`−k dt v_n − c Δv_n`), clamped to push only — one Newton step
+//! of the penalty force, the linearly implicit contact of Baraff and Witkin (1998).
+//! Along the tangent: the pipeline's regularised Coulomb law `T = −μ N v_t / max(|v_t|,
+//! v_s)` ([`ContactSpring::slip_speed`]) at the trial velocities, with the normal force
+//! of the same iterate. So friction never exceeds `μ N`, and a sticking contact's stiff
+//! viscous branch (`μ N / v_s`, far beyond explicit stability) holds at any dt.
+//!
+//! A spring reads its contact surfel's velocity from, and spreads its force to, the
+//! phyxels of each side as the pipeline's distribution does (`contact::distribute`:
+//! normalised weights and the couple that makes the force act at the surfel). The
+//! reading is the transpose of the spreading: the weighted mean velocity plus the
+//! weights' best-fit rotation at the surfel, so the tangent stays symmetric.
+
+use super::Member;
+use glam::{Mat3, Vec3};
+
+/// One side of a [`ContactSpring`]: an object and the phyxels the contact surfel's
+/// motion is read from and its force spread to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringSide {
+    /// The object (index into `World::objects`).
+    pub object: u32,
+    /// Its phyxels, their normalised weights and offsets from the weights' centroid:
+    /// `ContactSprings::weights[start..end]`, `offsets[start..end]`.
+    pub start: u32,
+    pub end: u32,
+    /// The couple's map `f ↦ ω` (1/m): phyxel `j` takes `ŵⱼ (f + ω × rⱼ)`, which acts
+    /// at the surfel (zero: at the weights' centroid).
+    pub couple: Mat3,
+}
+
+/// The linearised penalty spring and dashpot of one contact surfel, with its friction
+/// (Keiser et al. 2004, eqs. 3–7).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactSpring {
+    /// Unit normal along which the force on side a pushes it out of side b.
+    pub normal: Vec3,
+    /// dF/dδ, `½ k A` (N/m): the force on a grows by this per metre of approach.
+    pub stiffness: f32,
+    /// dF/dv, `c A` (N·s/m), per m/s of approach speed.
+    pub damping: f32,
+    /// The normal force on a at the start of the step (N): the spring adds
+    /// `max(0, force + change)`. Negative for a gap (a spring of a pair that has just
+    /// parted): its side is `−force / stiffness` metres away.
+    pub force: f32,
+    /// Coulomb coefficient μ of the pair (0: frictionless).
+    pub friction: f32,
+    /// Slip speed below which friction is viscous, `μ N v_t / slip_speed` (m/s, > 0).
+    pub slip_speed: f32,
+    pub a: SpringSide,
+    /// `None` when the other side is a static object (it does not move).
+    pub b: Option<SpringSide>,
+}
+
+/// The contact springs of the last step, over the whole world.
+#[derive(Clone, Debug, Default)]
+pub struct ContactSprings {
+    pub springs: Vec<ContactSpring>,
+    /// (phyxel, normalised weight) lists of the springs' sides.
+    pub weights: Vec<(u32, f32)>,
+    /// Each weight's phyxel offset from its side's weighted centroid (m), at the step's
+    /// start.
+    pub offsets: Vec<Vec3>,
+}
+
+impl ContactSprings {
+    pub fn clear(&mut self) {
+        self.springs.clear();
+        self.weights.clear();
+        self.offsets.clear();
+    }
+
+    /// A side's (phyxel, normalised weight) list and the phyxels' offsets.
+    pub fn weights_of(&self, side: &SpringSide) -> (&[(u32, f32)], &[Vec3]) {
+        let r = side.start as usize..side.end as usize;
+        (&self.weights[r.clone()], &self.offsets[r])
+    }
+
+    /// Velocity of a side's contact surfel from its phyxels' `velocity(phyxel)`: the
+    /// weighted mean plus the weights' fitted rotation at the surfel (the transpose of
+    /// [`ContactSprings::spread`]).
+    pub fn velocity(&self, side: &SpringSide, velocity: impl Fn(usize) -> Vec3) -> Vec3 {
+        let (weights, offsets) = self.weights_of(side);
+        let (mut mean, mut moment) = (Vec3::ZERO, Vec3::ZERO);
+        for (&(j, w), &r) in weights.iter().zip(offsets) {
+            let v = velocity(j as usize) * w;
+            mean += v;
+            moment += r.cross(v);
+        }
+        mean + side.couple.transpose() * moment
+    }
+
+    /// Spreads `f` over a side's phyxels: `add(phyxel, ŵⱼ (f + ω × rⱼ))`.
+    pub fn spread(&self, side: &SpringSide, f: Vec3, mut add: impl FnMut(usize, Vec3)) {
+        let (weights, offsets) = self.weights_of(side);
+        let omega = side.couple * f;
+        for (&(j, w), &r) in weights.iter().zip(offsets) {
+            add(j as usize, (f + omega.cross(r)) * w);
+        }
+    }
+}
+
+/// Newton iterations over which friction follows the iterates' normal force.
+pub const FRICTION_UPDATES: u32 = 3;
+
+/// Where a spring side's dofs lie in the island's vectors.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Side {
+    pub offset: usize,
+    pub member: usize,
+    pub spring: SpringSide,
+}
+
+/// A spring of the island and its state over the step's Newton iterations.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Active {
+    /// Index into `ContactSprings::springs`.
+    pub index: u32,
+    pub a: Side,
+    pub b: Option<Side>,
+    /// Approach speed at `vₙ` (the dashpot's reference).
+    pub approach0: f32,
+    /// The normal force is above zero at the current iterate (the spring and the
+    /// friction are in the tangent).
+    pub pushing: bool,
+    /// The normal force friction scales with (N; see [`Active::force`]).
+    pub friction_normal: f32,
+    /// Friction's tangent coefficient `μ N / max(|v_t|, v_s)` (N·s/m).
+    pub drag: f32,
+    /// Unit slip direction whose stiffness the tangent leaves out (a sliding contact:
+    /// its friction does not change with the slip speed), or zero (the whole tangent
+    /// plane: sticking, or a slip that has reversed in this step).
+    pub slide: Vec3,
+    /// The slip at the previous iterate, and whether it has reversed in this step.
+    pub last_slip: Vec3,
+    pub reversed: bool,
+}
+
+impl Active {
+    pub fn new(index: u32, a: Side, b: Option<Side>) -> Self {
+        Self {
+            index,
+            a,
+            b,
+            approach0: 0.0,
+            pushing: true,
+            friction_normal: 0.0,
+            drag: 0.0,
+            slide: Vec3::ZERO,
+            last_slip: Vec3::ZERO,
+            reversed: false,
+        }
+    }
+
+    /// Velocity of side a relative to side b at the contact surfel, for the island's
+    /// vector `x`.
+    pub fn relative(&self, x: &[Vec3], springs: &ContactSprings) -> Vec3 {
+        let at = |s: &Side| springs.velocity(&s.spring, |j| x[s.offset + j]);
+        at(&self.a) - self.b.as_ref().map_or(Vec3::ZERO, at)
+    }
+
+    /// The spring's force on side a at relative velocity `rel` (N), and the state of
+    /// its linearisation there.
+    ///
+    /// The tangent of the friction is the exact derivative of `−μ N v_t / |v_t|` in the
+    /// tangent plane while sliding (its stiffness across the slip, none along it), so a
+    /// steady slide converges in one Newton step; once the slip reverses within a step
+    /// the tangent becomes the secant `μ N / |v_t|` over the whole plane, which cannot
+    /// overshoot through zero again (Newton with the exact tangent can jump between the
+    /// two slip directions forever).
+    ///
+    /// Friction scales with the iterate's normal force over the first
+    /// [`FRICTION_UPDATES`] Newton iterations, then with the last of those: the tangent
+    /// leaves out how friction changes with the normal force (that term would not be
+    /// symmetric), and a contact landing within the step, whose normal force changes
+    /// most, then still converges. A steady slide converges within those iterations,
+    /// with the end of step's normal force.
+    pub fn force(&mut self, sp: &ContactSpring, rel: Vec3, dt: f32, iteration: u32) -> Vec3 {
+        let now = sp.normal.dot(rel);
+        let change = -sp.stiffness * dt * now - sp.damping * (now - self.approach0);
+        // Push only: the spring may take the force to zero, not pull.
+        let total = sp.force + change;
+        self.pushing = total > 0.0;
+        let mut f = sp.normal * total.max(0.0);
+        self.drag = 0.0;
+        if iteration < FRICTION_UPDATES {
+            self.friction_normal = total.max(0.0);
+        }
+        let normal = self.friction_normal;
+        if sp.friction > 0.0 && self.pushing {
+            let slip = rel - now * sp.normal;
+            let speed = slip.length();
+            let scale = sp.friction * normal / speed.max(sp.slip_speed);
+            f -= scale * slip;
+            self.drag = scale;
+            self.reversed |= slip.dot(self.last_slip) < 0.0;
+            self.slide = if speed > sp.slip_speed && !self.reversed {
+                slip / speed
+            } else {
+                Vec3::ZERO
+            };
+            self.last_slip = slip;
+        }
+        f
+    }
+
+    /// The spring's row of the tangent applied to the relative motion `p` of side a
+    /// against b: `(k dt² + c dt) n nᵀ p` while pushing, plus friction's
+    /// `dt · drag · (P_t − s sᵀ) p` (`P_t`: the tangent plane, `s`: [`Active::slide`]).
+    pub fn tangent(&self, sp: &ContactSpring, p: Vec3, dt: f32) -> Vec3 {
+        if !self.pushing {
+            return Vec3::ZERO;
+        }
+        let n = sp.normal;
+        let along = n.dot(p);
+        let plane = p - along * n;
+        n * ((sp.stiffness * dt * dt + sp.damping * dt) * along)
+            + (plane - self.slide * self.slide.dot(plane)) * (dt * self.drag)
+    }
+}
+
+/// Adds `f` spread over the side's phyxels to `out` (fixed phyxels take nothing).
+pub(super) fn spread(
+    out: &mut [Vec3],
+    springs: &ContactSprings,
+    members: &[Member<'_>],
+    s: &Side,
+    f: Vec3,
+) {
+    let fixed = &members[s.member].phyxels.fixed;
+    springs.spread(&s.spring, f, |j, fj| {
+        if fixed[j] == 0 {
+            out[s.offset + j] += fj;
+        }
+    });
+}
