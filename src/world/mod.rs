@@ -15,7 +15,7 @@ mod step;
 
 pub use guard::NonFinite;
 pub use phase::{Phase, PhaseTimes};
-pub use record::{DT_FRACTION, DtChange, Energy, MAX_DEFAULT_DT, RunRecord};
+pub use record::{DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT, RunRecord};
 
 /// Where these lived in phyxel 0.1.
 #[doc(hidden)]
@@ -220,12 +220,19 @@ impl World {
     }
 
     /// The default time step (s) given the stable bound `stable` of
-    /// [`World::stable_dt`]: [`DT_FRACTION`] of the bound, at most [`MAX_DEFAULT_DT`].
-    /// Scenes of implicit bodies only (no bound) get `MAX_DEFAULT_DT` too: frame-rate
-    /// steps are the caller's choice, since friction is still explicit (a frictional
-    /// pile of `mls-implicit` bodies blows up at 1/120 s; docs/BACKENDS.md).
+    /// [`World::stable_dt`]: [`DT_FRACTION`] of the bound, at most [`MAX_DEFAULT_DT`];
+    /// a frame-rate step ([`IMPLICIT_DEFAULT_DT`]) where an implicit body moves and
+    /// nothing bounds dt (every moving object implicit, contacts in the solves).
     pub fn default_dt(&self, stable: f32) -> f32 {
-        (DT_FRACTION * stable).min(MAX_DEFAULT_DT)
+        let implicit = self
+            .objects
+            .iter()
+            .any(|o| !o.is_static() && o.dynamics.is_implicit());
+        if stable == f32::INFINITY && implicit {
+            IMPLICIT_DEFAULT_DT
+        } else {
+            (DT_FRACTION * stable).min(MAX_DEFAULT_DT)
+        }
     }
 
     /// One time step: dynamics, surfel advection, contact handling, then topology.

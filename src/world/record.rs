@@ -82,3 +82,9 @@ pub const DT_FRACTION: f32 = 0.9;
 /// of 2·10¹⁸ s, and its first steps under gravity fell past f32's range. No built-in
 /// scene's bound reaches it (the softest, `soft-on-plane`, runs at 0.95 ms).
 pub const MAX_DEFAULT_DT: f32 = 1e-3;
+
+/// Default `dt` (s) of a scene whose moving objects are all implicit (no stable bound,
+/// contacts in the solve): a frame-rate step, two per frame at 60 Hz. Backward Euler
+/// keeps it stable; what it costs is accuracy (damping and stretched periods of fast
+/// modes, and impacts shorter than a step, docs/BACKENDS.md), which `--dt` trades back.
+pub const IMPLICIT_DEFAULT_DT: f32 = 1.0 / 120.0;
