@@ -211,7 +211,11 @@ pub fn case_cantilever(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     for &s in spacings {
         let through = (size[1] / s).round() as u32;
         let (d_tol, f_tol) = cantilever_tolerance(backend, through);
-        let (d, period, info) = cantilever(s, periods, backend)?;
+        // The implicit backend at 1 ms (its frame-rate default damps the swing these
+        // rows average over within a period; the dt rows below take the large steps).
+        let dt = (backend == crate::backends::mls::implicit::NAME)
+            .then_some(crate::world::MAX_DEFAULT_DT);
+        let (d, period, info) = cantilever_at(s, periods, backend, dt)?;
         let mut r = row("cantilever-deflection", backend, info, d, d_ref);
         r.note = format!("spacing {s:.4} m, {through} through the thickness");
         rows.push(judged(r, d_tol));
@@ -253,8 +257,101 @@ fn implicit_dt_rows(_quick: bool) -> Result<Vec<Row>, String> {
         let mut r = row("cantilever-dt-frequency", backend, info, 1.0 / period, f_be);
         r.note = format!("{note}; reference backward Euler's atan(ω dt)/(ω dt) × f₁");
         rows.push(judged(r, f_tol));
+        let (decrement, info) = cantilever_damping(dt)?;
+        let be = std::f64::consts::PI * (1.0 + w * w).ln() / w.atan();
+        let mut r = row("cantilever-dt-damping", backend, info, decrement, be);
+        r.note = format!(
+            "{note}; decrement per period, {:.2} of the amplitude kept; reference π ln(1 + ω²dt²)/atan(ω dt)",
+            (-decrement).exp()
+        );
+        rows.push(judged(r, DAMPING_TOLERANCE));
     }
     Ok(rows)
+}
+
+/// Tolerance of `cantilever-dt-damping` (relative error of the decrement per period):
+/// the decrement `π ln(1 + x²)/atan x` grows as `x = ω dt` to first order, and the MLS
+/// bar's first mode is 7% off Euler–Bernoulli's ω at 4 phyxels through the thickness
+/// (`cantilever-frequency`), plus the extrema's interpolation between samples (six per
+/// half period at 1/60 s): 15%.
+pub const DAMPING_TOLERANCE: f64 = 0.15;
+
+/// Backward Euler's damping of the built-in cantilever's first mode, undamped material,
+/// at time step `dt` (spacing 2.5 cm): its decrement per period `−ln(A(t + T)/A(t))`,
+/// from the bar's start at rest (straight: an extremum of its swing about the static
+/// sag `d_s`), its first maximum `d₁` and the next minimum `d₂` (both interpolated
+/// between samples). A swing that keeps `q` of its amplitude per half period gives
+/// `d₁ = d_s (1 + q)` and `d₂ = d_s (1 − q²)`, so `q = 1 − d₂/d₁`, and the decrement is
+/// `−2 ln q`.
+pub fn cantilever_damping(dt: f32) -> Result<(f64, RunInfo), String> {
+    let backend = crate::backends::mls::implicit::NAME;
+    let spacing = 0.025;
+    let mut scene = builtin("cantilever");
+    scene.objects[0].spacing = spacing;
+    scene.objects[0].surfel_spacing = Some(spacing);
+    scene.objects[0].material.damping = 0.0;
+    let period = 1.0 / euler_bernoulli(&scene).1;
+    let mut world = build(
+        &scene,
+        &BuildOptions {
+            dt: Some(dt),
+            ..opts(backend)
+        },
+    )?;
+    let bar = &world.objects[0].phyxels;
+    let x_max = (0..bar.len())
+        .map(|i| bar.rest.x[i])
+        .fold(f32::MIN, f32::max);
+    let tip: Vec<usize> = (0..bar.len())
+        .filter(|&i| bar.rest.x[i] > x_max - 0.5 * spacing)
+        .collect();
+    let mut series = vec![0.0f64];
+    let steps = (1.5 * period / dt as f64).ceil() as usize;
+    let info = timed(&mut world, steps, |w| {
+        let p = &w.objects[0].phyxels;
+        let d = tip
+            .iter()
+            .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
+            .sum::<f64>()
+            / tip.len() as f64;
+        series.push(d);
+        d.is_finite()
+    });
+    // The peak between samples, from the parabola through the three around it.
+    let peak = |k: usize| {
+        let (y0, y1, y2) = (series[k - 1], series[k], series[k + 1]);
+        let curvature = y0 - 2.0 * y1 + y2;
+        if curvature != 0.0 {
+            let shift = (0.5 * (y0 - y2) / curvature).clamp(-0.5, 0.5);
+            y1 - 0.25 * (y0 - y2) * shift
+        } else {
+            y1
+        }
+    };
+    // Extrema of the fundamental: a quarter period or more apart (higher modes ride on
+    // it at the finer steps).
+    let gap = ((0.25 * period / dt as f64) as usize).max(1);
+    let extremum = |from: usize, max: bool| {
+        (from.max(1)..series.len() - 1).find(|&k| {
+            let (a, b, c) = (series[k - 1], series[k], series[k + 1]);
+            if max {
+                b > a && b >= c
+            } else {
+                b < a && b <= c
+            }
+        })
+    };
+    let first = extremum(gap, true).ok_or("cantilever-dt-damping: no first maximum")?;
+    let second =
+        extremum(first + gap, false).ok_or("cantilever-dt-damping: no minimum after it")?;
+    let (d1, d2) = (peak(first), peak(second));
+    let q = 1.0 - d2 / d1;
+    if !(q > 0.0 && q < 1.0) {
+        return Err(format!(
+            "cantilever-dt-damping: extrema {d1:.4e} and {d2:.4e} m give no decay"
+        ));
+    }
+    Ok((-2.0 * q.ln(), info))
 }
 
 /// The initial stretch of the free body of [`free_energy`] and [`initial_energy`]: the

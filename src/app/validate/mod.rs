@@ -76,6 +76,11 @@ pub const CASES: &[(&str, &str, bool)] = &[
         false,
     ),
     (
+        "cantilever-dt-damping",
+        "mls-implicit only: decrement per period of the first mode (undamped material) at the same dt vs backward Euler's π ln(1 + ω²dt²)/atan(ω dt)",
+        false,
+    ),
+    (
         "hertz-indentation",
         "approach of the centres (m) of two spheres pressed by 5 N vs Hertz (9F²/(16E*²R*))^(1/3)",
         false,
@@ -348,6 +353,7 @@ pub const RUNNERS: &[(&[&str], CaseFn)] = &[
             "cantilever-frequency",
             "cantilever-dt-deflection",
             "cantilever-dt-frequency",
+            "cantilever-dt-damping",
         ],
         case_cantilever,
     ),
