@@ -83,6 +83,10 @@ enum Command {
         /// listed on stderr.
         #[arg(long, value_name = "FILE.svg")]
         flamegraph: Option<PathBuf>,
+        /// Write each step's contact pairs and their totals (force, torque, area,
+        /// centroid, peak pressure, deepest overlap) to this file, one JSON object per line.
+        #[arg(long, value_name = "FILE.jsonl")]
+        contacts: Option<PathBuf>,
     },
     /// Run a scene once per backend and compare speed, contact and conservation.
     #[command(allow_negative_numbers = true)]
@@ -344,6 +348,7 @@ fn main() -> ExitCode {
             surfels,
             phyxel_count,
             flamegraph,
+            contacts,
         } => {
             // Options that only shape output which is not being written: say so.
             let idle = [
@@ -387,6 +392,7 @@ fn main() -> ExitCode {
                 steps,
                 out,
                 phyxels,
+                contacts,
             };
             run_scene(&scene, &opts, json, flamegraph.as_deref())
         }

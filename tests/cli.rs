@@ -1710,3 +1710,63 @@ fn compare_refuses_a_scene_without_moving_objects() {
     let out = phyxel(&["run", file, "--steps", "2", "--json"]);
     assert!(out.status.success(), "{}", text(&out.stderr));
 }
+
+/// `run --contacts FILE.jsonl` writes one JSON object per step: its number, time and
+/// pairs with the objects' names and the patch totals; the sphere lands on the plane
+/// within the run, so some step has a pair carrying a normal force over a positive area.
+#[test]
+fn run_writes_contact_totals_per_step() {
+    let file = TempPath::new("contacts.jsonl");
+    stdout_of(&[
+        "run",
+        "sphere-on-plane",
+        "--steps",
+        "400",
+        "--contacts",
+        file.arg(),
+    ]);
+    let text = std::fs::read_to_string(file.path()).unwrap();
+    let lines: Vec<Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("each line is one JSON object"))
+        .collect();
+    assert_eq!(lines.len(), 400);
+    let mut touched = false;
+    for (k, line) in lines.iter().enumerate() {
+        assert_eq!(field(line, "step").as_u64(), Some(k as u64 + 1));
+        for pair in field(line, "pairs").as_array().unwrap() {
+            for key in [
+                "a",
+                "b",
+                "a_name",
+                "b_name",
+                "contact_surfels",
+                "force",
+                "normal_force",
+                "friction_force",
+                "centre",
+                "torque",
+                "area",
+                "centroid",
+                "peak_pressure",
+                "max_penetration",
+            ] {
+                field(pair, key);
+            }
+            touched |= field(pair, "normal_force").as_f64().unwrap() > 0.0
+                && field(pair, "area").as_f64().unwrap() > 0.0;
+        }
+    }
+    assert!(touched, "no step with a loaded contact");
+    expect_error(
+        &[
+            "run",
+            "sphere-on-plane",
+            "--steps",
+            "2",
+            "--contacts",
+            "/nonexistent/dir/c.jsonl",
+        ],
+        &["--contacts", "/nonexistent/dir/c.jsonl"],
+    );
+}

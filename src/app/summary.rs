@@ -32,6 +32,48 @@ pub struct RunOptions {
     /// Also render each frame to `surfels_NNNNN.png` in `out`, with these options (the
     /// camera: theirs, else the scene's, else fitted to the first frame).
     pub png: Option<RenderOptions>,
+    /// Write each step's contact totals to this file, one JSON object per line
+    /// ([`ContactLine`]).
+    pub contacts: Option<PathBuf>,
+}
+
+/// One line of `run --contacts FILE.jsonl`: a step's contact pairs and their totals.
+#[derive(Serialize)]
+pub struct ContactLine<'a> {
+    pub step: u64,
+    /// Simulated time at the end of the step (s).
+    pub time: f64,
+    pub pairs: Vec<ContactPair<'a>>,
+}
+
+/// A pair of [`ContactLine`]: the objects' names and the patch's totals
+/// ([`crate::contact::PatchTotals`], flattened: `a` and `b` are the objects' indices).
+#[derive(Serialize)]
+pub struct ContactPair<'a> {
+    pub a_name: &'a str,
+    pub b_name: &'a str,
+    #[serde(flatten)]
+    pub totals: crate::contact::PatchTotals,
+}
+
+/// Writes `world`'s contact totals as one [`ContactLine`].
+fn write_contacts(out: &mut impl std::io::Write, world: &World, step: u64) -> std::io::Result<()> {
+    let pairs = world
+        .contact_totals()
+        .into_iter()
+        .map(|totals| ContactPair {
+            a_name: &world.objects[totals.a].name,
+            b_name: &world.objects[totals.b].name,
+            totals,
+        })
+        .collect();
+    let line = ContactLine {
+        step,
+        time: world.time,
+        pairs,
+    };
+    serde_json::to_writer(&mut *out, &line)?;
+    out.write_all(b"\n")
 }
 
 /// One object at the end of a run.
@@ -168,6 +210,18 @@ pub fn run(
     };
     frame(&world, 0)?;
     frames += write_frames.is_some() as u64;
+    let contacts_err = |path: &std::path::Path, e: std::io::Error| {
+        SceneError(format!("--contacts {}: {e}", path.display()))
+    };
+    let mut contacts = match &opts.contacts {
+        Some(path) => Some((
+            std::io::BufWriter::new(
+                std::fs::File::create(path).map_err(|e| contacts_err(path, e))?,
+            ),
+            path,
+        )),
+        None => None,
+    };
     let t0 = Instant::now();
     let mut ran = 0;
     // The loop runs on a pool thread: the steps' parallel loops then push their jobs to
@@ -191,10 +245,16 @@ pub fn run(
                 frame(&world, s / every)?;
                 frames += 1;
             }
+            if let Some((out, path)) = &mut contacts {
+                write_contacts(out, &world, s).map_err(|e| contacts_err(path, e))?;
+            }
             progress(s);
         }
         Ok(())
     })?;
+    if let Some((mut out, path)) = contacts {
+        std::io::Write::flush(&mut out).map_err(|e| contacts_err(path, e))?;
+    }
     let wall = t0.elapsed().as_secs_f64();
     let start = (momentum_initial, energy_initial);
     let summary = summarize(&world, scene, ran, wall, start, frames);

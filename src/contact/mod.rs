@@ -10,6 +10,7 @@ mod distribute;
 mod forces;
 pub mod implicit;
 pub mod params;
+pub mod report;
 mod resample;
 mod springs;
 mod surface;
@@ -19,6 +20,7 @@ pub use distribute::{
 };
 pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
 pub use params::ContactParams;
+pub use report::{ContactPoint, PatchTotals};
 pub use resample::resample;
 pub use springs::{keep_parted, springs, springs_apply};
 pub use surface::contact_surface;

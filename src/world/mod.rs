@@ -379,6 +379,18 @@ impl World {
         e
     }
 
+    /// Each contact pair's totals at the last contact phase (`contact::PatchTotals`:
+    /// force, torque, area, centroid, peak pressure, deepest overlap), torques about the
+    /// midpoint of the two objects' centres of mass; per contact surfel,
+    /// `contact::ContactPoint::of` over `patches[k].surfels`.
+    pub fn contact_totals(&self) -> Vec<crate::contact::PatchTotals> {
+        let com = |k: usize| glam::DVec3::from(self.objects[k].phyxels.centre_of_mass());
+        self.patches
+            .iter()
+            .map(|p| crate::contact::PatchTotals::of(p, 0.5 * (com(p.a) + com(p.b))))
+            .collect()
+    }
+
     /// Energy stored in the penalty springs at the last contact phase (J): over the
     /// contact surfels `Σ ¼ k A (|d₁| + |d₂|)²`, the spring force `½ A k (|d₁| + |d₂|)`
     /// integrated over the closure of the two surfaces (`contact::forces`; the dashpot
