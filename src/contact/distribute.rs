@@ -161,23 +161,7 @@ pub(super) fn distribute_one<const SCALAR_QUERY: bool>(
     knn: &mut Vec<(usize, f32)>,
 ) {
     let widened = spread_weights::<SCALAR_QUERY>(c.pos, grid, h, near, knn);
-    let mut total = 0.0f32;
-    let mut m1 = [0.0f32; 3];
-    let mut m2 = [0.0f32; 6];
-    for e in near.iter() {
-        total += e.1;
-        let (w, y) = (e.1, phyxels.pos.get(e.0) - c.pos);
-        let wy = w * y;
-        for k in 0..3 {
-            m1[k] += wy[k];
-        }
-        m2[0] += wy.x * y.x;
-        m2[1] += wy.y * y.y;
-        m2[2] += wy.z * y.z;
-        m2[3] += wy.x * y.y;
-        m2[4] += wy.x * y.z;
-        m2[5] += wy.y * y.z;
-    }
+    let (total, m1, m2) = moments(near, phyxels, c.pos);
     if total <= 0.0 {
         return;
     }
@@ -196,6 +180,33 @@ pub(super) fn distribute_one<const SCALAR_QUERY: bool>(
         let y = phyxels.pos.get(i) - centroid;
         phyxels.force.add(i, (w / total) * (f + omega.cross(y)));
     }
+}
+
+/// The weights' sum, first moments `Σ wᵢ yᵢ` and second moments `Σ wᵢ yᵢ yᵢᵀ` (xx, yy,
+/// zz, xy, xz, yz) about `at` (`yᵢ = xᵢ − at`), for [`Couple`].
+pub(super) fn moments(
+    near: &[(usize, f32)],
+    phyxels: &Phyxels,
+    at: Vec3,
+) -> (f32, [f32; 3], [f32; 6]) {
+    let mut total = 0.0f32;
+    let mut m1 = [0.0f32; 3];
+    let mut m2 = [0.0f32; 6];
+    for e in near.iter() {
+        total += e.1;
+        let (w, y) = (e.1, phyxels.pos.get(e.0) - at);
+        let wy = w * y;
+        for k in 0..3 {
+            m1[k] += wy[k];
+        }
+        m2[0] += wy.x * y.x;
+        m2[1] += wy.y * y.y;
+        m2[2] += wy.z * y.z;
+        m2[3] += wy.x * y.y;
+        m2[4] += wy.x * y.z;
+        m2[5] += wy.y * y.z;
+    }
+    (total, m1, m2)
 }
 
 /// The phyxels that take the force of a contact surfel at `at` and their poly6 weights

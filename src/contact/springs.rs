@@ -2,7 +2,7 @@
 //! ([`crate::dynamics::implicit`]): each contact surfel's penalty force (paper eqs. 3–7)
 //! differentiated along the contact normal.
 
-use super::distribute::{Couple, spread_weights};
+use super::distribute::{Couple, moments, spread_weights};
 use super::params::{DISTRIBUTION_SUPPORT, contact_params};
 use super::*;
 use crate::body::object::Object;
@@ -56,22 +56,10 @@ pub fn springs(
                 let grid = grids[k].as_ref()?;
                 let h = DISTRIBUTION_SUPPORT * o.max_influence;
                 let widened = spread_weights::<false>(c.pos, grid, h, near, knn);
-                let total: f32 = near.iter().map(|e| e.1).sum();
+                // The couple of `distribute`, from the weights' moments about the surfel.
+                let (total, m1, m2) = moments(near, &o.phyxels, c.pos);
                 if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                     return None;
-                }
-                // The couple of `distribute`: moments of the weights about the surfel.
-                let (mut m1, mut m2) = ([0.0f32; 3], [0.0f32; 6]);
-                for &(j, w) in near.iter() {
-                    let y = o.phyxels.pos.get(j) - c.pos;
-                    let wy = w * y;
-                    m1 = [m1[0] + wy.x, m1[1] + wy.y, m1[2] + wy.z];
-                    m2[0] += wy.x * y.x;
-                    m2[1] += wy.y * y.y;
-                    m2[2] += wy.z * y.z;
-                    m2[3] += wy.x * y.y;
-                    m2[4] += wy.x * y.z;
-                    m2[5] += wy.y * y.z;
                 }
                 let (centroid, map) = Couple::map(c.pos, total, m1, m2);
                 let couple = if widened { Mat3::ZERO } else { map.as_mat3() };

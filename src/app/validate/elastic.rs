@@ -112,18 +112,28 @@ pub fn cantilever(
     cantilever_at(spacing, periods, backend, None)
 }
 
-/// [`cantilever`] at time step `dt` (s; `None`: the scene's default).
-pub fn cantilever_at(
-    spacing: f32,
-    periods: usize,
-    backend: &str,
-    dt: Option<f32>,
-) -> Result<(f64, f64, RunInfo), String> {
+/// The built-in `cantilever` at phyxel and surfel spacing `spacing` (m), its material
+/// undamped if `undamped`.
+fn cantilever_scene(spacing: f32, undamped: bool) -> Scene {
     let mut scene = builtin("cantilever");
     scene.objects[0].spacing = spacing;
     scene.objects[0].surfel_spacing = Some(spacing);
-    let mut world = build(
-        &scene,
+    if undamped {
+        scene.objects[0].material.damping = 0.0;
+    }
+    scene
+}
+
+/// The cantilever's world on `backend` at `dt` (`None`: the scene's default), and its
+/// tip phyxels (within half a spacing of the free end).
+fn cantilever_world(
+    scene: &Scene,
+    spacing: f32,
+    backend: &str,
+    dt: Option<f32>,
+) -> Result<(World, Vec<usize>), String> {
+    let world = build(
+        scene,
         &BuildOptions {
             dt,
             ..opts(backend)
@@ -133,9 +143,30 @@ pub fn cantilever_at(
     let x_max = (0..bar.len())
         .map(|i| bar.rest.x[i])
         .fold(f32::MIN, f32::max);
-    let tip: Vec<usize> = (0..bar.len())
+    let tip = (0..bar.len())
         .filter(|&i| bar.rest.x[i] > x_max - 0.5 * spacing)
         .collect();
+    Ok((world, tip))
+}
+
+/// Mean downward displacement of the `tip` phyxels (m).
+fn tip_deflection(w: &World, tip: &[usize]) -> f64 {
+    let p = &w.objects[0].phyxels;
+    tip.iter()
+        .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
+        .sum::<f64>()
+        / tip.len() as f64
+}
+
+/// [`cantilever`] at time step `dt` (s; `None`: the scene's default).
+pub fn cantilever_at(
+    spacing: f32,
+    periods: usize,
+    backend: &str,
+    dt: Option<f32>,
+) -> Result<(f64, f64, RunInfo), String> {
+    let scene = cantilever_scene(spacing, false);
+    let (mut world, tip) = cantilever_world(&scene, spacing, backend, dt)?;
     let dt = world.dt as f64;
     // Maxima closer than a quarter of the beam's period are a higher mode's.
     let gap = (0.25 / (euler_bernoulli(&scene).1 * dt)).max(2.0) as usize;
@@ -143,12 +174,7 @@ pub fn cantilever_at(
     let mut maxima: Vec<usize> = Vec::new();
     let mut finite = true;
     let info = timed(&mut world, 200_000, |w| {
-        let p = &w.objects[0].phyxels;
-        let d = tip
-            .iter()
-            .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
-            .sum::<f64>()
-            / tip.len() as f64;
+        let d = tip_deflection(w, &tip);
         finite = d.is_finite();
         series.push(d);
         let k = series.len();
@@ -286,34 +312,13 @@ pub const DAMPING_TOLERANCE: f64 = 0.15;
 pub fn cantilever_damping(dt: f32) -> Result<(f64, RunInfo), String> {
     let backend = crate::backends::mls::implicit::NAME;
     let spacing = 0.025;
-    let mut scene = builtin("cantilever");
-    scene.objects[0].spacing = spacing;
-    scene.objects[0].surfel_spacing = Some(spacing);
-    scene.objects[0].material.damping = 0.0;
+    let scene = cantilever_scene(spacing, true);
     let period = 1.0 / euler_bernoulli(&scene).1;
-    let mut world = build(
-        &scene,
-        &BuildOptions {
-            dt: Some(dt),
-            ..opts(backend)
-        },
-    )?;
-    let bar = &world.objects[0].phyxels;
-    let x_max = (0..bar.len())
-        .map(|i| bar.rest.x[i])
-        .fold(f32::MIN, f32::max);
-    let tip: Vec<usize> = (0..bar.len())
-        .filter(|&i| bar.rest.x[i] > x_max - 0.5 * spacing)
-        .collect();
+    let (mut world, tip) = cantilever_world(&scene, spacing, backend, Some(dt))?;
     let mut series = vec![0.0f64];
     let steps = (1.5 * period / dt as f64).ceil() as usize;
     let info = timed(&mut world, steps, |w| {
-        let p = &w.objects[0].phyxels;
-        let d = tip
-            .iter()
-            .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
-            .sum::<f64>()
-            / tip.len() as f64;
+        let d = tip_deflection(w, &tip);
         series.push(d);
         d.is_finite()
     });
