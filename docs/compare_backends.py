@@ -1,9 +1,10 @@
-"""Speed against error of the three backends on one case, as a chart.
+"""Speed against error of the backends on one case, as a chart.
 
 Runs the validation suite's `cantilever-deflection` case (tip deflection of a clamped
-bar against Euler–Bernoulli, at several resolutions) for `mls`, `sph` and `lj` through
-`phyxel.validate`, and plots seconds per step against relative error, one line per
-backend, with matplotlib.
+bar against Euler–Bernoulli, at several resolutions) for every backend (`mls`,
+`mls-implicit`, `sph`, `lj`) through `phyxel.validate`, and plots wall seconds per
+simulated second (the cost of a step over its dt: backends step at different dt)
+against relative error, one line per backend, with matplotlib.
 
     python docs/compare_backends.py [--full] [--case NAME] [--out chart.png]
 
@@ -22,12 +23,13 @@ import phyxel  # noqa: E402
 
 
 def measure(case, quick):
-    """{backend: [(seconds per step, relative error)]} from the validation rows."""
+    """{backend: [(wall s per simulated s, relative error)]} from the validation rows."""
     points = {}
     for backend in phyxel.BACKENDS:
         for row in phyxel.validate(quick=quick, case=case, backend=backend):
             if row["case"] == case and row["rel_error"] == row["rel_error"]:  # not NaN
-                points.setdefault(backend, []).append((row["seconds_per_step"], abs(row["rel_error"])))
+                cost = row["seconds_per_step"] / row["dt"]
+                points.setdefault(backend, []).append((cost, abs(row["rel_error"])))
     return points
 
 
@@ -36,7 +38,7 @@ def plot(points, case, out):
     for backend, pts in sorted(points.items()):
         pts.sort()
         ax.loglog([p[0] for p in pts], [p[1] for p in pts], "o-", label=backend)
-    ax.set_xlabel("wall seconds per step")
+    ax.set_xlabel("wall seconds per simulated second")
     ax.set_ylabel("relative error")
     ax.set_title(f"{case}: speed against error")
     ax.grid(True, which="both", alpha=0.3)
