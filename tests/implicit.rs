@@ -18,6 +18,25 @@ fn implicit_world(scene: &Scene, dt: f32) -> World {
         .unwrap()
 }
 
+/// Steps two spheres flying at each other along x (objects 0 and 1) `steps` times:
+/// the total momentum stays within 1e-4 of `incoming` (one sphere's) at every step,
+/// `touching` holds at some step, the state stays finite, and they end moving apart.
+fn collide(world: &mut World, steps: usize, incoming: f64, touching: impl Fn(&World) -> bool) {
+    let mut collided = false;
+    for _ in 0..steps {
+        world.step();
+        collided |= touching(world);
+        let p = world.momentum();
+        assert!(
+            p.iter().all(|c| c.abs() < 1e-4 * incoming),
+            "momentum {p:?} against {incoming}"
+        );
+    }
+    assert!(collided && world.all_finite());
+    let v = |k: usize| world.objects[k].phyxels.momentum()[0];
+    assert!(v(0) < 0.0 && v(1) > 0.0, "bounced: {} and {}", v(0), v(1));
+}
+
 /// The cantilever (E = 1e8 Pa, 4 phyxels through the 0.1 m thickness) stepped at 1/60 s
 /// for 3 s settles (backward Euler damps its first mode by 0.2 per period) at a tip
 /// deflection within 15% of Euler–Bernoulli's qL⁴/(8EI) (the explicit backend's
@@ -110,19 +129,7 @@ fn an_implicit_body_collides_with_an_explicit_one() {
     assert_eq!(world.objects[0].dynamics.name(), "mls-implicit");
     assert_eq!(world.objects[1].dynamics.name(), "mls");
     let incoming = world.objects[0].phyxels.momentum()[0];
-    let mut collided = false;
-    for _ in 0..400 {
-        world.step();
-        collided |= !world.patches.is_empty();
-        let p = world.momentum();
-        assert!(
-            p.iter().all(|c| c.abs() < 1e-4 * incoming),
-            "momentum {p:?} against {incoming}"
-        );
-    }
-    assert!(collided && world.all_finite());
-    let v = |k: usize| world.objects[k].phyxels.momentum()[0];
-    assert!(v(0) < 0.0 && v(1) > 0.0, "bounced: {} and {}", v(0), v(1));
+    collide(&mut world, 400, incoming, |w| !w.patches.is_empty());
 }
 
 /// Two stiff spheres (E = 1e8 Pa, 280 phyxels each) meeting at 2 m/s, stepped at
@@ -146,19 +153,7 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     let mut world = implicit_world(&scene, dt);
     let incoming = world.objects[0].phyxels.momentum()[0];
     let e0 = world.energy().total();
-    let mut collided = false;
-    for _ in 0..60 {
-        world.step();
-        collided |= !world.springs.springs.is_empty();
-        let p = world.momentum();
-        assert!(
-            p.iter().all(|c| c.abs() < 1e-4 * incoming),
-            "momentum {p:?} against {incoming}"
-        );
-    }
-    assert!(collided && world.all_finite());
-    let v = |k: usize| world.objects[k].phyxels.momentum()[0];
-    assert!(v(0) < 0.0 && v(1) > 0.0, "bounced: {} and {}", v(0), v(1));
+    collide(&mut world, 60, incoming, |w| !w.springs.springs.is_empty());
     let approach = 2.0 * 1.0 * dt;
     assert!(
         world.record.max_penetration <= approach,
