@@ -338,8 +338,8 @@ fn run_table_lists_every_phase() {
 }
 
 /// `--out DIR` writes surfels_NNNNN.ply frames (frame 0 plus one per `output.every` steps)
-/// whose `element vertex` count equals the summary's surfel count; without --phyxels no
-/// phyxel frames are written.
+/// whose `element vertex` count equals the summary's surfel count, and a contacts_NNNNN.ply
+/// beside each; without --phyxels no phyxel frames are written.
 #[test]
 fn out_writes_surfel_ply_frames() {
     let dir = TempPath::new("frames");
@@ -373,6 +373,10 @@ fn out_writes_surfel_ply_frames() {
         !names.iter().any(|n| n.starts_with("phyxels_")),
         "phyxel frames written without --phyxels: {names:?}"
     );
+    for k in 0..3 {
+        let c = format!("contacts_{k:05}.ply");
+        assert!(names.contains(&c), "{c} was not written: {names:?}");
+    }
 }
 
 /// `--out DIR --phyxels` also writes phyxels_NNNNN.ply with one vertex per phyxel.
@@ -1769,4 +1773,38 @@ fn run_writes_contact_totals_per_step() {
         ],
         &["--contacts", "/nonexistent/dir/c.jsonl"],
     );
+}
+
+/// `run --json` key `contacts`: each pair's history over the run. Reference: Newton's
+/// second law. In `two-spheres` the spheres meet and part with no other force on them,
+/// so the contact's reported impulse on the left sphere equals its momentum change
+/// `m (v₁ − v₀)` (to 1% of the incoming momentum: the impulse sums each step's force
+/// times dt). The history is also consistent in itself: mean load at most the peak, the
+/// contact times within the run.
+#[test]
+fn run_json_has_each_pairs_contact_history() {
+    let start = run_json(&["run", "two-spheres", "--steps", "0", "--json"]);
+    let v = run_json(&["run", "two-spheres", "--steps", "400", "--json"]);
+    let contacts = field(&v, "contacts").as_array().unwrap();
+    assert_eq!(contacts.len(), 1, "one pair: {contacts:?}");
+    let c = &contacts[0];
+    assert_eq!(field(c, "a_name"), "left");
+    assert_eq!(field(c, "b_name"), "right");
+    let body = |v: &Value, k: &str| field(&field(v, "bodies")[0], k).clone();
+    let m = body(&v, "mass").as_f64().unwrap();
+    let vx = |v: &Value| body(v, "velocity")[0].as_f64().unwrap();
+    let change = m * (vx(&v) - vx(&start));
+    let impulse = field(c, "impulse")[0].as_f64().unwrap();
+    let incoming = m * vx(&start).abs();
+    assert!(
+        (impulse - change).abs() < 0.01 * incoming,
+        "impulse {impulse} N·s against momentum change {change} kg·m/s"
+    );
+    let num = |k: &str| field(c, k).as_f64().unwrap();
+    assert!(num("steps") > 0.0);
+    assert!(num("mean_normal_force") <= num("peak_normal_force"));
+    assert!(num("mean_normal_force") > 0.0 && num("max_area") > 0.0);
+    let time = field(&v, "time").as_f64().unwrap();
+    assert!(0.0 < num("first_time") && num("first_time") <= num("last_time"));
+    assert!(num("last_time") <= time);
 }

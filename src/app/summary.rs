@@ -47,7 +47,8 @@ pub struct ContactLine<'a> {
 }
 
 /// A pair of [`ContactLine`]: the objects' names and the patch's totals
-/// ([`crate::contact::PatchTotals`], flattened: `a` and `b` are the objects' indices).
+/// ([`crate::contact::PatchTotals`], flattened; here `a` and `b` are the objects' ids,
+/// which a fracture does not change, not their indices).
 #[derive(Serialize)]
 pub struct ContactPair<'a> {
     pub a_name: &'a str,
@@ -56,21 +57,29 @@ pub struct ContactPair<'a> {
     pub totals: crate::contact::PatchTotals,
 }
 
-/// Writes `world`'s contact totals as one [`ContactLine`].
-fn write_contacts(out: &mut impl std::io::Write, world: &World, step: u64) -> std::io::Result<()> {
-    let pairs = world
+/// `world`'s contact totals ([`World::contact_totals`]) with the objects' ids and names.
+pub fn contact_pairs(world: &World) -> Vec<ContactPair<'_>> {
+    world
         .contact_totals()
         .into_iter()
-        .map(|totals| ContactPair {
-            a_name: &world.objects[totals.a].name,
-            b_name: &world.objects[totals.b].name,
-            totals,
+        .map(|mut totals| {
+            let (a, b) = (&world.objects[totals.a], &world.objects[totals.b]);
+            (totals.a, totals.b) = (a.id as usize, b.id as usize);
+            ContactPair {
+                a_name: &a.name,
+                b_name: &b.name,
+                totals,
+            }
         })
-        .collect();
+        .collect()
+}
+
+/// Writes `world`'s contact totals as one [`ContactLine`].
+fn write_contacts(out: &mut impl std::io::Write, world: &World, step: u64) -> std::io::Result<()> {
     let line = ContactLine {
         step,
         time: world.time,
-        pairs,
+        pairs: contact_pairs(world),
     };
     serde_json::to_writer(&mut *out, &line)?;
     out.write_all(b"\n")
@@ -170,6 +179,9 @@ pub struct RunSummary {
     /// number of pieces); `objects` is the final object count.
     pub fractures: usize,
     pub bodies: Vec<BodySummary>,
+    /// Each pair that touched over the run, in object-id order
+    /// ([`crate::world::PairHistory`]).
+    pub contacts: Vec<crate::world::PairHistory>,
 }
 
 /// Builds and runs `scene`, calling `progress(step)` after each step.
@@ -393,5 +405,6 @@ pub fn summarize(
         frames_written: frames,
         fractures: world.record.splits.len(),
         bodies,
+        contacts: world.record.contacts.pairs(),
     }
 }

@@ -435,16 +435,43 @@ impl PyWorld {
         Ok(out)
     }
 
+    /// Each touching pair's contact totals at the last step, as `phyxel run --contacts`
+    /// writes them per step: one dict per pair with `a`, `b` (ids), `a_name`, `b_name`,
+    /// `contact_surfels`, `force`, `normal_force`, `friction_force`, `centre`, `torque`,
+    /// `area`, `centroid`, `peak_pressure`, `max_penetration`.
+    fn contact_totals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let s = self.lock()?;
+        let w = s.world()?;
+        let json = serde_json::to_string(&crate::app::summary::contact_pairs(w))
+            .map_err(|e| error(e.to_string()))?;
+        json_to_py(py, &json)
+    }
+
     /// Writes the render surface (surfels, contact surfels marked) to `path` as binary
     /// PLY (`format="ply"`) or VTK XML PolyData (`"vtk"`, `.vtp`); with `phyxels=True`
-    /// the phyxels instead (PLY).
-    #[pyo3(signature = (path, format = "ply", phyxels = false))]
-    fn write_frame(&self, path: PathBuf, format: &str, phyxels: bool) -> PyResult<()> {
+    /// the phyxels instead (PLY); with `contacts=True` the contact surfels carrying force,
+    /// with their area, penetration, forces and slip (the `contacts_NNNNN` frames of
+    /// `phyxel run --out`).
+    #[pyo3(signature = (path, format = "ply", phyxels = false, contacts = false))]
+    fn write_frame(
+        &self,
+        path: PathBuf,
+        format: &str,
+        phyxels: bool,
+        contacts: bool,
+    ) -> PyResult<()> {
         let format = Format::parse(format).map_err(PyValueError::new_err)?;
+        if phyxels && contacts {
+            return Err(PyValueError::new_err(
+                "write_frame: phyxels=True and contacts=True: one frame per call",
+            ));
+        }
         let s = self.lock()?;
         let w = s.world()?;
         let written = if phyxels {
             output::write_phyxels(w, &path).map(|_| ())
+        } else if contacts {
+            output::contact_frame(w).write(&path, format)
         } else {
             output::surface_frame(w).write(&path, format)
         };

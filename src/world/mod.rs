@@ -15,7 +15,10 @@ mod step;
 
 pub use guard::NonFinite;
 pub use phase::{Phase, PhaseTimes};
-pub use record::{DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT, RunRecord};
+pub use record::{
+    ContactHistory, DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT,
+    PairHistory, RunRecord,
+};
 
 /// Where these lived in phyxel 0.1.
 #[doc(hidden)]
@@ -270,6 +273,9 @@ impl World {
         self.record.times = t;
         self.steps += 1;
         self.time += self.dt as f64;
+        let r = &mut self.record;
+        r.contacts
+            .add(&self.objects, &self.patches, self.time, self.dt);
     }
 
     /// The topology phase of the step: self-collision forces and fracture. Returns the

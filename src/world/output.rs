@@ -1,20 +1,21 @@
 //! The frames of a [`World`]: its render surface and phyxels as [`Frame`]s, written as
 //! binary PLY or VTK XML PolyData.
 
-use crate::contact::ContactSurfel;
+use crate::contact::{ContactPoint, ContactSurfel};
 use crate::io::frame::{Format, Frame};
+use crate::io::points::{Column, Points, Values};
 use crate::world::World;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use glam::Vec3;
 use std::path::{Path, PathBuf};
 
-/// Writes `surfels_NNNNN.ply` (and `phyxels_NNNNN.ply` when asked) for frame `frame`
-/// into `dir`. Surfel properties: position, normal, radius, object id, contact flag.
+/// Writes `surfels_NNNNN.ply`, `contacts_NNNNN.ply` (the [`ContactFrame`]) and, when
+/// asked, `phyxels_NNNNN.ply` for frame `frame` into `dir`. Surfel properties: position,
+/// normal, radius, object id, contact flag.
 pub fn write_frame(world: &World, dir: &Path, frame: u64, phyxels: bool) -> std::io::Result<()> {
     write_frame_as(world, dir, frame, phyxels, Format::Ply).map(|_| ())
 }
 
-/// Like [`write_frame`] with the surfel file in `format` (`surfels_NNNNN.ply` or
+/// Like [`write_frame`] with the surfel and contact files in `format` (`.ply` or
 /// `.vtp`); returns the render surface that was written.
 pub fn write_frame_as(
     world: &World,
@@ -29,16 +30,14 @@ pub fn write_frame_as(
         &dir.join(format!("surfels_{frame:05}.{}", format.extension())),
         format,
     )?;
+    contact_frame(world).write(
+        &dir.join(format!("contacts_{frame:05}.{}", format.extension())),
+        format,
+    )?;
     if phyxels {
         write_phyxels(world, &dir.join(format!("phyxels_{frame:05}.ply")))?;
     }
     Ok(surface)
-}
-
-fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
-    File::create(path)
-        .map(BufWriter::new)
-        .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
 }
 
 /// The render surface `S' = S \ C ∪ Φ` (paper §8) of every object as one point cloud:
@@ -83,28 +82,140 @@ pub fn write_surfels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
     Ok(path.to_path_buf())
 }
 
-/// All phyxels of the world as one PLY point cloud.
+/// All phyxels of the world as one PLY point cloud: position, velocity, mass, radius,
+/// object id.
 pub fn write_phyxels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
-    let n: usize = world.objects.iter().map(|o| o.phyxels.len()).sum();
-    let mut w = create(path)?;
-    write!(
-        w,
-        "ply\nformat binary_little_endian 1.0\ncomment phyxel phyxels\nelement vertex {n}\n\
-         property float x\nproperty float y\nproperty float z\n\
-         property float vx\nproperty float vy\nproperty float vz\n\
-         property float mass\nproperty float radius\nproperty int object\nend_header\n"
-    )?;
+    let (mut pos, mut vel, mut mass, mut radius, mut object) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     for o in &world.objects {
         let p = &o.phyxels;
-        for i in 0..p.len() {
-            let x = p.pos.get(i);
-            let v = p.vel.get(i);
-            for f in [x.x, x.y, x.z, v.x, v.y, v.z, p.mass[i], p.radius[i]] {
-                w.write_all(&f.to_le_bytes())?;
-            }
-            w.write_all(&(o.id as i32).to_le_bytes())?;
+        pos.extend((0..p.len()).map(|i| p.pos.get(i)));
+        vel.extend((0..p.len()).map(|i| p.vel.get(i)));
+        mass.extend(p.mass.iter().copied());
+        radius.extend(p.radius.iter().copied());
+        object.extend((0..p.len()).map(|_| o.id as i32));
+    }
+    let columns = [
+        Column {
+            ply: &["vx", "vy", "vz"],
+            vtk: "velocity",
+            values: Values::Vec3(&vel),
+        },
+        Column {
+            ply: &["mass"],
+            vtk: "mass",
+            values: Values::F32(&mass),
+        },
+        Column {
+            ply: &["radius"],
+            vtk: "radius",
+            values: Values::F32(&radius),
+        },
+        Column {
+            ply: &["object"],
+            vtk: "object",
+            values: Values::I32(&object),
+        },
+    ];
+    let points = Points {
+        pos: &pos,
+        columns: &columns,
+    };
+    points.write_ply(path, "phyxel phyxels")?;
+    Ok(path.to_path_buf())
+}
+
+/// The contact surfels of every pair that carry force at the last contact phase
+/// ([`World::patches`]), one point each with the columns of
+/// [`crate::contact::ContactPoint`] and the pair's object ids `a` and `b`.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ContactFrame {
+    pub pos: Vec<Vec3>,
+    pub normal: Vec<Vec3>,
+    pub area: Vec<f32>,
+    pub penetration: Vec<f32>,
+    pub penalty_force: Vec<Vec3>,
+    pub friction_force: Vec<Vec3>,
+    pub slip_velocity: Vec<Vec3>,
+    pub a: Vec<i32>,
+    pub b: Vec<i32>,
+}
+
+/// The contact frame of `world` (see [`ContactFrame`]).
+pub fn contact_frame(world: &World) -> ContactFrame {
+    let mut f = ContactFrame::default();
+    for patch in &world.patches {
+        let (a, b) = (world.objects[patch.a].id, world.objects[patch.b].id);
+        for c in &patch.surfels {
+            let p = ContactPoint::of(c);
+            f.pos.push(Vec3::from(p.position));
+            f.normal.push(Vec3::from(p.normal));
+            f.area.push(p.area);
+            f.penetration.push(p.penetration);
+            f.penalty_force.push(Vec3::from(p.penalty_force));
+            f.friction_force.push(Vec3::from(p.friction_force));
+            f.slip_velocity.push(Vec3::from(p.slip_velocity));
+            f.a.push(a as i32);
+            f.b.push(b as i32);
         }
     }
-    w.flush()?;
-    Ok(path.to_path_buf())
+    f
+}
+
+impl ContactFrame {
+    /// Writes the frame to `path` in `format` (PLY properties `x y z nx ny nz area
+    /// penetration penalty_force_{x,y,z} friction_force_{x,y,z} slip_velocity_{x,y,z} a
+    /// b`; VTK arrays of the same names, vectors as three components).
+    pub fn write(&self, path: &Path, format: Format) -> std::io::Result<()> {
+        let columns = [
+            Column {
+                ply: &["nx", "ny", "nz"],
+                vtk: "Normals",
+                values: Values::Vec3(&self.normal),
+            },
+            Column {
+                ply: &["area"],
+                vtk: "area",
+                values: Values::F32(&self.area),
+            },
+            Column {
+                ply: &["penetration"],
+                vtk: "penetration",
+                values: Values::F32(&self.penetration),
+            },
+            Column {
+                ply: &["penalty_force_x", "penalty_force_y", "penalty_force_z"],
+                vtk: "penalty_force",
+                values: Values::Vec3(&self.penalty_force),
+            },
+            Column {
+                ply: &["friction_force_x", "friction_force_y", "friction_force_z"],
+                vtk: "friction_force",
+                values: Values::Vec3(&self.friction_force),
+            },
+            Column {
+                ply: &["slip_velocity_x", "slip_velocity_y", "slip_velocity_z"],
+                vtk: "slip_velocity",
+                values: Values::Vec3(&self.slip_velocity),
+            },
+            Column {
+                ply: &["a"],
+                vtk: "a",
+                values: Values::I32(&self.a),
+            },
+            Column {
+                ply: &["b"],
+                vtk: "b",
+                values: Values::I32(&self.b),
+            },
+        ];
+        let points = Points {
+            pos: &self.pos,
+            columns: &columns,
+        };
+        match format {
+            Format::Ply => points.write_ply(path, "phyxel contact surfels"),
+            Format::Vtk => points.write_vtp(path),
+        }
+    }
 }

@@ -24,6 +24,87 @@ pub struct RunRecord {
     /// coarsely sampled for its mass, [`crate::scene::MASS_WARNING`]; two bodies whose
     /// start velocities close them faster than the P-wave speed); `run` prints them.
     pub warnings: Vec<String>,
+    /// Each pair's contact over the run so far.
+    pub contacts: ContactHistory,
+}
+
+/// One pair's contact over a run (`run --json` key `contacts`): the pair's
+/// [`crate::contact::PatchTotals`] gathered over the steps in which it touched.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PairHistory {
+    /// The objects' ids and names.
+    pub a: u32,
+    pub b: u32,
+    pub a_name: String,
+    pub b_name: String,
+    /// Steps whose contact phase found the pair touching.
+    pub steps: u64,
+    /// Simulated time at the end of the first and the last of them (s).
+    pub first_time: f64,
+    pub last_time: f64,
+    /// The contact force on a times each step's dt, summed over those steps (N·s): the
+    /// momentum the contact gave a (b took the opposite).
+    pub impulse: [f64; 3],
+    /// Largest and mean (over `steps`) normal load (N, `PatchTotals::normal_force`).
+    pub peak_normal_force: f64,
+    pub mean_normal_force: f64,
+    /// Largest `PatchTotals::peak_pressure` (Pa), `max_penetration` (m) and `area`
+    /// (m²) over those steps.
+    pub peak_pressure: f64,
+    pub max_penetration: f64,
+    pub max_area: f64,
+}
+
+/// [`PairHistory`] per pair, keyed by object ids (indices shift when an object
+/// fractures). Allocates only when a pair touches for the first time.
+#[derive(Clone, Debug, Default)]
+pub struct ContactHistory(std::collections::BTreeMap<(u32, u32), PairHistory>);
+
+impl ContactHistory {
+    /// Adds the step that ended at `time` with `patches` between `objects`.
+    pub fn add(
+        &mut self,
+        objects: &[crate::Object],
+        patches: &[crate::contact::ContactPatch],
+        time: f64,
+        dt: f32,
+    ) {
+        for patch in patches.iter().filter(|p| !p.surfels.is_empty()) {
+            // No torque is kept: any centre does.
+            let t = crate::contact::PatchTotals::of(patch, glam::DVec3::ZERO);
+            let (a, b) = (&objects[t.a], &objects[t.b]);
+            let h = self.0.entry((a.id, b.id)).or_insert_with(|| PairHistory {
+                a: a.id,
+                b: b.id,
+                a_name: a.name.clone(),
+                b_name: b.name.clone(),
+                steps: 0,
+                first_time: time,
+                last_time: time,
+                impulse: [0.0; 3],
+                peak_normal_force: 0.0,
+                mean_normal_force: 0.0,
+                peak_pressure: 0.0,
+                max_penetration: 0.0,
+                max_area: 0.0,
+            });
+            h.steps += 1;
+            h.last_time = time;
+            for k in 0..3 {
+                h.impulse[k] += t.force[k] * dt as f64;
+            }
+            h.peak_normal_force = h.peak_normal_force.max(t.normal_force);
+            h.mean_normal_force += (t.normal_force - h.mean_normal_force) / h.steps as f64;
+            h.peak_pressure = h.peak_pressure.max(t.peak_pressure);
+            h.max_penetration = h.max_penetration.max(t.max_penetration);
+            h.max_area = h.max_area.max(t.area);
+        }
+    }
+
+    /// Every pair that touched, in object-id order.
+    pub fn pairs(&self) -> Vec<PairHistory> {
+        self.0.values().cloned().collect()
+    }
 }
 
 /// `dt` lowered after a change of topology ([`World::keep_stable`](super::World::keep_stable)): a rest shape
