@@ -514,10 +514,12 @@ pub fn table(rows: &[Row]) -> String {
 
 mod contact;
 mod elastic;
+mod hertz;
 mod plot;
 mod stability;
 
 pub use contact::*;
 pub use elastic::*;
+pub use hertz::*;
 pub use plot::*;
 pub use stability::*;

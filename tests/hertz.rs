@@ -1,0 +1,147 @@
+//! Hertz contact of an elastic sphere pressed onto a rigid plane
+//! (`phyxel::validate::hertz_plane`; the references are in that module's docs).
+
+use phyxel::validate::{
+    HertzCase, HertzRun, approach_fit, hertz_approach_coefficient, hertz_plane, load_for,
+};
+
+fn case(radius: f32, young: f32, poisson: f32, per_radius: f32) -> HertzCase {
+    HertzCase {
+        radius,
+        young,
+        poisson,
+        per_radius,
+    }
+}
+
+fn finite(r: &HertzRun) -> bool {
+    [
+        r.contact_force,
+        r.radius,
+        r.pressure,
+        r.profile_rms,
+        r.approach,
+    ]
+    .iter()
+    .all(|x| x.is_finite())
+}
+
+/// A sphere (8 phyxels across its radius, ν = 0.3) pressed onto a rigid plane by the load
+/// that gives Hertz's patch radius 0.15 R, in two cases: R = 0.1 m, E = 1e5 Pa and
+/// R = 0.05 m, E = 1e7 Pa (load 4.9 N and 124 N).
+///
+/// References:
+/// - Newton: averaged over the last third of the run, the sphere is at rest, so the
+///   contact carries the load: within 5% (the issue's target for force balance;
+///   measured 1.0% and 0.3%).
+/// - Similarity of linear elastostatics: with lengths in R, stresses in E and the
+///   engine's contact constants dimensionless (penalty stiffness `κE*/h`, surfel spacing
+///   `h/5`), both cases must show the same relative patch radius, central pressure and
+///   approach over R. Tolerance 2 percentage points, for f32 rounding and the step counts
+///   (identical to four digits measured). An absolute constant in the contact pipeline
+///   (a length, a speed, a pressure) would break this.
+#[test]
+fn a_pressed_sphere_carries_its_load_and_scales_with_r_and_e() {
+    let cases = [case(0.1, 1.0e5, 0.3, 8.0), case(0.05, 1.0e7, 0.3, 8.0)];
+    let runs: Vec<HertzRun> = cases
+        .iter()
+        .map(|c| hertz_plane(c, load_for(c, 0.15), "mls").unwrap())
+        .collect();
+    for (c, r) in cases.iter().zip(&runs) {
+        println!(
+            "R {} E {}: load {:.3} N carried {:.3} N; a {:.5} m (Hertz {:.5}); p0 {:.4e} Pa \
+             (Hertz {:.4e}); approach/R {:.5}; profile RMS {:.3} p0",
+            c.radius,
+            c.young,
+            r.load,
+            r.contact_force,
+            r.radius,
+            r.hertz_radius,
+            r.pressure,
+            r.hertz_pressure,
+            r.approach / c.radius as f64,
+            r.profile_rms
+        );
+        assert!(finite(r), "{r:?}");
+        assert!(
+            (r.contact_force / r.load - 1.0).abs() < 0.05,
+            "force balance: {} N carried of {} N",
+            r.contact_force,
+            r.load
+        );
+    }
+    let ratios = |(c, r): (&HertzCase, &HertzRun)| {
+        [
+            r.radius / r.hertz_radius,
+            r.pressure / r.hertz_pressure,
+            r.approach / c.radius as f64 / (r.hertz_radius / c.radius as f64).powi(2),
+        ]
+    };
+    let a = ratios((&cases[0], &runs[0]));
+    let b = ratios((&cases[1], &runs[1]));
+    for (k, name) in ["patch radius", "central pressure", "approach"]
+        .iter()
+        .enumerate()
+    {
+        assert!(
+            (a[k] - b[k]).abs() < 0.02,
+            "{name}: {:.4} of Hertz's at R 0.1 m, E 1e5 Pa against {:.4} at R 0.05 m, E 1e7 Pa",
+            a[k],
+            b[k]
+        );
+    }
+}
+
+/// The study behind docs/ACCURACY.md's Hertz table (about 15 minutes on two cores):
+/// `cargo test --release --test hertz -- --ignored --nocapture`. Every (R, E, ν) of the
+/// issue's matrix at 8 phyxels per radius (load for a = 0.15 R), then R = 0.1 m,
+/// E = 1e5 Pa at 8, 12 and 16 phyxels per radius and ν = 0.25, 0.4 with three loads
+/// (a = 0.12, 0.15, 0.19 R) for the approach fit `δ = c F^{2/3} + b F`. Asserts only
+/// finite results and force balance within 5%; the errors are what it reports.
+#[test]
+#[ignore]
+fn hertz_study() {
+    println!("| R (m) | E (Pa) | ν | per R | load (N) | force | a | p₀ | profile RMS |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let row = |c: &HertzCase, r: &HertzRun| {
+        println!(
+            "| {} | {:.0e} | {} | {} | {:.4} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} |",
+            c.radius,
+            c.young,
+            c.poisson,
+            c.per_radius,
+            r.load,
+            100.0 * (r.contact_force / r.load - 1.0),
+            100.0 * (r.radius / r.hertz_radius - 1.0),
+            100.0 * (r.pressure / r.hertz_pressure - 1.0),
+            r.profile_rms
+        );
+        assert!(finite(r) && (r.contact_force / r.load - 1.0).abs() < 0.05);
+    };
+    for radius in [0.05, 0.1, 0.2] {
+        for young in [1.0e4, 1.0e5, 1.0e7] {
+            for poisson in [0.25, 0.4] {
+                let c = case(radius, young, poisson, 8.0);
+                row(&c, &hertz_plane(&c, load_for(&c, 0.15), "mls").unwrap());
+            }
+        }
+    }
+    println!("\n| ν | per R | approach c / Hertz's | b (m/N) |");
+    for poisson in [0.25, 0.4] {
+        for per in [8.0, 12.0, 16.0] {
+            let c = case(0.1, 1.0e5, poisson, per);
+            let runs: Vec<HertzRun> = [0.12, 0.15, 0.19]
+                .iter()
+                .map(|&q| hertz_plane(&c, load_for(&c, q), "mls").unwrap())
+                .collect();
+            for r in &runs {
+                row(&c, r);
+            }
+            let (coef, b) = approach_fit(&runs);
+            println!(
+                "| {poisson} | {per} | {:+.1}% | {b:.3e} |",
+                100.0 * (coef / hertz_approach_coefficient(&c) - 1.0)
+            );
+        }
+    }
+}
