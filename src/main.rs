@@ -13,7 +13,7 @@ use clap::{Parser, Subcommand};
 use phyxel::app::render::RenderOptions;
 use phyxel::app::summary::RunOptions;
 use phyxel::io::frame::Format;
-use phyxel::scene::{BuildOptions, DEFAULT_SCENE};
+use phyxel::scene::{BuildOptions, DEFAULT_SCENE, Preset};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -87,6 +87,11 @@ enum Command {
         /// centroid, peak pressure, deepest overlap) to this file, one JSON object per line.
         #[arg(long, value_name = "FILE.jsonl")]
         contacts: Option<PathBuf>,
+        /// The method's configuration (overrides the scene's `preset`): default, or paper
+        /// (the strain JᵀJ − I, influence radius 3 r, contact forces spread over two
+        /// influence radii).
+        #[arg(long, value_parser = ["default", "paper"])]
+        preset: Option<String>,
     },
     /// Run a scene once per backend and compare speed, contact and conservation.
     #[command(allow_negative_numbers = true)]
@@ -110,6 +115,10 @@ enum Command {
         /// Run even when dt exceeds a backend's stable bound.
         #[arg(long)]
         allow_unstable: bool,
+        /// Comma-separated presets; each backend runs once per preset (`default,paper`:
+        /// the paper's configuration beside this engine's).
+        #[arg(long, value_delimiter = ',', default_value = "default", value_parser = ["default", "paper"])]
+        presets: Vec<String>,
     },
     /// Render a surfel frame (PLY) to a PNG image.
     #[command(allow_negative_numbers = true)]
@@ -154,6 +163,10 @@ enum Command {
         /// Run only the cases whose name starts with this (e.g. `hertz`, `stability`).
         #[arg(long)]
         case: Option<String>,
+        /// Comma-separated presets; every case runs once per preset (`default,paper`:
+        /// the paper's configuration beside this engine's, rows `mls/paper`).
+        #[arg(long, value_delimiter = ',', default_value = "default", value_parser = ["default", "paper"])]
+        preset: Vec<String>,
     },
     /// Watch and touch a scene live in a window (feature `view`): the keys are listed at
     /// the window's bottom; `t` brings the tool sphere, ctrl-drag grabs a body
@@ -216,6 +229,18 @@ enum Command {
         #[arg(conflicts_with = "show")]
         name: Option<String>,
     },
+}
+
+/// Presets named on the command line (clap checked the names), each once.
+fn presets_of(names: &[String]) -> Vec<Preset> {
+    let mut out: Vec<Preset> = Vec::new();
+    for n in names {
+        let p = Preset::parse(n.trim()).expect("clap checks the value");
+        if !out.contains(&p) {
+            out.push(p);
+        }
+    }
+    out
 }
 
 fn main() -> ExitCode {
@@ -309,7 +334,15 @@ fn main() -> ExitCode {
             json,
             plot,
             case,
-        } => validate(quick, backend, json, plot.as_deref(), case.as_deref()),
+            preset,
+        } => validate(
+            quick,
+            backend,
+            json,
+            plot.as_deref(),
+            case.as_deref(),
+            &presets_of(&preset),
+        ),
         Command::Compare {
             scene,
             backends,
@@ -317,8 +350,16 @@ fn main() -> ExitCode {
             json,
             dt,
             allow_unstable,
+            presets,
         } => match dt.map(dt_option).transpose() {
-            Ok(dt) => compare(&scene, &backends, steps, json, (dt, allow_unstable)),
+            Ok(dt) => compare(
+                &scene,
+                &backends,
+                &presets_of(&presets),
+                steps,
+                json,
+                (dt, allow_unstable),
+            ),
             Err(e) => {
                 eprintln!("error: {e}");
                 ExitCode::FAILURE
@@ -349,6 +390,7 @@ fn main() -> ExitCode {
             phyxel_count,
             flamegraph,
             contacts,
+            preset,
         } => {
             // Options that only shape output which is not being written: say so.
             let idle = [
@@ -388,6 +430,7 @@ fn main() -> ExitCode {
                     allow_unstable,
                     surfels,
                     phyxels: phyxel_count,
+                    preset: preset.map(|p| Preset::parse(&p).expect("clap checks the value")),
                 },
                 steps,
                 out,

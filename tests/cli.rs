@@ -1808,3 +1808,48 @@ fn run_json_has_each_pairs_contact_history() {
     assert!(0.0 < num("first_time") && num("first_time") <= num("last_time"));
     assert!(num("last_time") <= time);
 }
+
+/// `--preset`: `run --preset paper` reports `"preset": "paper"` and runs stiffer (the
+/// paper's strain is four times stiffer at small strain: a smaller stable dt);
+/// `compare --presets default,paper` runs each backend once per preset, rows `mls` and
+/// `mls/paper`; an unknown preset is refused naming the flag.
+#[test]
+fn presets_run_and_compare_side_by_side() {
+    let run = |preset: &str| {
+        run_json(&[
+            "run",
+            "two-spheres",
+            "--steps",
+            "5",
+            "--json",
+            "--preset",
+            preset,
+        ])
+    };
+    let (default, paper) = (run("default"), run("paper"));
+    assert_eq!(field(&default, "preset"), "default");
+    assert_eq!(field(&paper, "preset"), "paper");
+    let dt = |v: &Value| field(v, "stable_dt").as_f64().unwrap();
+    assert!(dt(&paper) < dt(&default), "the paper's strain is stiffer");
+    let v = run_json(&[
+        "compare",
+        "two-spheres",
+        "--backends",
+        "mls",
+        "--presets",
+        "default,paper",
+        "--steps",
+        "5",
+        "--json",
+    ]);
+    let presets: Vec<&str> = v
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| field(s, "preset").as_str().unwrap())
+        .collect();
+    assert_eq!(presets, ["default", "paper"]);
+    let out = phyxel(&["run", "two-spheres", "--steps", "1", "--preset", "papr"]);
+    let err = text(&out.stderr);
+    assert!(!out.status.success() && err.contains("--preset") && err.contains("papr"));
+}

@@ -145,3 +145,33 @@ fn hertz_study() {
         }
     }
 }
+
+/// The paper's configuration on the same case (docs/ACCURACY.md, "The paper's
+/// configuration"): `cargo test --release --test hertz -- --ignored --nocapture
+/// paper`. R = 0.1 m, E = 1e5 Pa, ν = 0.3, a = 0.15 R, at 8 and 12 phyxels per radius,
+/// default and paper side by side. Asserts only finite results and force balance
+/// within 5%.
+#[test]
+#[ignore]
+fn hertz_paper_preset() {
+    use phyxel::scene::Preset;
+    println!("| preset | per R | force | a | p₀ | profile RMS |");
+    println!("|---|---|---|---|---|---|");
+    for per in [8.0, 12.0] {
+        for preset in [Preset::Default, Preset::Paper] {
+            let c = case(0.1, 1.0e5, 0.3, per);
+            let r = phyxel::validate::with_preset(preset, || {
+                hertz_plane(&c, load_for(&c, 0.15), "mls").unwrap()
+            });
+            println!(
+                "| {} | {per} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} |",
+                preset.name(),
+                100.0 * (r.contact_force / r.load - 1.0),
+                100.0 * (r.radius / r.hertz_radius - 1.0),
+                100.0 * (r.pressure / r.hertz_pressure - 1.0),
+                r.profile_rms
+            );
+            assert!(finite(&r) && (r.contact_force / r.load - 1.0).abs() < 0.05);
+        }
+    }
+}

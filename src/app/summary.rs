@@ -130,6 +130,8 @@ pub struct RunSummary {
     pub scene: String,
     /// The backend of the deformable objects ("mixed" when they differ).
     pub backend: String,
+    /// The method's configuration (`default` or `paper`, [`crate::scene::Preset`]).
+    pub preset: String,
     pub steps: u64,
     /// The last step's dt (s): the scene's, unless `dt_changes` lowered it.
     pub dt: f32,
@@ -182,6 +184,18 @@ pub struct RunSummary {
     /// Each pair that touched over the run, in object-id order
     /// ([`crate::world::PairHistory`]).
     pub contacts: Vec<crate::world::PairHistory>,
+}
+
+impl RunSummary {
+    /// The backend, with the preset after a slash where it is not the default
+    /// (`mls/paper`): one row of `phyxel compare`.
+    pub fn series(&self) -> String {
+        if self.preset == crate::scene::Preset::Default.name() {
+            self.backend.clone()
+        } else {
+            format!("{}/{}", self.backend, self.preset)
+        }
+    }
 }
 
 /// Builds and runs `scene`, calling `progress(step)` after each step.
@@ -368,6 +382,7 @@ pub fn summarize(
     RunSummary {
         scene: scene.name.clone(),
         backend,
+        preset: world.preset.name().to_string(),
         steps,
         dt: world.dt,
         time: world.time,

@@ -139,6 +139,7 @@ pub fn split(
         // The load is a force on the whole body: each piece takes its share by mass.
         piece.load = object.load * (mass / parent_mass.max(f64::MIN_POSITIVE)) as f32;
         piece.load_ramp = object.load_ramp;
+        piece.distribution_support = object.distribution_support;
         piece.parent = Some(object.id);
         piece.self_collision = self_collision;
         pieces.push(piece);

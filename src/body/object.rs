@@ -34,6 +34,9 @@ pub struct Object {
     pub carrier_spacing: f32,
     /// Largest phyxel influence radius (m).
     pub max_influence: f32,
+    /// Support of the contact-force distribution in influence radii (default
+    /// [`crate::contact::params::DISTRIBUTION_SUPPORT`]; the paper 2).
+    pub distribution_support: f32,
     /// External load (N) spread over the free phyxels by mass; see [`Object::apply_load`].
     pub load: glam::Vec3,
     /// Ramp time of the load (s).
@@ -108,6 +111,12 @@ impl std::fmt::Debug for Object {
 pub const MASS_DENSITY_TOLERANCE: f32 = 1e-4;
 
 impl Object {
+    /// Radius (m) within which a contact force on this object reaches its phyxels:
+    /// [`Object::distribution_support`] influence radii.
+    pub fn distribution_radius(&self) -> f32 {
+        self.distribution_support * self.max_influence
+    }
+
     /// Assembles an object and binds its surfels to its phyxels.
     ///
     /// An object without surfels is allowed (a mass moved by its backend alone) but takes
@@ -206,6 +215,7 @@ impl Object {
             force_carrier,
             carrier_spacing,
             max_influence,
+            distribution_support: crate::contact::params::DISTRIBUTION_SUPPORT,
             load: glam::Vec3::ZERO,
             load_ramp: 0.0,
             parent: None,

@@ -2,18 +2,19 @@
 
 use phyxel::app::summary::{RunOptions, RunSummary, run};
 use phyxel::backends;
-use phyxel::scene::{BuildOptions, Scene};
+use phyxel::scene::{BuildOptions, Preset, Scene};
 use phyxel::world::phase::Phase;
 use std::process::ExitCode;
 
 use super::run::{note_run, resolve_scene, step_bar};
 
-/// `phyxel compare`: the scene once per backend, like `run --backend B`.
-/// Runs `arg` once per backend of `names`; `(dt, allow_unstable)` are `--dt` and
-/// `--allow-unstable`, as for `run`.
+/// `phyxel compare`: the scene once per backend and preset, like `run --backend B
+/// --preset P`. Runs `arg` once per backend of `names` and preset of `presets`;
+/// `(dt, allow_unstable)` are `--dt` and `--allow-unstable`, as for `run`.
 pub(crate) fn compare(
     arg: &str,
     names: &[String],
+    presets: &[Preset],
     steps: Option<u64>,
     json: bool,
     (dt, allow_unstable): (Option<f32>, bool),
@@ -50,12 +51,21 @@ pub(crate) fn compare(
         return ExitCode::FAILURE;
     }
     let total = steps.unwrap_or(scene.steps);
-    let mut summaries = Vec::with_capacity(names.len());
-    for (k, b) in names.iter().enumerate() {
+    let runs: Vec<(&String, Preset)> = names
+        .iter()
+        .flat_map(|b| presets.iter().map(move |&p| (b, p)))
+        .collect();
+    let mut summaries = Vec::with_capacity(runs.len());
+    for (k, &(b, preset)) in runs.iter().enumerate() {
+        let with = if preset == Preset::Default {
+            String::new()
+        } else {
+            format!(", preset {}", preset.name())
+        };
         eprintln!(
-            "[{}/{}] {} with backend {b}: {total} steps",
+            "[{}/{}] {} with backend {b}{with}: {total} steps",
             k + 1,
-            names.len(),
+            runs.len(),
             scene.name
         );
         let opts = RunOptions {
@@ -63,6 +73,7 @@ pub(crate) fn compare(
                 backend: Some(b.clone()),
                 dt,
                 allow_unstable,
+                preset: Some(preset),
                 ..Default::default()
             },
             steps,
@@ -91,13 +102,13 @@ pub(crate) fn compare(
     } else {
         print_comparison(&scene, &summaries);
     }
-    let blown: Vec<&str> = summaries
+    let blown: Vec<String> = summaries
         .iter()
         .filter(|s| !s.finite)
-        .map(|s| s.backend.as_str())
+        .map(RunSummary::series)
         .collect();
     for s in &summaries {
-        note_run(&format!("backend {}: ", s.backend), s);
+        note_run(&format!("backend {}: ", s.series()), s);
     }
     for e in summaries.iter().filter_map(|s| s.non_finite.as_ref()) {
         eprintln!("error: {e}; that run stopped there");
@@ -140,7 +151,7 @@ pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
         first.scene, first.objects, first.phyxels, first.surfels, first.steps
     );
     println!(
-        "{:<8} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>9}",
+        "{:<12} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>9}",
         "backend",
         "dt (s)",
         "time (s)",
@@ -156,8 +167,8 @@ pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
         let error = phyxel::app::validate::scene_error(scene, s)
             .map_or_else(|| "-".to_string(), |e| format!("{e:.3e}"));
         println!(
-            "{:<8} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
-            s.backend,
+            "{:<12} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
+            s.series(),
             s.dt,
             // Each backend runs at its own stable dt: the same steps cover different times.
             s.dt as f64 * s.steps as f64,
@@ -171,14 +182,14 @@ pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
     }
     print!("{:<16}", "ms/step");
     for s in runs {
-        print!(" {:>10}", s.backend);
+        print!(" {:>12}", s.series());
     }
     println!();
     for p in Phase::ALL {
         print!("{:<16}", p.name());
         for s in runs {
             let t = s.phase_seconds.get(p.name()).copied().unwrap_or(0.0);
-            print!(" {:>10.4}", 1e3 * t / s.steps.max(1) as f64);
+            print!(" {:>12.4}", 1e3 * t / s.steps.max(1) as f64);
         }
         println!();
     }

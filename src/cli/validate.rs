@@ -14,6 +14,7 @@ pub(crate) fn validate(
     json: bool,
     plot: Option<&Path>,
     only: Option<&str>,
+    presets: &[phyxel::scene::Preset],
 ) -> ExitCode {
     use phyxel::app::validate;
     if let Some(b) = &backend
@@ -46,8 +47,13 @@ pub(crate) fn validate(
         }
     };
     let backends: Vec<String> = backend.into_iter().collect();
-    let mut rows = validate::run_accuracy(&backends, quick, only, report);
-    rows.extend(validate::run_stability(&backends, quick, only, report));
+    let mut rows = Vec::new();
+    for &p in presets {
+        validate::with_preset(p, || {
+            rows.extend(validate::run_accuracy(&backends, quick, only, report));
+            rows.extend(validate::run_stability(&backends, quick, only, report));
+        });
+    }
     bar.finish_and_clear();
     if rows.is_empty() {
         let names: Vec<&str> = validate::CASES

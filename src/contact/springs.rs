@@ -3,7 +3,7 @@
 //! differentiated along the contact normal.
 
 use super::distribute::{Couple, moments, spread_weights};
-use super::params::{DISTRIBUTION_SUPPORT, contact_params};
+use super::params::contact_params;
 use super::*;
 use crate::body::object::Object;
 use crate::dynamics::implicit::{ContactSpring, ContactSprings, SpringSide};
@@ -54,7 +54,7 @@ pub fn springs(
                     return None;
                 }
                 let grid = grids[k].as_ref()?;
-                let h = DISTRIBUTION_SUPPORT * o.max_influence;
+                let h = o.distribution_radius();
                 let widened = spread_weights::<false>(c.pos, grid, h, near, knn);
                 // The couple of `distribute`, from the weights' moments about the surfel.
                 let (total, m1, m2) = moments(near, &o.phyxels, c.pos);

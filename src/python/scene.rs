@@ -133,8 +133,10 @@ impl PyScene {
     /// object's backend: a name (`phyxel.BACKENDS`) or a Python class (docs/PYTHON.md,
     /// "Backends in Python"); `surfels` and `phyxels` set the sample counts per
     /// deformable object; `dt` the time step (default: 90% of the stable bound, at most
-    /// 1 ms); `allow_unstable` accepts a dt above the bound.
-    #[pyo3(signature = (backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false))]
+    /// 1 ms); `allow_unstable` accepts a dt above the bound; `preset` (`"default"` or
+    /// `"paper"`) overrides the scene's.
+    #[pyo3(signature = (backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false, preset = None))]
+    #[allow(clippy::too_many_arguments)] // the keyword arguments of one Python method
     pub fn build(
         &self,
         py: Python<'_>,
@@ -143,7 +145,12 @@ impl PyScene {
         phyxels: Option<u32>,
         dt: Option<f32>,
         allow_unstable: bool,
+        preset: Option<&str>,
     ) -> PyResult<PyWorld> {
+        let preset = preset
+            .map(crate::scene::Preset::parse)
+            .transpose()
+            .map_err(pyo3::exceptions::PyValueError::new_err)?;
         let (name, class) = match backend {
             None => (None, None),
             Some(b) => match b.extract::<String>() {
@@ -163,6 +170,7 @@ impl PyScene {
             allow_unstable: allow_unstable || class.is_some(),
             surfels,
             phyxels,
+            preset,
         };
         let scene = self.scene.clone();
         let mut world = py

@@ -691,7 +691,7 @@ fn scene_of(py: Python<'_>, scene: &Bound<'_, PyAny>) -> PyResult<Scene> {
 /// scene's) and returns the summary dict of `phyxel run --json`. Stops at a non-finite
 /// state as `run` does (the summary says where).
 #[pyfunction]
-#[pyo3(signature = (scene, steps = None, backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false))]
+#[pyo3(signature = (scene, steps = None, backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false, preset = None))]
 #[allow(clippy::too_many_arguments)] // the keyword arguments of the Python function
 pub fn run<'py>(
     py: Python<'py>,
@@ -702,11 +702,12 @@ pub fn run<'py>(
     phyxels: Option<u32>,
     dt: Option<f32>,
     allow_unstable: bool,
+    preset: Option<&str>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let scene = PyScene {
         scene: scene_of(py, scene)?,
     };
-    let world = scene.build(py, backend, surfels, phyxels, dt, allow_unstable)?;
+    let world = scene.build(py, backend, surfels, phyxels, dt, allow_unstable, preset)?;
     let n = steps.unwrap_or(scene.scene.steps);
     match world.step(py, n) {
         Ok(()) => {}
@@ -737,30 +738,47 @@ pub fn compare<'py>(
     };
     backends
         .iter()
-        .map(|b| run(py, scene, steps, Some(b), None, None, dt, allow_unstable))
+        .map(|b| {
+            run(
+                py,
+                scene,
+                steps,
+                Some(b),
+                None,
+                None,
+                dt,
+                allow_unstable,
+                None,
+            )
+        })
         .collect()
 }
 
 /// The validation suite (`phyxel validate --json`): one dict per row, accuracy cases
 /// then hard cases. `quick` uses the short resolutions; `case` keeps the cases whose
-/// name starts with it; `backend` picks one backend (default: all).
+/// name starts with it; `backend` picks one backend (default: all); `preset` builds
+/// every case in that configuration (`"default"` or `"paper"`; rows say which).
 #[pyfunction]
-#[pyo3(signature = (quick = true, case = None, backend = None))]
+#[pyo3(signature = (quick = true, case = None, backend = None, preset = "default"))]
 pub fn validate<'py>(
     py: Python<'py>,
     quick: bool,
     case: Option<String>,
     backend: Option<String>,
+    preset: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
+    let preset = crate::scene::Preset::parse(preset).map_err(PyValueError::new_err)?;
     let backends: Vec<String> = backend.into_iter().collect();
     for b in &backends {
         suite::check_backend(b).map_err(PyValueError::new_err)?;
     }
     let only = case.as_deref();
     let rows = py.detach(|| {
-        let mut rows = suite::run_accuracy(&backends, quick, only, |_| {});
-        rows.extend(suite::run_stability(&backends, quick, only, |_| {}));
-        rows
+        suite::with_preset(preset, || {
+            let mut rows = suite::run_accuracy(&backends, quick, only, |_| {});
+            rows.extend(suite::run_stability(&backends, quick, only, |_| {}));
+            rows
+        })
     });
     let json = serde_json::to_string(&rows).map_err(|e| error(e.to_string()))?;
     json_to_py(py, &json)

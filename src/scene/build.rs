@@ -23,6 +23,7 @@ impl Scene {
         let mut world = World::new(objects, Vec3::from(self.gravity), 0.0);
         world.dt = self.choose_dt(&world, opts, origin)?;
         world.keep_stable = !opts.allow_unstable;
+        world.preset = opts.preset.unwrap_or(self.preset);
         world.record.warnings = warnings;
         Ok(world)
     }
@@ -54,6 +55,11 @@ impl Scene {
                 spec.surfels = opts.surfels.or(spec.surfels);
                 spec.phyxels = opts.phyxels.or(spec.phyxels);
             }
+            let preset = opts.preset.unwrap_or(self.preset);
+            if preset == Preset::Paper {
+                spec.material.strain = crate::body::material::StrainForm::Paper;
+                spec.influence = spec.influence.or(Some(PAPER_INFLUENCE));
+            }
             let backend = match (&opts.backend, spec.is_static) {
                 (_, true) => "static".to_string(),
                 // A prescribed motion is no dynamics to swap.
@@ -61,9 +67,12 @@ impl Scene {
                 (Some(_), false) => spec.backend_name().to_string(),
                 (None, false) => spec.backend_name().to_string(),
             };
-            let obj = spec
+            let mut obj = spec
                 .build(k as u32, &backend)
                 .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
+            if preset == Preset::Paper {
+                obj.distribution_support = PAPER_DISTRIBUTION_SUPPORT;
+            }
             // Only an override can get here with a plastic material on such a backend
             // (the scene's own `backend` is checked above): compared backends run it.
             let inelastic = (spec.material.is_plastic()
@@ -416,6 +425,11 @@ impl ObjectSpec {
         let surf = shape.sample_surface(surfel_spacing);
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
         let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
+        if let Some(f) = self.influence {
+            for (h, r) in phyxels.radius.iter_mut().zip(&phyxels.spacing) {
+                *h = f * r;
+            }
+        }
         let v = Vec3::from(self.velocity);
         let mut anchored = vec![0usize; self.fixed.len()];
         for (i, local) in vol.positions.iter().enumerate() {

@@ -152,6 +152,18 @@ impl ObjectSpec {
                 format!("spacing = {}: larger than the shape ({size})", o.spacing),
             );
         }
+        if let Some(f) = o.influence
+            && !(1.5..=4.0).contains(&f)
+        {
+            return at(
+                "influence",
+                format!(
+                    "influence = {f}: must be in [1.5, 4] phyxel spacings (2 by default, \
+                     3 in the paper): below, a phyxel has too few neighbours for its MLS \
+                     gradient; above, the stencils grow by the cube"
+                ),
+            );
+        }
         if let Some(s) = o.surfel_spacing
             && !(s.is_finite() && s > 0.0)
         {

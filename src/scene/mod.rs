@@ -84,7 +84,51 @@ pub struct Scene {
     /// Camera for rendered frames (`phyxel run --png`); omitted: fitted to the first frame.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub camera: Option<Camera>,
+    /// The method's configuration ([`Preset`]).
+    #[serde(default)]
+    pub preset: Preset,
     pub objects: Vec<ObjectSpec>,
+}
+
+/// The influence radius of `preset = "paper"`, in phyxel spacings (Müller et al. 2004,
+/// §4.3: `h_i = 3 r_i`).
+pub const PAPER_INFLUENCE: f32 = 3.0;
+/// The contact-force distribution support of `preset = "paper"`, in influence radii
+/// (Keiser et al. 2004, §7: the phyxels within twice the influence radius).
+pub const PAPER_DISTRIBUTION_SUPPORT: f32 = 2.0;
+
+/// The method's configuration: this engine's defaults, or the choices of the papers
+/// (docs/ACCURACY.md, "The paper's configuration").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Preset {
+    /// Green strain, influence radius 2 r, contact forces spread over one influence
+    /// radius.
+    #[default]
+    Default,
+    /// Müller et al. 2004 and Keiser et al. 2004 as written: the strain `JᵀJ − I`
+    /// (`strain = "paper"`), influence radius 3 r, contact forces spread over two
+    /// influence radii.
+    Paper,
+}
+
+impl Preset {
+    /// Parses `default` or `paper`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        match s {
+            "default" => Ok(Preset::Default),
+            "paper" => Ok(Preset::Paper),
+            _ => Err(format!("unknown preset '{s}' (available: default, paper)")),
+        }
+    }
+
+    /// The name as written in scenes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Default => "default",
+            Preset::Paper => "paper",
+        }
+    }
 }
 
 fn default_steps() -> u64 {
@@ -130,6 +174,11 @@ pub struct ObjectSpec {
     pub phyxels: Option<u32>,
     /// Target surfel count: sets the surfel spacing to `(area / surfels)^(1/2)`.
     pub surfels: Option<u32>,
+    /// Influence radius of each phyxel in units of its spacing `r_i` (omitted:
+    /// [`crate::body::phyxels::SUPPORT_FACTOR`], 2; Müller et al. 2004 and
+    /// `preset = "paper"`: 3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub influence: Option<f32>,
     /// Dynamics backend (omitted: `"mls"`, [`ObjectSpec::backend_name`]); refused on a
     /// static object (kept as written, so that even `"mls"` there is seen).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -191,6 +240,8 @@ pub struct BuildOptions {
     pub surfels: Option<u32>,
     /// Target phyxel count of every non-static object (overrides its spacing).
     pub phyxels: Option<u32>,
+    /// Overrides the scene's `preset`.
+    pub preset: Option<Preset>,
 }
 
 /// An error that names where in the input it comes from.

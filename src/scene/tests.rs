@@ -472,3 +472,78 @@ fn surfels_are_the_sample_in_spatial_order() {
         "mean gap {gap:.3e} m stored, {spiral_gap:.3e} m sampled, spacing {spacing:.3e} m"
     );
 }
+
+/// `preset = "paper"` (scene key, or `BuildOptions::preset`, which overrides it) builds
+/// every object as the papers do: the strain `JᵀJ − I`, influence radius `3 r_i`, and
+/// contact forces spread over two influence radii; the default keeps `2 r_i` and one
+/// radius. An object's own `influence` wins over the preset's; one outside [1.5, 4] is
+/// refused, naming the key.
+#[test]
+fn the_paper_preset_builds_the_papers_choices() {
+    use crate::body::material::StrainForm;
+    use crate::body::phyxels::SUPPORT_FACTOR;
+    let mut scene = Scene::builtin("two-spheres").expect("builtin");
+    let check = |w: &World, strain: StrainForm, factor: f32, support: f32| {
+        for o in &w.objects {
+            assert_eq!(o.material.strain, strain, "{}", o.name);
+            assert_eq!(o.distribution_support, support, "{}", o.name);
+            let p = &o.phyxels;
+            for i in 0..p.len() {
+                assert!((p.radius[i] - factor * p.spacing[i]).abs() <= 1e-6 * p.radius[i]);
+            }
+        }
+    };
+    let build = |s: &Scene, preset: Option<Preset>| {
+        s.build(&BuildOptions {
+            preset,
+            ..BuildOptions::default()
+        })
+        .expect("builds")
+    };
+    let default_support = crate::contact::params::DISTRIBUTION_SUPPORT;
+    check(
+        &build(&scene, None),
+        StrainForm::Calibrated,
+        SUPPORT_FACTOR,
+        default_support,
+    );
+    let paper = build(&scene, Some(Preset::Paper));
+    assert_eq!(paper.preset, Preset::Paper);
+    check(
+        &paper,
+        StrainForm::Paper,
+        PAPER_INFLUENCE,
+        PAPER_DISTRIBUTION_SUPPORT,
+    );
+    scene.preset = Preset::Paper;
+    check(
+        &build(&scene, None),
+        StrainForm::Paper,
+        PAPER_INFLUENCE,
+        PAPER_DISTRIBUTION_SUPPORT,
+    );
+    check(
+        &build(&scene, Some(Preset::Default)),
+        StrainForm::Calibrated,
+        SUPPORT_FACTOR,
+        default_support,
+    );
+    for o in &mut scene.objects {
+        o.influence = Some(2.5);
+    }
+    check(
+        &build(&scene, None),
+        StrainForm::Paper,
+        2.5,
+        PAPER_DISTRIBUTION_SUPPORT,
+    );
+    scene.objects[1].influence = Some(10.0);
+    let e = scene.build(&BuildOptions::default()).unwrap_err().0;
+    assert!(
+        e.contains("influence = 10") && e.contains("[1.5, 4]"),
+        "{e}"
+    );
+    let text = "preset = \"papr\"\n[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 0.02\n";
+    let e = Scene::parse(text, "bad.toml").unwrap_err().0;
+    assert!(e.contains("papr") && e.contains("paper"), "{e}");
+}

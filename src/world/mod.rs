@@ -66,6 +66,9 @@ pub struct World {
     /// ([`FORCE_CARRIER_SPACING`](crate::body::object::FORCE_CARRIER_SPACING)), so that `C` holds all colliding surfels. The
     /// forces and the motion are the same either way.
     pub render_contacts: bool,
+    /// The configuration the scene was built in (`Scene::build`; reported by
+    /// `run --json`, it changes nothing in the step).
+    pub preset: crate::scene::Preset,
     /// Steps taken so far.
     pub steps: u64,
     /// Simulated time (s): the sum of the steps' `dt` (which may change between steps);
@@ -146,6 +149,7 @@ impl World {
             dt,
             keep_stable: true,
             render_contacts: false,
+            preset: crate::scene::Preset::Default,
             steps: 0,
             time: 0.0,
             non_finite: None,

@@ -17,7 +17,6 @@ use crate::body::object::Object;
 use crate::contact;
 use crate::contact::detect::{Candidates, Volume, colliding_surfels};
 use crate::contact::implicit::{grid_cell, radius_range};
-use crate::contact::params::DISTRIBUTION_SUPPORT;
 use crate::dynamics::StepContext;
 use crate::dynamics::implicit::{self, Member};
 use crate::spatial::broad_phase::{Aabb, overlapping_pairs, points_in_blocks};
@@ -296,7 +295,7 @@ fn surfel_grid(w: &mut World, blocks_current: bool) -> u64 {
             }
             sg.radius_range = radius_range(&o.surfels.radius[..o.surfels.len()]);
             let cell = grid_cell(sg.radius_range.1).max(1e-6);
-            let phyxel_cell = (DISTRIBUTION_SUPPORT * o.max_influence).max(1e-6);
+            let phyxel_cell = o.distribution_radius().max(1e-6);
             sg.far.reset();
             sg.all.reset();
             sg.far_region.reset();
@@ -511,7 +510,7 @@ fn distribute(w: &mut World) -> u64 {
             .enumerate()
             .filter(|(_, (o, _))| !o.is_static())
             .for_each(|(k, (o, scratch))| {
-                let h = DISTRIBUTION_SUPPORT * o.max_influence;
+                let h = o.distribution_radius();
                 for (patch, _) in patches.iter().zip(in_solve.iter()).filter(|e| !*e.1) {
                     let sign = match (patch.a == k, patch.b == k) {
                         (true, _) => 1.0f32,

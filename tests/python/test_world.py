@@ -182,6 +182,18 @@ def test_contact_totals_sum_the_patches_and_the_summary_keeps_their_history():
     assert h["impulse"][0] == pytest.approx(m * (v1 - v0), abs=0.01 * 4.375)
 
 
+def test_the_paper_preset_is_reported_and_refused_when_misspelt():
+    """`preset="paper"` reaches the summary (as `run --preset paper --json`), and the
+    paper's strain is four times stiffer at small strain: a smaller stable dt."""
+    scene = phyxel.Scene.builtin("two-spheres")
+    default, paper = scene.build(), scene.build(preset="paper")
+    assert default.summary()["preset"] == "default"
+    assert paper.summary()["preset"] == "paper"
+    assert paper.stable_dt < default.stable_dt
+    with pytest.raises(ValueError, match="papr"):
+        scene.build(preset="papr")
+
+
 def test_energy_momentum_and_time():
     w = phyxel.Scene.builtin("two-spheres").build()
     e = w.energy()

@@ -11,7 +11,7 @@ use crate::backends;
 use crate::body::material::Material;
 use crate::body::phyxels::Phyxels;
 use crate::body::shape::Shape;
-use crate::scene::{BuildOptions, Scene};
+use crate::scene::{BuildOptions, Preset, Scene};
 use glam::{DMat3, DVec3, Mat3, Vec3};
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -24,6 +24,10 @@ pub struct Row {
     /// `accuracy` or `stability`.
     pub group: String,
     pub backend: String,
+    /// The method's configuration the case was built in (`default` or `paper`,
+    /// [`with_preset`]).
+    #[serde(default = "default_preset")]
+    pub preset: String,
     /// Phyxels over all deformable objects.
     pub phyxels: usize,
     /// Surfels over all objects.
@@ -45,6 +49,18 @@ pub struct Row {
     pub status: String,
     /// What was measured, or the refusal message.
     pub note: String,
+}
+
+impl Row {
+    /// The backend, with the preset after a slash where it is not the default
+    /// (`mls/paper`): one series of a table, a chart or a convergence check.
+    pub fn series(&self) -> String {
+        if self.preset == Preset::Default.name() {
+            self.backend.clone()
+        } else {
+            format!("{}/{}", self.backend, self.preset)
+        }
+    }
 }
 
 /// The accuracy cases: (name, what is measured against what, whether the error is
@@ -247,8 +263,33 @@ fn timed(world: &mut World, max_steps: usize, mut observe: impl FnMut(&World) ->
     }
 }
 
+fn default_preset() -> String {
+    Preset::Default.name().into()
+}
+
+thread_local! {
+    /// The preset every case of this thread is built in ([`with_preset`]).
+    static PRESET: std::cell::Cell<Preset> = const { std::cell::Cell::new(Preset::Default) };
+}
+
+/// Runs `f` (e.g. [`run_accuracy`]) with every case built in `preset`, which its rows
+/// name: `phyxel validate --preset paper` shows the paper's configuration against the
+/// same references.
+pub fn with_preset<R>(preset: Preset, f: impl FnOnce() -> R) -> R {
+    let old = PRESET.replace(preset);
+    let r = f();
+    PRESET.set(old);
+    r
+}
+
+/// The preset of [`with_preset`] on this thread.
+fn preset_name() -> String {
+    PRESET.get().name().into()
+}
+
 fn opts(backend: &str) -> BuildOptions {
     BuildOptions {
+        preset: Some(PRESET.get()),
         backend: Some(backend.to_string()),
         ..Default::default()
     }
@@ -277,6 +318,7 @@ fn row(case: &str, backend: &str, run: RunInfo, measured: f64, reference: f64) -
         case: case.into(),
         group: "accuracy".into(),
         backend: backend.into(),
+        preset: preset_name(),
         phyxels: run.phyxels,
         surfels: run.surfels,
         dt: run.dt,
@@ -417,6 +459,7 @@ pub fn run_accuracy(
                     case: cases[0].into(),
                     group: "accuracy".into(),
                     backend: b.clone(),
+                    preset: preset_name(),
                     phyxels: 0,
                     surfels: 0,
                     dt: 0.0,
@@ -445,21 +488,21 @@ pub fn convergence(rows: &[Row]) -> Vec<(String, String, f64, f64)> {
         if !driven {
             continue;
         }
-        let mut backends: Vec<&str> = rows
+        let mut series: Vec<String> = rows
             .iter()
             .filter(|r| r.case == *case)
-            .map(|r| r.backend.as_str())
+            .map(Row::series)
             .collect();
-        backends.sort_unstable();
-        backends.dedup();
+        series.sort_unstable();
+        series.dedup();
         // Implicit friction creeps at its law's sticking speed, whatever the dt.
         if *case == "incline-stick" {
-            backends.retain(|b| *b != crate::backends::mls::implicit::NAME);
+            series.retain(|s| !s.starts_with(crate::backends::mls::implicit::NAME));
         }
-        for b in backends {
+        for b in series {
             let errs: Vec<f64> = rows
                 .iter()
-                .filter(|r| r.case == *case && r.backend == b)
+                .filter(|r| r.case == *case && r.series() == b)
                 .map(|r| r.rel_error)
                 .collect();
             if errs.len() >= 2 {
@@ -478,7 +521,7 @@ pub fn convergence(rows: &[Row]) -> Vec<(String, String, f64, f64)> {
 /// The rows as a fixed-width table.
 pub fn table(rows: &[Row]) -> String {
     let mut s = format!(
-        "{:<22} {:<7} {:>7} {:>7} {:>9} {:>10} {:>12} {:>12} {:>9} {:>9} {:<8} {}\n",
+        "{:<22} {:<12} {:>7} {:>7} {:>9} {:>10} {:>12} {:>12} {:>9} {:>9} {:<8} {}\n",
         "case",
         "backend",
         "phyxels",
@@ -494,9 +537,9 @@ pub fn table(rows: &[Row]) -> String {
     );
     for r in rows {
         s += &format!(
-            "{:<22} {:<7} {:>7} {:>7} {:>9.2e} {:>10.3e} {:>12.5e} {:>12.5e} {:>9.2e} {:>9.1e} {:<8} {}\n",
+            "{:<22} {:<12} {:>7} {:>7} {:>9.2e} {:>10.3e} {:>12.5e} {:>12.5e} {:>9.2e} {:>9.1e} {:<8} {}\n",
             r.case,
-            r.backend,
+            r.series(),
             r.phyxels,
             r.surfels,
             r.dt,

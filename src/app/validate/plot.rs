@@ -142,19 +142,19 @@ where
     .map_err(e)?
     .label(format!("tolerance {}", rows[0].tolerance))
     .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], RED));
-    let mut backends: Vec<&str> = rows.iter().map(|r| r.backend.as_str()).collect();
-    backends.sort_unstable();
-    backends.dedup();
-    for (k, b) in backends.iter().enumerate() {
+    let mut series: Vec<String> = rows.iter().map(|r| r.series()).collect();
+    series.sort_unstable();
+    series.dedup();
+    for (k, b) in series.iter().enumerate() {
         let color = [BLUE, GREEN, MAGENTA, CYAN, BLACK][k % 5].to_rgba();
         let pts: Vec<(f64, f64)> = rows
             .iter()
-            .filter(|r| r.backend == *b)
+            .filter(|r| r.series() == *b)
             .map(|r| (r.seconds_per_step, r.rel_error.max(floor)))
             .collect();
         c.draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
             .map_err(e)?
-            .label(*b)
+            .label(b.as_str())
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
             });

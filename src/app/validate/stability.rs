@@ -18,6 +18,7 @@ fn stability_row(
         case: case.into(),
         group: "stability".into(),
         backend: backend.into(),
+        preset: preset_name(),
         phyxels: run.phyxels,
         surfels: run.surfels,
         dt: run.dt,

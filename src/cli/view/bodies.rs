@@ -138,6 +138,7 @@ pub(super) fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> R
         surfel_spacing: Some(surfel_spacing.max(radius / 25.0)),
         phyxels: None,
         surfels: None,
+        influence: None,
         backend: Some(backend.clone()),
         is_static: false,
         position: at.to_array(),

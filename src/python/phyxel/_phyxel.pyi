@@ -61,6 +61,7 @@ class Scene:
         phyxels: Optional[int] = None,
         dt: Optional[float] = None,
         allow_unstable: bool = False,
+        preset: Optional[str] = None,
     ) -> World: ...
 
 class Body:
@@ -132,6 +133,7 @@ def run(
     phyxels: Optional[int] = None,
     dt: Optional[float] = None,
     allow_unstable: bool = False,
+    preset: Optional[str] = None,
 ) -> dict[str, Any]: ...
 def compare(
     scene: Union[Scene, str],
@@ -140,4 +142,4 @@ def compare(
     dt: Optional[float] = None,
     allow_unstable: bool = False,
 ) -> list[dict[str, Any]]: ...
-def validate(quick: bool = True, case: Optional[str] = None, backend: Optional[str] = None) -> list[dict[str, Any]]: ...
+def validate(quick: bool = True, case: Optional[str] = None, backend: Optional[str] = None, preset: str = "default") -> list[dict[str, Any]]: ...
