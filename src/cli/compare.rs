@@ -150,8 +150,15 @@ pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
         "scene {}  objects {}  phyxels {}  surfels {}  steps {}",
         first.scene, first.objects, first.phyxels, first.surfels, first.steps
     );
+    // The label column fits the longest `backend/preset`.
+    let w = runs
+        .iter()
+        .map(|s| s.series().len())
+        .max()
+        .unwrap_or(0)
+        .max(8);
     println!(
-        "{:<12} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>9}",
+        "{:<w$} {:>10} {:>9} {:>10} {:>14} {:>14} {:>12} {:>7} {:>9}",
         "backend",
         "dt (s)",
         "time (s)",
@@ -167,7 +174,7 @@ pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
         let error = phyxel::app::validate::scene_error(scene, s)
             .map_or_else(|| "-".to_string(), |e| format!("{e:.3e}"));
         println!(
-            "{:<12} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
+            "{:<w$} {:>10.3e} {:>9.4} {:>10.1} {:>14.3e} {:>14.3e} {:>12.4e} {:>7} {:>9}",
             s.series(),
             s.dt,
             // Each backend runs at its own stable dt: the same steps cover different times.
@@ -182,14 +189,14 @@ pub(crate) fn print_comparison(scene: &Scene, runs: &[RunSummary]) {
     }
     print!("{:<16}", "ms/step");
     for s in runs {
-        print!(" {:>12}", s.series());
+        print!(" {:>w$}", s.series());
     }
     println!();
     for p in Phase::ALL {
         print!("{:<16}", p.name());
         for s in runs {
             let t = s.phase_seconds.get(p.name()).copied().unwrap_or(0.0);
-            print!(" {:>12.4}", 1e3 * t / s.steps.max(1) as f64);
+            print!(" {:>w$.4}", 1e3 * t / s.steps.max(1) as f64);
         }
         println!();
     }
