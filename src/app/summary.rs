@@ -190,11 +190,7 @@ impl RunSummary {
     /// The backend, with the preset after a slash where it is not the default
     /// (`mls/paper`): one row of `phyxel compare`.
     pub fn series(&self) -> String {
-        if self.preset == crate::scene::Preset::Default.name() {
-            self.backend.clone()
-        } else {
-            format!("{}/{}", self.backend, self.preset)
-        }
+        crate::scene::Preset::series(&self.backend, &self.preset)
     }
 }
 

@@ -44,6 +44,7 @@ impl Scene {
         };
         let gravity = Vec3::from(self.gravity);
         let grounded = self.objects.iter().any(|o| o.is_static);
+        let preset = opts.preset.unwrap_or(self.preset);
         for (k, spec) in self.objects.iter().enumerate() {
             let mut spec = spec.clone();
             // Loaded here once (a no-op if `Scene::load` did), for the overlap check too.
@@ -55,7 +56,6 @@ impl Scene {
                 spec.surfels = opts.surfels.or(spec.surfels);
                 spec.phyxels = opts.phyxels.or(spec.phyxels);
             }
-            let preset = opts.preset.unwrap_or(self.preset);
             if preset == Preset::Paper {
                 spec.material.strain = crate::body::material::StrainForm::Paper;
                 spec.influence = spec.influence.or(Some(PAPER_INFLUENCE));

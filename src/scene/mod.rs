@@ -129,6 +129,17 @@ impl Preset {
             Preset::Paper => "paper",
         }
     }
+
+    /// The label of a run of `backend` in the preset named `preset`: the backend, with
+    /// the preset after a slash where it is not the default (`mls/paper`), as `compare`
+    /// and `validate` show runs side by side.
+    pub fn series(backend: &str, preset: &str) -> String {
+        if preset == Preset::Default.name() {
+            backend.to_string()
+        } else {
+            format!("{backend}/{preset}")
+        }
+    }
 }
 
 fn default_steps() -> u64 {

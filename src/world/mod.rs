@@ -277,8 +277,8 @@ impl World {
         self.record.times = t;
         self.steps += 1;
         self.time += self.dt as f64;
-        let r = &mut self.record;
-        r.contacts
+        self.record
+            .contacts
             .add(&self.objects, &self.patches, self.time, self.dt);
     }
 

@@ -55,11 +55,7 @@ impl Row {
     /// The backend, with the preset after a slash where it is not the default
     /// (`mls/paper`): one series of a table, a chart or a convergence check.
     pub fn series(&self) -> String {
-        if self.preset == Preset::Default.name() {
-            self.backend.clone()
-        } else {
-            format!("{}/{}", self.backend, self.preset)
-        }
+        Preset::series(&self.backend, &self.preset)
     }
 }
 
