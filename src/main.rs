@@ -88,8 +88,8 @@ enum Command {
         #[arg(long, value_name = "FILE.jsonl")]
         contacts: Option<PathBuf>,
         /// The method's configuration (overrides the scene's `preset`): default, or paper
-        /// (the strain JᵀJ − I, influence radius 3 r, contact forces spread over two
-        /// influence radii).
+        /// (the strain JᵀJ − I, influence radius 3 r, contact forces on the resampled
+        /// contact surface, spread over two influence radii).
         #[arg(long, value_parser = ["default", "paper"])]
         preset: Option<String>,
     },

@@ -11,6 +11,7 @@ fn case(radius: f32, young: f32, poisson: f32, per_radius: f32) -> HertzCase {
         young,
         poisson,
         per_radius,
+        resampled_forces: false,
     }
 }
 

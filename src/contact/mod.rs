@@ -21,7 +21,7 @@ pub use distribute::{
 pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
 pub use params::ContactParams;
 pub use report::{ContactPoint, PatchTotals};
-pub use resample::resample;
+pub use resample::{anchor, resample};
 pub use springs::{keep_parted, springs, springs_apply};
 pub use surface::contact_surface;
 

@@ -8,10 +8,12 @@ use super::*;
 /// tangent neighbourhood is empty, one relaxation pass with reprojection onto Φ, and
 /// normals by PCA of the local neighbourhood (smallest eigenvector).
 ///
-/// The forces stay on the unresampled contact surfels: which surfels deletion and
-/// insertion keep changes discontinuously from step to step, and forces on them would
-/// make a resting contact jitter, while a colliding surfel enters and leaves the
-/// contact with zero penetration, so forces on those are continuous in time.
+/// By default the forces stay on the unresampled contact surfels: which surfels deletion
+/// and insertion keep changes discontinuously from step to step, and forces on them
+/// would make a resting contact jitter, while a colliding surfel enters and leaves the
+/// contact with zero penetration, so forces on those are continuous in time. With
+/// `World::resampled_forces` (the paper's order) the forces act on the resampled
+/// surfels instead, anchored by [`anchor`].
 pub fn resample(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParams) {
     patch.render.clear();
     if patch.surfels.is_empty() {
@@ -24,6 +26,58 @@ pub fn resample(patch: &mut ContactPatch, s: &PairSurfaces<'_>, p: &ContactParam
     relax(&mut render, s, p);
     pca_normals(&mut render, 2.0 * h);
     patch.render = render;
+}
+
+/// Anchors each resampled contact surfel on the two original surfaces, as
+/// `contact_surface` does for the colliding ones, so that forces can act on it: `d₁`
+/// runs from it along Φ's normal n to surface a (where `f_a` crosses 0 going along +n:
+/// a's surface faces b), `d₂` along −n to surface b; a side it is outside of gets no
+/// overlap. Where the search fails (an overlap deeper than the kernel reaches, where
+/// `f` is undefined), that side's overlap along n is the nearest placed contact
+/// surfel's (`placed`: from the colliding surfels, whose segments reach any depth). Its
+/// velocity is that of a's surfel nearest the first anchor relative to b's nearest the
+/// second.
+pub fn anchor(
+    surfels: &mut [ContactSurfel],
+    placed: &[ContactSurfel],
+    s: &PairSurfaces<'_>,
+    p: &ContactParams,
+) {
+    let h = p.spacing;
+    let placed_grid = grid_of(placed, h);
+    // The anchor on `surface` along `dir`: `x` itself where x is outside it (no
+    // overlap on that side), `None` where the search fails.
+    let along = |surface: &ImplicitSurface<'_>, x: Vec3, dir: Vec3| -> Option<Vec3> {
+        let f = |t: f32| surface.sample(x + t * dir).map(|q| q.f);
+        if f(0.0)? > 0.0 {
+            return Some(x);
+        }
+        // The farthest end of the search that the kernel still reaches and lies outside.
+        let hi = [4.0 * h, 2.0 * h, h, 0.5 * h]
+            .into_iter()
+            .find(|&t| f(t).is_some_and(|v| v > 0.0))?;
+        let t = brent(f, 0.0, hi, 1e-3 * h, 40)?;
+        Some(x + t * dir)
+    };
+    surfels.par_iter_mut().for_each(|c| {
+        let (x, n) = (c.pos, c.normal);
+        let (a, b) = (along(&s.a, x, n), along(&s.b, x, -n));
+        let near = (a.is_none() || b.is_none())
+            .then(|| placed_grid.nearest(x).map(|(k, _)| &placed[k]))
+            .flatten();
+        // The nearest placed surfel's overlap on one side, measured along n.
+        let copied = |anchor: fn(&ContactSurfel) -> Vec3| {
+            near.map_or(x, |q| x + (anchor(q) - q.pos).dot(n) * n)
+        };
+        c.anchor_a = a.unwrap_or_else(|| copied(|q| q.anchor_a));
+        c.anchor_b = b.unwrap_or_else(|| copied(|q| q.anchor_b));
+        let vel = |surface: &ImplicitSurface<'_>, surfels: &Surfels, at: Vec3| {
+            surface
+                .nearest(at)
+                .map_or(Vec3::ZERO, |(k, _)| surfels.vel.get(k))
+        };
+        c.velocity = vel(&s.a, s.surfels_a, c.anchor_a) - vel(&s.b, s.surfels_b, c.anchor_b);
+    });
 }
 
 pub(super) fn grid_of(surfels: &[ContactSurfel], cell: f32) -> Grid {

@@ -24,6 +24,9 @@ impl Scene {
         world.dt = self.choose_dt(&world, opts, origin)?;
         world.keep_stable = !opts.allow_unstable;
         world.preset = opts.preset.unwrap_or(self.preset);
+        world.resampled_forces = self
+            .resampled_forces
+            .unwrap_or(world.preset == Preset::Paper);
         world.record.warnings = warnings;
         Ok(world)
     }

@@ -87,6 +87,10 @@ pub struct Scene {
     /// The method's configuration ([`Preset`]).
     #[serde(default)]
     pub preset: Preset,
+    /// Contact forces on the resampled contact surface (`World::resampled_forces`);
+    /// omitted: the preset's choice (`paper`: yes, `default`: no).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resampled_forces: Option<bool>,
     pub objects: Vec<ObjectSpec>,
 }
 
@@ -102,13 +106,13 @@ pub const PAPER_DISTRIBUTION_SUPPORT: f32 = 2.0;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Preset {
-    /// Green strain, influence radius 2 r, contact forces spread over one influence
-    /// radius.
+    /// Green strain, influence radius 2 r, contact forces on the contact surfels placed
+    /// from the colliding ones, spread over one influence radius.
     #[default]
     Default,
     /// Müller et al. 2004 and Keiser et al. 2004 as written: the strain `JᵀJ − I`
-    /// (`strain = "paper"`), influence radius 3 r, contact forces spread over two
-    /// influence radii.
+    /// (`strain = "paper"`), influence radius 3 r, contact forces on the resampled
+    /// contact surface, spread over two influence radii.
     Paper,
 }
 

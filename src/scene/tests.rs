@@ -475,8 +475,9 @@ fn surfels_are_the_sample_in_spatial_order() {
 
 /// `preset = "paper"` (scene key, or `BuildOptions::preset`, which overrides it) builds
 /// every object as the papers do: the strain `JᵀJ − I`, influence radius `3 r_i`, and
-/// contact forces spread over two influence radii; the default keeps `2 r_i` and one
-/// radius. An object's own `influence` wins over the preset's; one outside [1.5, 4] is
+/// contact forces on the resampled Φ, spread over two influence radii; the default keeps
+/// `2 r_i`, the placed contact surfels and one radius. The scene's own
+/// `resampled_forces` wins over the preset's. An object's own `influence` wins over the preset's; one outside [1.5, 4] is
 /// refused, naming the key.
 #[test]
 fn the_paper_preset_builds_the_papers_choices() {
@@ -509,6 +510,10 @@ fn the_paper_preset_builds_the_papers_choices() {
     );
     let paper = build(&scene, Some(Preset::Paper));
     assert_eq!(paper.preset, Preset::Paper);
+    assert!(paper.resampled_forces && !build(&scene, None).resampled_forces);
+    let mut own = scene.clone();
+    own.resampled_forces = Some(false);
+    assert!(!build(&own, Some(Preset::Paper)).resampled_forces);
     check(
         &paper,
         StrainForm::Paper,

@@ -66,6 +66,11 @@ pub struct World {
     /// ([`FORCE_CARRIER_SPACING`](crate::body::object::FORCE_CARRIER_SPACING)), so that `C` holds all colliding surfels. The
     /// forces and the motion are the same either way.
     pub render_contacts: bool,
+    /// Compute the contact forces on the resampled contact surface Φ, as the paper
+    /// orders its steps (resampling, then forces), instead of on the contact surfels
+    /// placed from the colliding ones (the default: `contact::resample` says why).
+    /// Scene key `resampled_forces`; `preset = "paper"` sets it.
+    pub resampled_forces: bool,
     /// The configuration the scene was built in (`Scene::build`; reported by
     /// `run --json`, it changes nothing in the step).
     pub preset: crate::scene::Preset,
@@ -149,6 +154,7 @@ impl World {
             dt,
             keep_stable: true,
             render_contacts: false,
+            resampled_forces: false,
             preset: crate::scene::Preset::Default,
             steps: 0,
             time: 0.0,

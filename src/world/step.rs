@@ -449,14 +449,20 @@ fn contact_surface(w: &mut World) -> u64 {
 /// skipped when nothing is rendered.
 #[inline(never)] // a named frame in flamegraphs
 fn resample(w: &mut World) -> u64 {
-    if !w.render_contacts {
+    if !(w.render_contacts || w.resampled_forces) {
         return 0;
     }
     let view = SurfaceView::new(&w.objects, &w.cache.grids);
     let dt = w.dt;
+    let on_resampled = w.resampled_forces;
     w.patches.par_iter_mut().for_each(|patch| {
         let p = view.params(patch.a, patch.b, dt);
-        contact::resample(patch, &view.pair(patch.a, patch.b), &p);
+        let pair = view.pair(patch.a, patch.b);
+        contact::resample(patch, &pair, &p);
+        if on_resampled {
+            contact::anchor(&mut patch.render, &patch.surfels, &pair, &p);
+            patch.surfels.clone_from(&patch.render);
+        }
     });
     w.patches.iter().map(|p| p.render.len() as u64).sum()
 }
@@ -467,12 +473,17 @@ fn resample(w: &mut World) -> u64 {
 fn forces(w: &mut World) -> u64 {
     let view = SurfaceView::new(&w.objects, &w.cache.grids);
     let dt = w.dt;
+    let on_resampled = w.resampled_forces;
     let with_friction: u64 = w
         .patches
         .par_iter_mut()
         .zip(w.cache.patch.par_iter_mut())
         .map(|(patch, scratch)| {
-            let p = view.params(patch.a, patch.b, dt);
+            let mut p = view.params(patch.a, patch.b, dt);
+            if on_resampled {
+                // Resampled Φ has the surfel spacing, whatever the carriers'.
+                p.force_spacing = p.spacing;
+            }
             contact::forces(patch, &p, scratch);
             if p.friction > 0.0 {
                 patch.surfels.len() as u64

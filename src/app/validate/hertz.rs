@@ -35,6 +35,9 @@ pub struct HertzCase {
     pub young: f32,
     pub poisson: f32,
     pub per_radius: f32,
+    /// Forces on the resampled contact surface (`World::resampled_forces`); false: as
+    /// the preset says.
+    pub resampled_forces: bool,
 }
 
 /// What one loaded run measured, averaged over the last third of the run.
@@ -80,6 +83,7 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         r#"
         name = "hertz-plane"
         gravity = [0.0, 0.0, 0.0]
+        {resampled}
         [[objects]]
         name = "plane"
         shape = {{ type = "plane", size = [{patch}, {patch}] }}
@@ -103,6 +107,12 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         e = case.young,
         nu = case.poisson,
         ramp = RAMP * time_scale(case),
+        // Unset, the preset decides.
+        resampled = if case.resampled_forces {
+            "resampled_forces = true"
+        } else {
+            ""
+        },
         damping = 2.0e-4 * time_scale(case),
     );
     Scene::parse(&text, "hertz-plane").expect("hertz-plane scene")
