@@ -82,11 +82,7 @@ impl Frame {
     /// The frame as a point table: normal, radius, object id, contact flag.
     fn points<R>(&self, f: impl FnOnce(&Points) -> R) -> R {
         let columns = [
-            Column {
-                ply: &["nx", "ny", "nz"],
-                vtk: "Normals",
-                values: Values::Vec3(&self.normal),
-            },
+            Column::normals(&self.normal),
             Column {
                 ply: &["radius"],
                 vtk: "radius",

@@ -27,6 +27,17 @@ pub struct Column<'a> {
     pub values: Values<'a>,
 }
 
+impl<'a> Column<'a> {
+    /// Unit normals: PLY `nx ny nz`, VTK `Normals` (which ParaView shades with).
+    pub fn normals(values: &'a [Vec3]) -> Self {
+        Column {
+            ply: &["nx", "ny", "nz"],
+            vtk: "Normals",
+            values: Values::Vec3(values),
+        }
+    }
+}
+
 impl Values<'_> {
     fn len(&self) -> usize {
         match self {

@@ -168,11 +168,7 @@ impl ContactFrame {
     /// b`; VTK arrays of the same names, vectors as three components).
     pub fn write(&self, path: &Path, format: Format) -> std::io::Result<()> {
         let columns = [
-            Column {
-                ply: &["nx", "ny", "nz"],
-                vtk: "Normals",
-                values: Values::Vec3(&self.normal),
-            },
+            Column::normals(&self.normal),
             Column {
                 ply: &["area"],
                 vtk: "area",
