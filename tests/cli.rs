@@ -522,6 +522,18 @@ fn error_duplicate_object_names() {
     );
 }
 
+/// An object name holding a control character (here ESC, a terminal's escape sequence)
+/// is refused, and the message shows it escaped: nothing raw reaches the terminal.
+#[test]
+fn error_control_characters_in_names() {
+    let err = expect_scene_error(
+        "control",
+        &format!("{SPHERE}name = \"red\\u001b[31mball\"\n"),
+        &["objects[0].name", "\\u{1b}[31m", "control character"],
+    );
+    assert!(!err.contains('\u{1b}'), "a raw ESC reached stderr: {err:?}");
+}
+
 /// A negative dt in the file names the file, the field and the value.
 #[test]
 fn error_negative_dt_in_file() {
@@ -1852,4 +1864,30 @@ fn presets_run_and_compare_side_by_side() {
     let out = phyxel(&["run", "two-spheres", "--steps", "1", "--preset", "papr"]);
     let err = text(&out.stderr);
     assert!(!out.status.success() && err.contains("--preset") && err.contains("papr"));
+}
+
+/// `--flamegraph` to a file that cannot take it (`/dev/full`: every write fails, as on a
+/// full disk): pprof's writer unwrapped its write error and the run exited 101 with its
+/// summary lost. Now the summary is printed, the error names the flag and the path, the
+/// exit code is 1, and the device is left where it was.
+#[test]
+fn a_flamegraph_that_cannot_be_written_keeps_the_summary() {
+    let out = phyxel(&[
+        "run",
+        "two-spheres",
+        "--steps",
+        "300",
+        "--flamegraph",
+        "/dev/full",
+        "--json",
+    ]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr: {err}");
+    let v: Value = serde_json::from_slice(&out.stdout).expect("the summary on stdout");
+    assert_eq!(field(&v, "steps"), 300);
+    assert!(
+        err.contains("--flamegraph /dev/full") && err.contains("cannot write"),
+        "{err}"
+    );
+    assert!(Path::new("/dev/full").exists());
 }

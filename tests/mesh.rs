@@ -376,6 +376,19 @@ fn bad_meshes_give_clear_errors() {
         e.contains("junk.obj") && e.contains("line 9") && e.contains("hello world"),
         "{e}"
     );
+    // A file that is no mesh (here a long line with a terminal escape): the message
+    // quotes at most 40 characters of it, escaped.
+    let secret = format!("root:x:0:0:\u{1b}[2J{}\n", "s".repeat(200));
+    std::fs::write(d.join("passwd.obj"), &secret).unwrap();
+    let e = scene_error(d, "passwd.obj");
+    assert!(
+        e.contains("passwd.obj") && e.contains("line 1") && e.contains("\\u{1b}[2J"),
+        "{e}"
+    );
+    assert!(
+        !e.contains('\u{1b}') && !e.contains(&"s".repeat(41)),
+        "{e:?}"
+    );
     std::fs::write(d.join("tet.obj"), text.replace("hello world\n", "")).unwrap();
     let scene = Scene::load(&scene_with(d, "tet.obj", 0.1, 0.05)).unwrap();
     scene
@@ -386,6 +399,39 @@ fn bad_meshes_give_clear_errors() {
     let e = scene_error(d, "mesh.stl");
     assert!(
         e.contains("mesh.stl") && e.contains("unknown mesh format"),
+        "{e}"
+    );
+    // No extension: said so (it read "unknown mesh format '.'").
+    std::fs::write(d.join("mesh"), "solid\n").unwrap();
+    let e = scene_error(d, "mesh");
+    assert!(e.contains("no file extension") && !e.contains("'.'"), "{e}");
+    // A negative face index is named (it read "no integer list 'vertex_indices'").
+    std::fs::write(
+        d.join("neg.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+         end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 -1\n",
+    )
+    .unwrap();
+    let e = scene_error(d, "neg.ply");
+    assert!(
+        e.contains("neg.ply")
+            && e.contains("face' 0")
+            && e.contains("-1 ")
+            && e.contains("negative"),
+        "{e}"
+    );
+    // One oriented point is too few, not "empty".
+    std::fs::write(
+        d.join("one.ply"),
+        "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+         end_header\n0 0 0 0 0 1\n",
+    )
+    .unwrap();
+    let e = scene_error(d, "one.ply");
+    assert!(
+        e.contains("one.ply") && e.contains("1 point") && !e.contains("empty"),
         "{e}"
     );
 

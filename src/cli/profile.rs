@@ -23,15 +23,23 @@ pub(crate) const TOP_FRAMES: usize = 5;
 /// Writes the flamegraph and returns its samples with the [`TOP_FRAMES`] frames of most
 /// own time; `Ok(None)` when the profiler took no sample (a run shorter than its 1 ms
 /// period): there is no graph to draw, and an empty SVG is no picture.
+///
+/// The SVG is drawn into memory and then written: pprof's writer unwraps its own write
+/// errors, so a full disk (or `/dev/full`) panicked inside it.
 pub(crate) fn write_flamegraph(
     guard: &pprof::ProfilerGuard<'_>,
-    file: std::fs::File,
+    mut file: std::fs::File,
 ) -> Result<Option<OwnTime>, String> {
+    use std::io::Write;
     let report = guard.report().build().map_err(|e| e.to_string())?;
     if report.data.is_empty() {
         return Ok(None);
     }
-    report.flamegraph(file).map_err(|e| e.to_string())?;
+    let mut svg = Vec::new();
+    report.flamegraph(&mut svg).map_err(|e| e.to_string())?;
+    file.write_all(&svg)
+        .and_then(|()| file.flush())
+        .map_err(|e| format!("cannot write the flamegraph: {e}"))?;
     // The innermost symbol of a stack (inlined callees first) is the flamegraph's leaf.
     let leaves = report.data.iter().map(|(stack, &n)| {
         let leaf = stack.frames.first().and_then(|f| f.first());

@@ -63,6 +63,9 @@ pub(crate) fn run_scene(
         }
     });
     bar.finish_and_clear();
+    // A flamegraph that cannot be written fails the command, after the run's summary:
+    // the run itself is a result.
+    let mut profile_failed = false;
     if let (Some((guard, file)), Some(path)) = (profiler, flamegraph) {
         match write_flamegraph(&guard, file) {
             Ok(Some(own)) => {
@@ -76,8 +79,12 @@ pub(crate) fn run_scene(
                 }
             }
             Ok(None) => {
-                // The file was created up front (to fail early on a bad path).
-                let _ = std::fs::remove_file(path);
+                // The file was created up front (to fail early on a bad path): remove it
+                // only if it is the empty regular file made then, never a device or a
+                // file that was there.
+                if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
+                    let _ = std::fs::remove_file(path);
+                }
                 eprintln!(
                     "warning: --flamegraph {}: no samples (the run was shorter than the \
                      profiler's 1 ms period); no file written: run more --steps",
@@ -86,7 +93,7 @@ pub(crate) fn run_scene(
             }
             Err(e) => {
                 eprintln!("error: --flamegraph {}: {e}", path.display());
-                return ExitCode::FAILURE;
+                profile_failed = true;
             }
         }
     }
@@ -106,7 +113,9 @@ pub(crate) fn run_scene(
         print_table(&summary);
     }
     note_run("", &summary);
-    if summary.finite {
+    if profile_failed {
+        ExitCode::FAILURE
+    } else if summary.finite {
         ExitCode::SUCCESS
     } else {
         match &summary.non_finite {

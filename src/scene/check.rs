@@ -48,6 +48,14 @@ impl Scene {
     /// `object{k}` when built, which an explicit name may take.
     fn check_name(&self, k: usize) -> Result<(), String> {
         let o = &self.objects[k];
+        // Names reach terminals, summaries and file headers: a control character (an
+        // escape sequence, a NUL, a newline) would act there instead of being read.
+        if o.name.chars().any(char::is_control) {
+            return Err(format!(
+                "name = {:?}: holds a control character; use printable characters",
+                o.name
+            ));
+        }
         let named = |j: usize| match self.objects[j].name.as_str() {
             "" => format!("object{j}"),
             name => name.to_string(),

@@ -23,10 +23,15 @@ impl PointCloud {
     /// Checks (finite, non-zero normals, at least 4 points) and estimates point areas.
     pub fn new(points: Vec<Vec3>, normals: Vec<Vec3>) -> Result<Self, String> {
         if points.len() < 4 {
-            return Err(format!(
-                "empty point cloud: {} points, need at least 4",
-                points.len()
-            ));
+            let n = points.len();
+            return Err(if n == 0 {
+                "empty point cloud: no points, need at least 4".to_string()
+            } else {
+                format!(
+                    "a point cloud of {n} point{}: too few to close a surface, need at least 4",
+                    if n == 1 { "" } else { "s" }
+                )
+            });
         }
         if let Some(i) = points.iter().position(|v| !v.is_finite()) {
             return Err(format!(

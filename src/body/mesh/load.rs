@@ -41,6 +41,24 @@ pub(super) const OBJ_SKIPPED: [&str; 28] = [
 
 /// The first OBJ line (1-based) whose vertex or face data does not parse, or whose
 /// keyword is not OBJ's, for error messages (the OBJ parser does not report lines).
+/// At most [`SNIPPET_CHARS`] characters of a file's line, control characters escaped: an
+/// error may quote the line, and the file may not be a mesh at all (a link to a secret,
+/// or binary data a terminal would act on).
+fn snippet(line: &str) -> String {
+    let mut s: String = line
+        .chars()
+        .take(SNIPPET_CHARS)
+        .flat_map(char::escape_debug)
+        .collect();
+    if line.chars().count() > SNIPPET_CHARS {
+        s.push('…');
+    }
+    s
+}
+
+/// The longest quote of a file's line in an error.
+const SNIPPET_CHARS: usize = 40;
+
 pub(super) fn obj_bad_line(path: &Path) -> Option<(usize, String)> {
     let text = std::fs::read_to_string(path).ok()?;
     let mut vertices = 0i64;
@@ -65,7 +83,7 @@ pub(super) fn obj_bad_line(path: &Path) -> Option<(usize, String)> {
             None => true,
         };
         if !ok {
-            return Some((k + 1, line.trim().to_string()));
+            return Some((k + 1, snippet(line.trim())));
         }
     }
     None
@@ -161,9 +179,9 @@ pub(super) fn load_ply(path: &Path) -> Result<Loaded, String> {
         let idx = f
             .get("vertex_indices")
             .or_else(|| f.get("vertex_index"))
-            .and_then(|p| p.to_u32_list())
-            .ok_or_else(|| {
-                format!("{name}: element 'face' {i}: no integer list 'vertex_indices'")
+            .ok_or_else(|| format!("{name}: element 'face' {i}: no integer list 'vertex_indices'"))
+            .and_then(|p| {
+                face_indices(p).map_err(|m| format!("{name}: element 'face' {i}: {m}"))
             })?;
         if idx.len() < 3 {
             return Err(format!(
@@ -176,4 +194,27 @@ pub(super) fn load_ply(path: &Path) -> Result<Loaded, String> {
         }
     }
     Ok(Loaded::Mesh((vertices, triangles)))
+}
+
+/// A face's vertex indices from its PLY list property: a negative one is named as such
+/// (indices count from 0), not as a missing list.
+fn face_indices(p: &ply_rs_bw::ply::Property) -> Result<Vec<u32>, String> {
+    use ply_rs_bw::ply::Property as P;
+    let signed = |v: &mut dyn Iterator<Item = i64>| {
+        v.map(|i| {
+            u32::try_from(i).map_err(|_| {
+                format!("vertex index {i} in 'vertex_indices' is negative (indices count from 0)")
+            })
+        })
+        .collect()
+    };
+    match p {
+        P::ListChar(v) => signed(&mut v.iter().map(|&i| i as i64)),
+        P::ListShort(v) => signed(&mut v.iter().map(|&i| i as i64)),
+        P::ListInt(v) => signed(&mut v.iter().map(|&i| i as i64)),
+        P::ListUChar(v) => Ok(v.iter().map(|&i| i as u32).collect()),
+        P::ListUShort(v) => Ok(v.iter().map(|&i| i as u32).collect()),
+        P::ListUInt(v) => Ok(v.clone()),
+        _ => Err("'vertex_indices' is not an integer list".to_string()),
+    }
 }

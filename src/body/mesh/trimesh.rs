@@ -37,6 +37,11 @@ impl TriMesh {
                     ));
                 }
             },
+            "" => {
+                return Err(format!(
+                    "{name}: no file extension, so no mesh format: name it .obj or .ply"
+                ));
+            }
             _ => {
                 return Err(format!(
                     "{name}: unknown mesh format '.{ext}' (supported: .obj, .ply)"
