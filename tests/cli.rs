@@ -1891,3 +1891,56 @@ fn a_flamegraph_that_cannot_be_written_keeps_the_summary() {
     );
     assert!(Path::new("/dev/full").exists());
 }
+
+/// Inputs that are not regular files are refused before they are opened: a FIFO as the
+/// scene or as `render`'s frame (which blocked the open forever), a device (`run
+/// /dev/zero` read 4.2 GB before failing), and a mesh linked to `/dev/zero` (which
+/// allocated 8 GB and aborted). A scene file over 16 MiB is refused with its size and
+/// the limit (a 50 MB TOML took 4.1 GB to parse).
+#[test]
+fn inputs_that_are_not_regular_files_are_refused() {
+    let dir = TempPath::new("special");
+    std::fs::create_dir_all(dir.path()).unwrap();
+    let fifo = dir.path().join("scene.toml");
+    let made = std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap();
+    assert!(made.success());
+    let fifo = fifo.to_str().unwrap();
+    expect_error(
+        &["run", fifo, "--steps", "1"],
+        &[fifo, "not a regular file"],
+    );
+    let png = dir.path().join("x.png");
+    expect_error(
+        &["render", fifo, "-o", png.to_str().unwrap()],
+        &[fifo, "not a regular file"],
+    );
+    expect_error(
+        &["run", "/dev/zero", "--steps", "1"],
+        &["/dev/zero", "not a regular file"],
+    );
+
+    let mesh = dir.path().join("zero.obj");
+    std::os::unix::fs::symlink("/dev/zero", &mesh).unwrap();
+    let scene = dir.path().join("mesh.toml");
+    std::fs::write(
+        &scene,
+        "[[objects]]\nshape = { type = \"mesh\", path = \"zero.obj\" }\nspacing = 0.02\n",
+    )
+    .unwrap();
+    expect_error(
+        &["run", scene.to_str().unwrap(), "--steps", "1"],
+        &["zero.obj", "not a regular file"],
+    );
+
+    let big = dir.path().join("big.toml");
+    let mut text = String::from("# padding\n");
+    text.push_str(&"#".repeat(17 << 20));
+    std::fs::write(&big, text).unwrap();
+    expect_error(
+        &["run", big.to_str().unwrap(), "--steps", "1"],
+        &["big.toml", "more than the limit of 16777216 bytes"],
+    );
+}

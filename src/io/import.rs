@@ -20,6 +20,7 @@ pub struct PlyFile {
 /// short or malformed, the element name and index (binary) or line (ASCII).
 pub fn read_ply(path: &Path) -> Result<PlyFile, String> {
     let name = path.display();
+    super::check_input_file(path, super::INPUT_FILE_LIMIT).map_err(|e| format!("{name}: {e}"))?;
     let file = File::open(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
     let mut buffered = BufReader::new(file);
     let start = buffered

@@ -288,6 +288,11 @@ impl Scene {
     /// Reads and parses a scene file.
     pub fn load(path: &Path) -> Result<Self, SceneError> {
         let origin = path.display().to_string();
+        // (A missing file gets the read's own message below.)
+        if path.exists() {
+            crate::io::check_input_file(path, crate::io::SCENE_FILE_LIMIT)
+                .map_err(|e| SceneError(format!("{origin}: scene file: {e}")))?;
+        }
         let text = std::fs::read_to_string(path)
             .map_err(|e| SceneError(format!("{origin}: cannot read scene file: {e}")))?;
         let mut scene = Self::parse(&text, &origin)?;

@@ -23,6 +23,8 @@ impl TriMesh {
         if path.is_dir() {
             return Err(format!("{name}: a directory, not a mesh file"));
         }
+        crate::io::check_input_file(path, crate::io::INPUT_FILE_LIMIT)
+            .map_err(|e| format!("{name}: {e}"))?;
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_lowercase())
