@@ -66,10 +66,15 @@ pub fn load_for(case: &HertzCase, ratio: f64) -> f64 {
     4.0 * e_star_plane(case) * r * r * ratio.powi(3) / 3.0
 }
 
+/// The plane's Young's modulus in units of the sphere's, and its Poisson ratio.
+const PLANE_STIFFNESS: f64 = 1.0e4;
+const PLANE_POISSON: f64 = 0.3;
+
+/// `E*` of the sphere on the plane, from both materials.
 fn e_star_plane(case: &HertzCase) -> f64 {
-    let nu = case.poisson as f64;
-    let plane = 1.0 / (1.0e4 * case.young as f64);
-    1.0 / ((1.0 - nu * nu) / case.young as f64 + (1.0 - 0.09) * plane)
+    let compliance = |e: f64, nu: f64| (1.0 - nu * nu) / e;
+    let e = case.young as f64;
+    1.0 / (compliance(e, case.poisson as f64) + compliance(PLANE_STIFFNESS * e, PLANE_POISSON))
 }
 
 /// The scene of `case` pressed by `load` (N).
@@ -90,7 +95,7 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         spacing = {h}
         surfel_spacing = {s}
         static = true
-        material = {{ young = {ep}, poisson = 0.3, friction = 0.0 }}
+        material = {{ young = {ep}, poisson = {np}, friction = 0.0 }}
         [[objects]]
         name = "sphere"
         shape = {{ type = "sphere", radius = {r} }}
@@ -101,7 +106,8 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         load_ramp = {ramp}
         material = {{ density = 1000.0, young = {e}, poisson = {nu}, damping = {damping}, contact_damping = 4.0, friction = 0.0 }}
         "#,
-        ep = 1.0e4 * case.young,
+        ep = PLANE_STIFFNESS * case.young as f64,
+        np = PLANE_POISSON,
         y = r + 0.05 * s,
         f = -load,
         e = case.young,
