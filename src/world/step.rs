@@ -445,8 +445,9 @@ fn contact_surface(w: &mut World) -> u64 {
     w.patches.iter().map(|p| p.surfels.len() as u64).sum()
 }
 
-/// Even, hole-free resampling of each contact surface for the render surface;
-/// skipped when nothing is rendered.
+/// Even, hole-free resampling of each contact surface for the render surface and, with
+/// `World::resampled_forces`, as the contact surfels the forces act on; skipped when
+/// neither needs it.
 #[inline(never)] // a named frame in flamegraphs
 fn resample(w: &mut World) -> u64 {
     if !(w.render_contacts || w.resampled_forces) {
