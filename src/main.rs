@@ -51,6 +51,10 @@ enum Command {
         /// Directory for PLY frames.
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Remove another run's frames from --out first (without it such a folder is
+        /// refused: a shorter run would leave the other run's later frames in it).
+        #[arg(long, requires = "out")]
+        overwrite: bool,
         /// Also write phyxel PLY frames to --out.
         #[arg(long)]
         phyxels: bool,
@@ -380,6 +384,7 @@ fn main() -> ExitCode {
             dt,
             backend,
             out,
+            overwrite,
             phyxels,
             format,
             png,
@@ -436,6 +441,8 @@ fn main() -> ExitCode {
                 out,
                 phyxels,
                 contacts,
+                overwrite,
+                interrupt: None,
             };
             run_scene(&scene, &opts, json, flamegraph.as_deref())
         }

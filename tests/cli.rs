@@ -1944,3 +1944,190 @@ fn inputs_that_are_not_regular_files_are_refused() {
         &["big.toml", "more than the limit of 16777216 bytes"],
     );
 }
+
+/// Whether a binary PLY frame holds all it declares: its length is the header's plus
+/// `element vertex N` times the properties' sizes (float and int 4 bytes, uchar 1).
+fn ply_is_whole(path: &Path) -> bool {
+    let header = ply_header(path);
+    let stride: u64 = header
+        .lines()
+        .filter_map(|l| l.strip_prefix("property "))
+        .map(|p| match p.split_whitespace().next() {
+            Some("float" | "int") => 4,
+            Some("uchar") => 1,
+            other => panic!("{}: property type {other:?}", path.display()),
+        })
+        .sum();
+    let len = std::fs::metadata(path).unwrap().len();
+    len == header.len() as u64 + ply_vertex_count(path) * stride
+}
+
+/// The files of a folder, sorted.
+fn files_in(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// The `frames` of `DIR/manifest.json`, sorted, and the manifest.
+fn manifest(dir: &Path) -> (Vec<String>, Value) {
+    let text = std::fs::read_to_string(dir.join("manifest.json")).expect("a manifest");
+    let m: Value = serde_json::from_str(&text).expect("JSON");
+    let mut frames: Vec<String> = field(&m, "frames")
+        .as_array()
+        .expect("a list")
+        .iter()
+        .map(|f| f.as_str().expect("names").to_string())
+        .collect();
+    frames.sort();
+    (frames, m)
+}
+
+/// A link planted in the output folder where a frame goes is never written through
+/// (`ln -s ../victim.txt out/surfels_00001.ply` made `run --out out` overwrite
+/// victim.txt): the folder is refused as holding another run's file, and `--overwrite`
+/// removes the link itself, then writes the frame in its place.
+#[cfg(unix)]
+#[test]
+fn a_link_planted_in_the_output_folder_is_not_followed() {
+    let base = TempPath::new("planted-link");
+    let (out, victim) = (base.path().join("out"), base.path().join("victim.txt"));
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(&victim, "keep").unwrap();
+    std::os::unix::fs::symlink("../victim.txt", out.join("surfels_00001.ply")).unwrap();
+    let out_arg = out.to_str().unwrap();
+    let args = [
+        "run",
+        "two-spheres",
+        "--steps",
+        "20",
+        "--json",
+        "--out",
+        out_arg,
+    ];
+    expect_error(
+        &args,
+        &[
+            "holds 1 files of another run (surfels_00001.ply)",
+            "--overwrite",
+        ],
+    );
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep");
+    let v = run_json(&[&args[..], &["--overwrite"]].concat());
+    assert_eq!(field(&v, "frames_written"), 3);
+    assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep");
+    let frame = out.join("surfels_00001.ply");
+    assert!(!std::fs::symlink_metadata(&frame).unwrap().is_symlink());
+    assert!(ply_is_whole(&frame));
+}
+
+/// A shorter second run into the same folder left the first run's later frames beside
+/// its own. The folder is refused; `--overwrite` clears the other run's files (and only
+/// those) first, and the manifest lists exactly the frames on disk.
+#[test]
+fn another_runs_frames_are_refused_or_cleared() {
+    let dir = TempPath::new("stale-frames");
+    let notes = dir.path().join("notes.txt");
+    let run = |steps: &str, extra: &[&str]| {
+        phyxel(
+            &[
+                &[
+                    "run",
+                    "falling-sphere",
+                    "--steps",
+                    steps,
+                    "--json",
+                    "--out",
+                    dir.arg(),
+                ][..],
+                extra,
+            ]
+            .concat(),
+        )
+    };
+    assert!(run("30", &[]).status.success());
+    std::fs::write(&notes, "mine").unwrap();
+    let (frames, m) = manifest(dir.path());
+    assert_eq!(frames.len(), 8, "{frames:?}");
+    assert_eq!(field(&m, "steps"), 30);
+    assert_eq!(field(&m, "interrupted"), false);
+    let refused = run("10", &[]);
+    assert!(!refused.status.success());
+    let err = text(&refused.stderr);
+    assert!(
+        err.contains("holds 9 files of another run") && err.contains("--overwrite"),
+        "{err}"
+    );
+    assert!(run("10", &["--overwrite"]).status.success());
+    let (frames, _) = manifest(dir.path());
+    assert_eq!(
+        frames,
+        [
+            "contacts_00000.ply",
+            "contacts_00001.ply",
+            "surfels_00000.ply",
+            "surfels_00001.ply"
+        ]
+    );
+    let mut on_disk = files_in(dir.path());
+    on_disk.retain(|n| n != "manifest.json" && n != "notes.txt");
+    assert_eq!(on_disk, frames);
+    assert_eq!(std::fs::read_to_string(&notes).unwrap(), "mine");
+}
+
+/// Ctrl-C (SIGINT) during `run --out` finishes the step in flight and its frame, prints
+/// the summary with `"interrupted": true` and exits 130. It left a truncated frame under
+/// its final name and printed nothing. Every frame on disk is whole and listed in the
+/// manifest; no temporary file is left.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_finishes_the_frame_prints_the_summary_and_exits_130() {
+    let dir = TempPath::new("ctrl-c");
+    let child = Command::new(env!("CARGO_BIN_EXE_phyxel"))
+        .args([
+            "run",
+            "two-spheres",
+            "--steps",
+            "10000000",
+            "--json",
+            "--out",
+        ])
+        .arg(dir.path())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("phyxel starts");
+    let third = dir.path().join("surfels_00003.ply");
+    let start = std::time::Instant::now();
+    while !third.exists() {
+        assert!(
+            start.elapsed().as_secs() < 120,
+            "no third frame in 2 minutes"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let sent = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(sent.success());
+    let out = child.wait_with_output().expect("phyxel ends");
+    assert_eq!(out.status.code(), Some(130), "{}", text(&out.stderr));
+    let v: Value = serde_json::from_slice(&out.stdout).expect("the summary on stdout");
+    assert_eq!(field(&v, "interrupted"), true);
+    let steps = field(&v, "steps").as_u64().unwrap();
+    assert!((30..10_000_000).contains(&steps), "steps {steps}");
+    let (frames, m) = manifest(dir.path());
+    assert_eq!(field(&m, "interrupted"), true);
+    assert_eq!(field(&m, "steps").as_u64(), Some(steps));
+    let mut on_disk = files_in(dir.path());
+    on_disk.retain(|n| n != "manifest.json");
+    assert_eq!(on_disk, frames, "files on disk against the manifest");
+    assert_eq!(frames.len() as u64, 2 * (steps / 10 + 1));
+    for f in frames.iter().filter(|f| f.ends_with(".ply")) {
+        assert!(ply_is_whole(&dir.path().join(f)), "{f} is truncated");
+    }
+}

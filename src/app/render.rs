@@ -7,8 +7,6 @@ use crate::io::frame::Frame;
 use glam::Vec3;
 #[cfg(feature = "png")]
 use std::fs::File;
-#[cfg(feature = "png")]
-use std::io::BufWriter;
 use std::path::Path;
 
 /// The error of the PNG functions in a build without the `png` feature.
@@ -118,8 +116,9 @@ impl Image {
     #[cfg(feature = "png")]
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
         let name = path.display();
-        let file = File::create(path).map_err(|e| format!("{name}: cannot create: {e}"))?;
-        let mut enc = png::Encoder::new(BufWriter::new(file), self.width, self.height);
+        let mut file = crate::io::atomic::AtomicFile::create(path)
+            .map_err(|e| format!("cannot create {e}"))?;
+        let mut enc = png::Encoder::new(&mut file, self.width, self.height);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
         enc.set_compression(png::Compression::High);
@@ -128,7 +127,9 @@ impl Image {
             .map_err(|e| format!("{name}: writing PNG: {e}"))?;
         w.write_image_data(&self.rgb)
             .map_err(|e| format!("{name}: writing PNG: {e}"))?;
-        w.finish().map_err(|e| format!("{name}: writing PNG: {e}"))
+        w.finish()
+            .map_err(|e| format!("{name}: writing PNG: {e}"))?;
+        file.commit().map_err(|e| e.to_string())
     }
 
     /// Reads an 8-bit RGB or RGBA PNG (for tests and tools).

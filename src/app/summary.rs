@@ -1,6 +1,8 @@
 //! The run summary (`phyxel run --json`) and the loop that produces it.
 
+use crate::app::out_dir;
 use crate::app::render::{self, RenderOptions};
+use crate::io::atomic::AtomicFile;
 use crate::io::frame::Format;
 use crate::scene::{BuildOptions, Scene, SceneError};
 use crate::world::World;
@@ -9,6 +11,8 @@ use crate::world::phase::Phase;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
 
 /// Energy gain, as a fraction of the run's energy scale, above which `run` warns
@@ -35,6 +39,12 @@ pub struct RunOptions {
     /// Write each step's contact totals to this file, one JSON object per line
     /// ([`ContactLine`]).
     pub contacts: Option<PathBuf>,
+    /// Clear another run's frames from `out` instead of refusing the folder
+    /// ([`out_dir::prepare`]).
+    pub overwrite: bool,
+    /// Set (from another thread, a signal handler) to stop the run after the step in
+    /// flight and its frame: the summary then says `interrupted`.
+    pub interrupt: Option<Arc<AtomicBool>>,
 }
 
 /// One line of `run --contacts FILE.jsonl`: a step's contact pairs and their totals.
@@ -133,6 +143,8 @@ pub struct RunSummary {
     /// The method's configuration (`default` or `paper`, [`crate::scene::Preset`]).
     pub preset: String,
     pub steps: u64,
+    /// The run was stopped (Ctrl-C) before its last step; `steps` counts the steps run.
+    pub interrupted: bool,
     /// The last step's dt (s): the scene's, unless `dt_changes` lowered it.
     pub dt: f32,
     /// Simulated time (s): the sum of the steps' dt.
@@ -200,6 +212,10 @@ pub fn run(
     opts: &RunOptions,
     mut progress: impl FnMut(u64) + Send,
 ) -> Result<(World, RunSummary), SceneError> {
+    if let Some(dir) = &opts.out {
+        out_dir::prepare(dir, opts.overwrite)
+            .map_err(|e| SceneError(format!("--out {}: {e}", dir.display())))?;
+    }
     let mut world = scene.build(&opts.build)?;
     // The render surface is only resampled when frames are written.
     world.render_contacts = opts.out.is_some();
@@ -214,18 +230,23 @@ pub fn run(
     if let Some(p) = &mut png {
         p.camera = p.camera.or(scene.camera);
     }
+    // Every file written into `out`, for the manifest.
+    let mut written: Vec<String> = Vec::new();
     let mut frame = |world: &World, k: u64| -> Result<(), SceneError> {
         if let Some(dir) = &write_frames {
             let err =
                 |e: String| SceneError(format!("writing frame {k} to {}: {e}", dir.display()));
             let surface = output::write_frame_as(world, dir, k, phyxels, opts.format)
                 .map_err(|e| err(e.to_string()))?;
+            written.extend(output::frame_files(k, phyxels, opts.format));
             if let Some(p) = &mut png {
                 // One camera for the whole run: fitted to the first frame.
                 p.camera = Some(render::camera_for(&surface, p));
+                let name = format!("surfels_{k:05}.png");
                 render::render(&surface, p)
-                    .write_png(&dir.join(format!("surfels_{k:05}.png")))
+                    .write_png(&dir.join(&name))
                     .map_err(err)?;
+                written.push(name);
             }
         }
         Ok(())
@@ -237,15 +258,14 @@ pub fn run(
     };
     let mut contacts = match &opts.contacts {
         Some(path) => Some((
-            std::io::BufWriter::new(
-                std::fs::File::create(path).map_err(|e| contacts_err(path, e))?,
-            ),
+            AtomicFile::create(path).map_err(|e| contacts_err(path, e))?,
             path,
         )),
         None => None,
     };
     let t0 = Instant::now();
     let mut ran = 0;
+    let mut interrupted = false;
     // The loop runs on a pool thread: the steps' parallel loops then push their jobs to
     // local deques instead of rayon's global injector, which allocates one block per 63
     // calls from outside the pool (so the steady-state step allocates nothing).
@@ -271,15 +291,38 @@ pub fn run(
                 write_contacts(out, &world, s).map_err(|e| contacts_err(path, e))?;
             }
             progress(s);
+            if s < steps
+                && opts
+                    .interrupt
+                    .as_ref()
+                    .is_some_and(|f| f.load(Ordering::Relaxed))
+            {
+                // After the step's frame: every file named in the manifest is whole.
+                interrupted = true;
+                break;
+            }
         }
         Ok(())
     })?;
-    if let Some((mut out, path)) = contacts {
-        std::io::Write::flush(&mut out).map_err(|e| contacts_err(path, e))?;
+    if let Some((out, path)) = contacts {
+        out.commit().map_err(|e| contacts_err(path, e))?;
     }
     let wall = t0.elapsed().as_secs_f64();
     let start = (momentum_initial, energy_initial);
-    let summary = summarize(&world, scene, ran, wall, start, frames);
+    let mut summary = summarize(&world, scene, ran, wall, start, frames);
+    summary.interrupted = interrupted;
+    if let Some(dir) = &opts.out {
+        let manifest = out_dir::Manifest {
+            scene: &scene.name,
+            steps: ran,
+            every,
+            interrupted,
+            finite: summary.finite,
+            frames: &written,
+        };
+        out_dir::write_manifest(dir, &manifest)
+            .map_err(|e| SceneError(format!("writing the manifest to {}: {e}", dir.display())))?;
+    }
     Ok((world, summary))
 }
 
@@ -380,6 +423,7 @@ pub fn summarize(
         backend,
         preset: world.preset.name().to_string(),
         steps,
+        interrupted: false,
         dt: world.dt,
         time: world.time,
         dt_changes: world.record.dt_changes.clone(),

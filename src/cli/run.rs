@@ -9,6 +9,8 @@ use phyxel::world::phase::Phase;
 use std::io::IsTerminal;
 use std::path::Path;
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::profile::{start_profiler, write_flamegraph};
 
@@ -20,6 +22,23 @@ pub(crate) fn make_dir(dir: &Path) -> Result<(), String> {
         return Err("a file, not a directory: give a directory for the output".to_string());
     }
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))
+}
+
+/// A flag that the first Ctrl-C sets (the run then stops after the step in flight and
+/// its frame); a second Ctrl-C exits at once with 130, the shell's code for SIGINT.
+/// Frames are written whole or not at all ([`phyxel::io::atomic`]), so even that leaves
+/// no truncated frame.
+fn on_ctrl_c() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let set = flag.clone();
+    // Only one handler per process: a second call (not made by the CLI) keeps the first.
+    let _ = ctrlc::set_handler(move || {
+        if set.swap(true, Ordering::Relaxed) {
+            std::process::exit(130);
+        }
+        eprintln!("\nCtrl-C: stopping after this step (again to quit at once)");
+    });
+    flag
 }
 
 pub(crate) fn run_scene(
@@ -48,6 +67,10 @@ pub(crate) fn run_scene(
         return ExitCode::FAILURE;
     };
     let steps = opts.steps.unwrap_or(scene.steps);
+    let opts = &RunOptions {
+        interrupt: Some(on_ctrl_c()),
+        ..opts.clone()
+    };
     let bar = step_bar(steps, &scene.name);
     let profiler = match flamegraph.map(start_profiler).transpose() {
         Ok(p) => p,
@@ -115,6 +138,12 @@ pub(crate) fn run_scene(
     note_run("", &summary);
     if profile_failed {
         ExitCode::FAILURE
+    } else if summary.interrupted {
+        eprintln!(
+            "interrupted after step {} of {steps}; the summary and frames cover those steps",
+            summary.steps
+        );
+        ExitCode::from(130)
     } else if summary.finite {
         ExitCode::SUCCESS
     } else {

@@ -3,9 +3,9 @@
 //! The surfel frames ([`super::frame::Frame`]) and the contact frames
 //! ([`crate::world::output::contact_frame`]) are both written through it.
 
+use super::atomic::AtomicFile;
 use glam::Vec3;
-use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::Path;
 
 /// The values of one column, one per point.
@@ -125,7 +125,7 @@ impl Points<'_> {
                 c.values.write_le(&mut w, i)?;
             }
         }
-        w.flush()
+        w.commit()
     }
 
     /// VTK XML PolyData (ASCII): the points as vertex cells, the columns as point data.
@@ -198,12 +198,11 @@ impl Points<'_> {
             w,
             "</DataArray>\n</Verts>\n</Piece>\n</PolyData>\n</VTKFile>"
         )?;
-        w.flush()
+        w.commit()
     }
 }
 
-fn create(path: &Path) -> std::io::Result<BufWriter<File>> {
-    File::create(path)
-        .map(BufWriter::new)
-        .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", path.display())))
+/// The file at `path`, replaced whole when committed ([`AtomicFile`]).
+fn create(path: &Path) -> std::io::Result<AtomicFile> {
+    AtomicFile::create(path)
 }

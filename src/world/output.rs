@@ -25,19 +25,28 @@ pub fn write_frame_as(
     format: Format,
 ) -> std::io::Result<Frame> {
     std::fs::create_dir_all(dir)?;
+    let files = frame_files(frame, phyxels, format);
     let surface = surface_frame(world);
-    surface.write(
-        &dir.join(format!("surfels_{frame:05}.{}", format.extension())),
-        format,
-    )?;
-    contact_frame(world).write(
-        &dir.join(format!("contacts_{frame:05}.{}", format.extension())),
-        format,
-    )?;
+    surface.write(&dir.join(&files[0]), format)?;
+    contact_frame(world).write(&dir.join(&files[1]), format)?;
     if phyxels {
-        write_phyxels(world, &dir.join(format!("phyxels_{frame:05}.ply")))?;
+        write_phyxels(world, &dir.join(&files[2]))?;
     }
     Ok(surface)
+}
+
+/// The names of the files [`write_frame_as`] writes for frame `frame`: the surfels, the
+/// contacts, then the phyxels when asked.
+pub fn frame_files(frame: u64, phyxels: bool, format: Format) -> Vec<String> {
+    let ext = format.extension();
+    let mut files = vec![
+        format!("surfels_{frame:05}.{ext}"),
+        format!("contacts_{frame:05}.{ext}"),
+    ];
+    if phyxels {
+        files.push(format!("phyxels_{frame:05}.ply"));
+    }
+    files
 }
 
 /// The render surface `S' = S \ C ∪ Φ` (paper §8) of every object as one point cloud:

@@ -1,0 +1,129 @@
+//! A run's output folder (`run --out DIR`): which files are frames, the refusal of a
+//! folder that holds another run's frames (a shorter run would leave the longer run's
+//! later frames beside its own), the clearing of them when overwriting, and the
+//! manifest that lists what the run wrote.
+
+use serde::Serialize;
+use std::path::Path;
+
+/// The manifest's file name in the output folder.
+pub const MANIFEST: &str = "manifest.json";
+
+/// Whether `name` is a file a run writes into its folder: a frame
+/// (`surfels_N.ply|vtp|png`, `contacts_N.ply|vtp`, `phyxels_N.ply`, N of five or more
+/// digits), the manifest, or one of these being written when a run was killed
+/// (`.NAME.PID.tmp`, [`crate::io::atomic`]).
+pub fn is_run_file(name: &str) -> bool {
+    if name == MANIFEST {
+        return true;
+    }
+    if let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp"))
+        && let Some((file, pid)) = inner.rsplit_once('.')
+        && !pid.is_empty()
+        && pid.bytes().all(|b| b.is_ascii_digit())
+    {
+        return is_run_file(file);
+    }
+    let Some((stem, ext)) = name.rsplit_once('.') else {
+        return false;
+    };
+    let Some((kind, number)) = stem.split_once('_') else {
+        return false;
+    };
+    let exts: &[&str] = match kind {
+        "surfels" => &["ply", "vtp", "png"],
+        "contacts" => &["ply", "vtp"],
+        "phyxels" => &["ply"],
+        _ => return false,
+    };
+    number.len() >= 5 && number.bytes().all(|b| b.is_ascii_digit()) && exts.contains(&ext)
+}
+
+/// Makes `dir` ready for a run: creates it, and checks it holds no files of another
+/// run ([`is_run_file`]). With `overwrite` those are removed (a link itself, never
+/// what it points to); without, they are an error that names one and how to go on.
+/// Other files are left alone.
+pub fn prepare(dir: &Path, overwrite: bool) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err("a file, not a directory: give a directory for the output".to_string());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))?;
+    let mut found: Vec<String> = std::fs::read_dir(dir)
+        .map_err(|e| format!("cannot read the directory: {e}"))?
+        .filter_map(|e| e.ok())
+        .filter_map(|e| e.file_name().into_string().ok())
+        .filter(|n| is_run_file(n))
+        .collect();
+    if found.is_empty() {
+        return Ok(());
+    }
+    found.sort();
+    if !overwrite {
+        return Err(format!(
+            "holds {} files of another run ({}{}): give an empty or new folder, or \
+             overwrite to remove them first (`--overwrite`; Python: `overwrite=True`)",
+            found.len(),
+            found[0],
+            if found.len() > 1 { ", …" } else { "" }
+        ));
+    }
+    for name in &found {
+        // remove_file removes a link, not its target.
+        std::fs::remove_file(dir.join(name)).map_err(|e| format!("cannot remove {name}: {e}"))?;
+    }
+    Ok(())
+}
+
+/// `manifest.json`: what one run wrote into its folder.
+#[derive(Serialize)]
+pub struct Manifest<'a> {
+    pub scene: &'a str,
+    /// Steps run.
+    pub steps: u64,
+    /// Steps between frames.
+    pub every: u64,
+    /// The run was stopped (Ctrl-C) before its last step.
+    pub interrupted: bool,
+    /// The run stopped early at a non-finite state.
+    pub finite: bool,
+    /// Every file the run wrote, in order.
+    pub frames: &'a [String],
+}
+
+/// Writes the manifest into `dir`, whole or not at all.
+pub fn write_manifest(dir: &Path, manifest: &Manifest) -> std::io::Result<()> {
+    let text = serde_json::to_string_pretty(manifest).map_err(std::io::Error::other)?;
+    crate::io::atomic::write(&dir.join(MANIFEST), text.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn run_files_are_recognised_and_others_are_not() {
+        for name in [
+            "surfels_00000.ply",
+            "surfels_123456.vtp",
+            "surfels_00001.png",
+            "contacts_00003.vtp",
+            "phyxels_00002.ply",
+            "manifest.json",
+            ".surfels_00001.ply.4242.tmp",
+        ] {
+            assert!(is_run_file(name), "{name}");
+        }
+        for name in [
+            "surfels_0001.ply",
+            "phyxels_00002.vtp",
+            "contacts_00001.png",
+            "notes.txt",
+            "surfels_0000a.ply",
+            ".surfels_00001.ply.tmp",
+            ".notes.txt.42.tmp",
+            "scene.toml",
+        ] {
+            assert!(!is_run_file(name), "{name}");
+        }
+    }
+}
