@@ -1334,15 +1334,18 @@ fn a_blow_up_stops_the_run_and_names_where() {
     let what = field(&v, "non_finite")
         .as_str()
         .unwrap_or_else(|| panic!("{v:#}"));
-    for part in [
-        &format!("step {ran}:"),
-        "object 'sphere'",
-        "backend mls",
-        "in the dynamics step",
-    ] {
+    for part in [&format!("step {ran}:"), "object 'sphere'", "backend mls"] {
         assert!(what.contains(part), "{what:?} lacks {part:?}");
         assert!(stderr.contains(part), "stderr lacks {part:?}:\n{stderr}");
     }
+    // Where: the phase that wrote the first NaN, or the first step whose positions f32
+    // no longer resolves (a blow-up reaches it before it overflows).
+    assert!(
+        ["in the dynamics step", "from the origin"]
+            .iter()
+            .any(|w| what.contains(w)),
+        "{what:?}"
+    );
     // (It may still fail: an elastic-energy sum can overflow before the state does.)
     let before = args(&(ran - 1).to_string());
     let v: Value = serde_json::from_slice(&before.stdout).unwrap();
@@ -1972,9 +1975,9 @@ fn files_in(dir: &Path) -> Vec<String> {
     names
 }
 
-/// The `frames` of `DIR/manifest.json`, sorted, and the manifest.
+/// The `frames` of `DIR/phyxel-manifest.json`, sorted, and the manifest.
 fn manifest(dir: &Path) -> (Vec<String>, Value) {
-    let text = std::fs::read_to_string(dir.join("manifest.json")).expect("a manifest");
+    let text = std::fs::read_to_string(dir.join("phyxel-manifest.json")).expect("a manifest");
     let m: Value = serde_json::from_str(&text).expect("JSON");
     let mut frames: Vec<String> = field(&m, "frames")
         .as_array()
@@ -2011,7 +2014,7 @@ fn a_link_planted_in_the_output_folder_is_not_followed() {
     expect_error(
         &args,
         &[
-            "holds 1 files of another run (surfels_00001.ply)",
+            "holds 1 file of another run (surfels_00001.ply)",
             "--overwrite",
         ],
     );
@@ -2073,7 +2076,7 @@ fn another_runs_frames_are_refused_or_cleared() {
         ]
     );
     let mut on_disk = files_in(dir.path());
-    on_disk.retain(|n| n != "manifest.json" && n != "notes.txt");
+    on_disk.retain(|n| n != "phyxel-manifest.json" && n != "notes.txt");
     assert_eq!(on_disk, frames);
     assert_eq!(std::fs::read_to_string(&notes).unwrap(), "mine");
 }
@@ -2085,24 +2088,38 @@ fn another_runs_frames_are_refused_or_cleared() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_finishes_the_frame_prints_the_summary_and_exits_130() {
+    /// Kills the run if the test fails before it ends (10 million steps would go on).
+    struct Reaper(std::process::Child);
+    impl Drop for Reaper {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
     let dir = TempPath::new("ctrl-c");
-    let child = Command::new(env!("CARGO_BIN_EXE_phyxel"))
-        .args([
-            "run",
-            "two-spheres",
-            "--steps",
-            "10000000",
-            "--json",
-            "--out",
-        ])
-        .arg(dir.path())
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("phyxel starts");
+    let mut child = Reaper(
+        Command::new(env!("CARGO_BIN_EXE_phyxel"))
+            .args([
+                "run",
+                "two-spheres",
+                "--steps",
+                "10000000",
+                "--json",
+                "--out",
+            ])
+            .arg(dir.path())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("phyxel starts"),
+    );
     let third = dir.path().join("surfels_00003.ply");
     let start = std::time::Instant::now();
     while !third.exists() {
+        assert!(
+            child.0.try_wait().expect("waits").is_none(),
+            "phyxel ended before its third frame"
+        );
         assert!(
             start.elapsed().as_secs() < 120,
             "no third frame in 2 minutes"
@@ -2110,11 +2127,32 @@ fn ctrl_c_finishes_the_frame_prints_the_summary_and_exits_130() {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     let sent = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args(["-INT", &child.0.id().to_string()])
         .status()
         .expect("kill runs");
     assert!(sent.success());
-    let out = child.wait_with_output().expect("phyxel ends");
+    use std::io::Read;
+    let (mut stdout, mut stderr) = (Vec::new(), Vec::new());
+    child
+        .0
+        .stdout
+        .take()
+        .unwrap()
+        .read_to_end(&mut stdout)
+        .unwrap();
+    child
+        .0
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_end(&mut stderr)
+        .unwrap();
+    let status = child.0.wait().expect("phyxel ends");
+    let out = Output {
+        status,
+        stdout,
+        stderr,
+    };
     assert_eq!(out.status.code(), Some(130), "{}", text(&out.stderr));
     let v: Value = serde_json::from_slice(&out.stdout).expect("the summary on stdout");
     assert_eq!(field(&v, "interrupted"), true);
@@ -2124,10 +2162,106 @@ fn ctrl_c_finishes_the_frame_prints_the_summary_and_exits_130() {
     assert_eq!(field(&m, "interrupted"), true);
     assert_eq!(field(&m, "steps").as_u64(), Some(steps));
     let mut on_disk = files_in(dir.path());
-    on_disk.retain(|n| n != "manifest.json");
+    on_disk.retain(|n| n != "phyxel-manifest.json");
     assert_eq!(on_disk, frames, "files on disk against the manifest");
     assert_eq!(frames.len() as u64, 2 * (steps / 10 + 1));
     for f in frames.iter().filter(|f| f.ends_with(".ply")) {
         assert!(ply_is_whole(&dir.path().join(f)), "{f} is truncated");
     }
+}
+
+/// A spacing far too fine is blamed for the phyxels it would need (1e-7 m: about 4e18),
+/// not on the object's position (it was "too far from the origin for f32 coordinates").
+#[test]
+fn a_spacing_far_too_fine_names_the_phyxel_count() {
+    let scene = "[[objects]]\nshape = { type = \"sphere\", radius = 0.1 }\nspacing = 1e-7\n\
+                 position = [0.0, 0.5, 0.0]\n";
+    let err = expect_scene_error(
+        "fine-spacing",
+        scene,
+        &[
+            "objects[0].spacing",
+            "phyxels, more than the limit of 5000000",
+        ],
+    );
+    assert!(!err.contains("origin"), "{err}");
+}
+
+/// A parse error quotes at most 160 characters of its line: a deeply nested array on one
+/// line was echoed whole (200 KB on the terminal).
+#[test]
+fn a_parse_error_quotes_a_long_line_cut() {
+    let nested = format!("{SPHERE}position = {}\n", "[".repeat(100_000));
+    let err = expect_scene_error("nested", &nested, &["characters)"]);
+    assert!(err.len() < 2_000, "{} bytes of error", err.len());
+}
+
+/// A body driven out of f32's range during the run (gravity −1e30 m/s²) is stopped and
+/// named: it ended at −1e26 m with `finite: true`, its motion long since rounding.
+#[test]
+fn a_body_leaving_f32_range_during_the_run_stops_it() {
+    let scene = TempPath::scene(
+        "far-fall",
+        &format!("gravity = [0.0, -1e30, 0.0]\n{SPHERE}"),
+    );
+    let out = phyxel(&["run", scene.arg(), "--steps", "50", "--json"]);
+    assert!(!out.status.success());
+    let v: Value = serde_json::from_slice(&out.stdout).expect("the summary on stdout");
+    assert_eq!(field(&v, "finite"), false);
+    let why = field(&v, "non_finite")
+        .as_str()
+        .expect("a message")
+        .to_string();
+    for needle in ["step 1:", "from the origin", "gravity"] {
+        assert!(why.contains(needle), "{why}");
+    }
+}
+
+/// At a dt so small that nothing moves (1e-30 s), rounding is no energy gain: the
+/// warning's scale was ~0 and a "gain" of 8e-56 J was reported.
+#[test]
+fn rounding_at_a_tiny_dt_is_no_energy_gain() {
+    let v = run_json(&[
+        "run",
+        "falling-sphere",
+        "--dt",
+        "1e-30",
+        "--steps",
+        "5",
+        "--json",
+    ]);
+    assert!(
+        field(&v, "energy_warning").is_null(),
+        "{}",
+        v["energy_warning"]
+    );
+}
+
+/// A `contact_stiffness` so high that its springs set dt far below the bodies' own step
+/// is warned of, naming the key (1e30 gave dt = 9.4e-18 s without a word).
+#[test]
+fn a_contact_stiffness_that_sets_a_tiny_dt_is_warned_of() {
+    let scene = TempPath::scene(
+        "stiff-contact",
+        &format!(
+            "{SPHERE}material = {{ contact_stiffness = 1e30 }}\n[[objects]]\nname = \"ground\"\n\
+             shape = {{ type = \"plane\", size = [1.0, 1.0] }}\nstatic = true\nspacing = 0.05\n\
+             position = [0.0, -0.2, 0.0]\n"
+        ),
+    );
+    let v = run_json(&["run", scene.arg(), "--steps", "1", "--json"]);
+    let warnings = field(&v, "warnings").to_string();
+    assert!(
+        warnings.contains("contact_stiffness = 1e30")
+            && warnings.contains("set by the contact springs"),
+        "{warnings}"
+    );
+    let plain = run_json(&["run", "sphere-on-plane", "--steps", "1", "--json"]);
+    assert!(
+        !field(&plain, "warnings")
+            .to_string()
+            .contains("contact springs"),
+        "{}",
+        plain["warnings"]
+    );
 }

@@ -6,21 +6,24 @@
 use serde::Serialize;
 use std::path::Path;
 
-/// The manifest's file name in the output folder.
-pub const MANIFEST: &str = "manifest.json";
+/// The manifest's file name in the output folder (prefixed: a folder's own
+/// `manifest.json` is no run's).
+pub const MANIFEST: &str = "phyxel-manifest.json";
 
 /// Whether `name` is a file a run writes into its folder: a frame
 /// (`surfels_N.ply|vtp|png`, `contacts_N.ply|vtp`, `phyxels_N.ply`, N of five or more
 /// digits), the manifest, or one of these being written when a run was killed
-/// (`.NAME.PID.tmp`, [`crate::io::atomic`]).
+/// (`.NAME.PID-N.tmp`, [`crate::io::atomic`]).
 pub fn is_run_file(name: &str) -> bool {
     if name == MANIFEST {
         return true;
     }
     if let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp"))
-        && let Some((file, pid)) = inner.rsplit_once('.')
-        && !pid.is_empty()
-        && pid.bytes().all(|b| b.is_ascii_digit())
+        && let Some((file, tag)) = inner.rsplit_once('.')
+        && let Some((pid, n)) = tag.split_once('-')
+        && [pid, n]
+            .iter()
+            .all(|d| !d.is_empty() && d.bytes().all(|b| b.is_ascii_digit()))
     {
         return is_run_file(file);
     }
@@ -59,12 +62,12 @@ pub fn prepare(dir: &Path, overwrite: bool) -> Result<(), String> {
     }
     found.sort();
     if !overwrite {
+        let (n, more) = (found.len(), if found.len() > 1 { ", …" } else { "" });
+        let files = if n == 1 { "file" } else { "files" };
         return Err(format!(
-            "holds {} files of another run ({}{}): give an empty or new folder, or \
-             overwrite to remove them first (`--overwrite`; Python: `overwrite=True`)",
-            found.len(),
-            found[0],
-            if found.len() > 1 { ", …" } else { "" }
+            "holds {n} {files} of another run ({}{more}): give an empty or new folder, or \
+             --overwrite to remove them first",
+            found[0]
         ));
     }
     for name in &found {
@@ -84,7 +87,7 @@ pub struct Manifest<'a> {
     pub every: u64,
     /// The run was stopped (Ctrl-C) before its last step.
     pub interrupted: bool,
-    /// The run stopped early at a non-finite state.
+    /// The state stayed finite (false: the run stopped where it did not).
     pub finite: bool,
     /// Every file the run wrote, in order.
     pub frames: &'a [String],
@@ -108,8 +111,8 @@ mod tests {
             "surfels_00001.png",
             "contacts_00003.vtp",
             "phyxels_00002.ply",
-            "manifest.json",
-            ".surfels_00001.ply.4242.tmp",
+            "phyxel-manifest.json",
+            ".surfels_00001.ply.4242-0.tmp",
         ] {
             assert!(is_run_file(name), "{name}");
         }
@@ -120,7 +123,9 @@ mod tests {
             "notes.txt",
             "surfels_0000a.ply",
             ".surfels_00001.ply.tmp",
-            ".notes.txt.42.tmp",
+            ".surfels_00001.ply.4242.tmp",
+            ".notes.txt.42-1.tmp",
+            "manifest.json",
             "scene.toml",
         ] {
             assert!(!is_run_file(name), "{name}");

@@ -25,9 +25,11 @@ pub(crate) fn make_dir(dir: &Path) -> Result<(), String> {
 }
 
 /// A flag that the first Ctrl-C sets (the run then stops after the step in flight and
-/// its frame); a second Ctrl-C exits at once with 130, the shell's code for SIGINT.
-/// Frames are written whole or not at all ([`phyxel::io::atomic`]), so even that leaves
-/// no truncated frame.
+/// its frame; during the build, after the first step); a second Ctrl-C exits at once
+/// with 130, the shell's code for SIGINT. Frames are written whole or not at all
+/// ([`phyxel::io::atomic`]), so even that leaves no truncated frame, but it writes no
+/// manifest and may leave a hidden temporary: the next run into the folder wants
+/// `--overwrite`.
 fn on_ctrl_c() -> Arc<AtomicBool> {
     let flag = Arc::new(AtomicBool::new(false));
     let set = flag.clone();
@@ -80,9 +82,25 @@ pub(crate) fn run_scene(
             return ExitCode::FAILURE;
         }
     };
+    // On a terminal, a run estimated past a minute says so once, about a second in
+    // (timed from the first step's end: the build and the first frame are not steps).
+    let (mut start, mut told) = (None, bar.is_hidden());
     let result = run(&scene, opts, |s| {
+        let (t0, s0) = *start.get_or_insert((std::time::Instant::now(), s));
         if s % 16 == 0 {
             bar.set_position(s);
+        }
+        let elapsed = t0.elapsed().as_secs_f64();
+        if !told && elapsed > 1.0 && s > s0 {
+            told = true;
+            let total = elapsed / (s - s0) as f64 * (steps - s0) as f64;
+            if total > 60.0 {
+                bar.println(format!(
+                    "{steps} steps: about {} of wall time at this rate (Ctrl-C stops \
+                     after the step in flight, with the summary)",
+                    duration_words(total)
+                ));
+            }
         }
     });
     bar.finish_and_clear();
@@ -273,4 +291,35 @@ pub(crate) fn step_bar(steps: u64, label: &str) -> ProgressBar {
     );
     bar.set_message(label.to_string());
     bar
+}
+
+/// `seconds` in the largest unit that keeps it readable: "45 s", "12 min", "3.2 h",
+/// "41 days", "3.1e5 years".
+fn duration_words(seconds: f64) -> String {
+    let (m, h, d, y) = (60.0, 3600.0, 86_400.0, 365.25 * 86_400.0);
+    match seconds {
+        s if s < m => format!("{s:.0} s"),
+        s if s < h => format!("{:.0} min", s / m),
+        s if s < d => format!("{:.1} h", s / h),
+        s if s < y => format!("{:.0} days", s / d),
+        s if s < 1e4 * y => format!("{:.0} years", s / y),
+        s => format!("{:.1e} years", s / y),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn durations_read_in_their_unit() {
+        let cases = [
+            (45.0, "45 s"),
+            (720.0, "12 min"),
+            (11_520.0, "3.2 h"),
+            (3_542_400.0, "41 days"),
+            (9.78e12, "3.1e5 years"),
+        ];
+        for (s, words) in cases {
+            assert_eq!(super::duration_words(s), words);
+        }
+    }
 }

@@ -1,6 +1,7 @@
 //! Output files that appear whole or not at all, and never through a link.
 //!
-//! A file is written under a fresh hidden name beside its destination (created with
+//! A file is written under a fresh hidden name beside its destination
+//! (`.NAME.PID-N.tmp`, N counting the process's files; created with
 //! `O_CREAT | O_EXCL`, which refuses any existing name, links included) and renamed onto
 //! the destination when complete. So an interrupted run leaves no truncated frame under a
 //! frame's name, and a symbolic link planted where a frame goes is replaced, not
@@ -9,6 +10,7 @@
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A file being written: [`Write`] into it, then [`AtomicFile::commit`]. Dropped
 /// without a commit, it removes what it wrote.
@@ -29,16 +31,25 @@ impl AtomicFile {
                 "not a file name",
             ))
         })?;
-        let tmp = dest.with_file_name(format!(
-            ".{}.{}.tmp",
-            name.to_string_lossy(),
-            std::process::id()
+        static COUNT: AtomicU64 = AtomicU64::new(0);
+        let mut hidden = std::ffi::OsString::from(".");
+        hidden.push(name);
+        hidden.push(format!(
+            ".{}-{}.tmp",
+            std::process::id(),
+            COUNT.fetch_add(1, Ordering::Relaxed)
         ));
+        let tmp = dest.with_file_name(hidden);
         let file = OpenOptions::new()
             .write(true)
             .create_new(true)
             .open(&tmp)
-            .map_err(named)?;
+            .map_err(|e| {
+                std::io::Error::new(
+                    e.kind(),
+                    format!("{}: temporary {}: {e}", dest.display(), tmp.display()),
+                )
+            })?;
         Ok(Self {
             file: Some(BufWriter::new(file)),
             tmp,

@@ -28,6 +28,11 @@ impl Scene {
             .resampled_forces
             .unwrap_or(world.preset == Preset::Paper);
         world.record.warnings = warnings;
+        if opts.dt.or(self.dt).is_none()
+            && let Some(w) = contact_bound_warning(&world)
+        {
+            world.record.warnings.push(format!("{origin}: {w}"));
+        }
         Ok(world)
     }
 
@@ -491,4 +496,41 @@ impl ObjectSpec {
         }
         Ok(object)
     }
+}
+
+/// How far below the moving bodies' own stable step the contact springs' bound may set
+/// the default dt before the build warns, naming the stiffest `contact_stiffness`.
+pub const CONTACT_BOUND_WARNING: f32 = 1e-3;
+
+/// A default dt set by the contact springs far below the bodies' own stable step
+/// (`contact_stiffness = 1e30` gave dt = 9.4e-18 s without a word): it names the
+/// stiffest object's `contact_stiffness` and the cost.
+fn contact_bound_warning(world: &World) -> Option<String> {
+    let own = world
+        .objects
+        .iter()
+        .filter(|o| !o.is_static())
+        .map(|o| o.dynamics.stable_dt(&o.phyxels, &o.material))
+        .fold(f32::INFINITY, f32::min);
+    // Against the dt the bodies alone would get (capped at a millisecond).
+    if !(own.is_finite() && world.dt < CONTACT_BOUND_WARNING * world.default_dt(own)) {
+        return None;
+    }
+    let stiffest = world.objects.iter().max_by(|a, b| {
+        a.material
+            .contact_stiffness
+            .total_cmp(&b.material.contact_stiffness)
+    })?;
+    Some(format!(
+        "dt = {:.2e} s is set by the contact springs (contact_stiffness = {:e} of '{}'), \
+         {:.1e} times below the step the bodies alone would take ({:.2e} s): every \
+         simulated second costs that many more steps; the default contact_stiffness of 4 \
+         holds impacts up to about the P-wave speed, 16 somewhat faster (docs/SCENES.md, \
+         \"Limits\")",
+        world.dt,
+        stiffest.material.contact_stiffness,
+        stiffest.name,
+        world.default_dt(own) / world.dt,
+        world.default_dt(own)
+    ))
 }

@@ -160,6 +160,21 @@ impl ObjectSpec {
                 format!("spacing = {}: larger than the shape ({size})", o.spacing),
             );
         }
+        // Before the position's check: a spacing far too fine for any placement is the
+        // spacing's fault (1e-7 m was blamed on the position, for 4e18 phyxels).
+        // (A mesh not yet loaded has no size: `n` is infinite, and the check after
+        // loading makes it.)
+        let n = phyxel_estimate(&o.shape, o.spacing);
+        if o.phyxels.is_none() && n.is_finite() && n > MAX_PHYXELS as f64 {
+            return at(
+                "spacing",
+                format!(
+                    "spacing = {}: gives about {n:.2e} phyxels, more than the limit of \
+                     {MAX_PHYXELS} per object (a coarser spacing, or a count: `phyxels = N`)",
+                    o.spacing
+                ),
+            );
+        }
         if let Some(f) = o.influence
             && !(1.5..=4.0).contains(&f)
         {

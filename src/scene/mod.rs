@@ -11,6 +11,7 @@ use crate::io::arrays::exact_array;
 
 use check::f32_range;
 
+pub use build::CONTACT_BOUND_WARNING;
 pub use check::{MAX_LATTICE_POINTS, MAX_PHYXELS, MAX_SURFELS, POSITION_RESOLUTION, fits_f32};
 pub use warnings::{
     FLAT_WARNING, IMPACT_DEPTH_WARNING, MASS_WARNING, SURFACE_WARNING, WEIGHT_WARNING,
@@ -271,6 +272,33 @@ impl std::fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
+/// Longest line of a parse error shown (characters).
+const ECHO_LIMIT: usize = 160;
+
+/// `message` with every line cut to [`ECHO_LIMIT`] characters: the TOML parser quotes
+/// the offending line whole, and one line of a generated or hostile file can be
+/// hundreds of kilobytes (a deeply nested array echoed 200 KB).
+/// A caret line below a cut line whose caret the cut hides says the column instead.
+fn clip_lines(message: &str) -> String {
+    let mut out: Vec<String> = Vec::new();
+    let mut cut = false;
+    for l in message.lines() {
+        let n = l.chars().count();
+        let caret = l.trim_start_matches([' ', '|']).starts_with('^');
+        if cut && caret && n > ECHO_LIMIT {
+            let column = l.find('^').unwrap_or(0);
+            out.push(format!("(the error is at column {column} of that line)"));
+        } else if n > ECHO_LIMIT {
+            let head: String = l.chars().take(ECHO_LIMIT).collect();
+            out.push(format!("{head}… ({n} characters)"));
+        } else {
+            out.push(l.to_string());
+        }
+        cut = n > ECHO_LIMIT;
+    }
+    out.join("\n")
+}
+
 impl Scene {
     /// Parses scene TOML; `origin` names the file in errors.
     pub fn parse(text: &str, origin: &str) -> Result<Self, SceneError> {
@@ -279,8 +307,8 @@ impl Scene {
         if let Ok(value) = toml::from_str::<toml::Value>(text) {
             f32_range("", &value).map_err(|m| SceneError(format!("{origin}: {m}")))?;
         }
-        let scene: Scene =
-            toml::from_str(text).map_err(|e| SceneError(format!("{origin}: {e}")))?;
+        let scene: Scene = toml::from_str(text)
+            .map_err(|e| SceneError(format!("{origin}: {}", clip_lines(&e.to_string()))))?;
         scene.validate(origin)?;
         Ok(scene)
     }

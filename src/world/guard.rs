@@ -5,6 +5,7 @@
 use super::World;
 use super::record::{DT_FRACTION, DtChange};
 use crate::body::object::Object;
+use crate::spatial::broad_phase::Aabb;
 
 /// Where the state first stopped being finite, found by the step's checks of every
 /// moving object (surfel positions through the broad phase's boxes, which flag a
@@ -25,7 +26,18 @@ pub struct NonFinite {
     pub quantity: &'static str,
     /// The first phyxel or surfel (by index) with a non-finite value.
     pub index: usize,
+    /// Set when the values are finite but so far from the origin (this distance, m)
+    /// that f32 rounds them to more than [`RANGE_RESOLUTION`] of the object's surfel
+    /// spacing: its motion and contact are rounding (a body under a gravity of −1e30
+    /// ended at −1e26 m, reported finite).
+    pub out_of_range: Option<f32>,
 }
+
+/// Coarsest f32 resolution a moving object's surfels may reach during a run, as a
+/// fraction of its surfel spacing ([`NonFinite`]'s `out_of_range`): a hundred times the
+/// placement check's ([`crate::scene::POSITION_RESOLUTION`]), which leaves a placed
+/// body room to move. At the default 5 mm surfels that is some 4 km from the origin.
+pub const RANGE_RESOLUTION: f32 = 0.1;
 
 impl NonFinite {
     /// The phase that wrote the value. The checks run in the order the step writes
@@ -58,12 +70,41 @@ impl NonFinite {
             backend: o.dynamics.name().to_string(),
             quantity,
             index,
+            out_of_range: None,
         })
+    }
+
+    /// The object's surface box `surface` beyond f32's resolution of its surfel spacing,
+    /// as [`NonFinite::out_of_range`].
+    pub(super) fn beyond_range(o: &Object, surface: &Aabb, step: u64) -> Option<Self> {
+        let reach = surface.min.abs().max(surface.max.abs()).max_element();
+        // (An infinite reach is the non-finite check's.)
+        (reach.is_finite() && reach * f32::EPSILON > RANGE_RESOLUTION * o.surfel_spacing).then(
+            || Self {
+                step,
+                object_id: o.id,
+                object: o.name.clone(),
+                backend: o.dynamics.name().to_string(),
+                quantity: "surfel position",
+                index: 0,
+                out_of_range: Some(reach),
+            },
+        )
     }
 }
 
 impl std::fmt::Display for NonFinite {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Some(reach) = self.out_of_range {
+            return write!(
+                f,
+                "step {}: object '{}' (id {}, backend {}): its surface reached {reach:.2e} m \
+                 from the origin, where f32 rounds positions to more than {RANGE_RESOLUTION} of \
+                 its surfel spacing: its motion there is rounding (a blow-up, or loads, gravity \
+                 or velocities far out of scale)",
+                self.step, self.object, self.object_id, self.backend,
+            );
+        }
         let (kind, what) = self
             .quantity
             .split_once(' ')

@@ -13,7 +13,7 @@ pub mod phase;
 mod record;
 mod step;
 
-pub use guard::NonFinite;
+pub use guard::{NonFinite, RANGE_RESOLUTION};
 pub use phase::{Phase, PhaseTimes};
 pub use record::{
     ContactHistory, DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT,
@@ -249,8 +249,9 @@ impl World {
     }
 
     /// One time step: dynamics, surfel advection, contact handling, then topology.
-    /// At the end, the first non-finite phyxel value (if any) is recorded in
-    /// [`World::non_finite`]: check it to stop a run that has blown up.
+    /// At the end, the first non-finite phyxel value (if any), or a moving body out of
+    /// f32's range ([`NonFinite::out_of_range`]), is recorded in [`World::non_finite`]:
+    /// check it to stop a run that has blown up.
     ///
     /// # Panics
     ///

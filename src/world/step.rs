@@ -232,6 +232,9 @@ fn broad_phase(w: &mut World, blocks_current: bool) -> u64 {
                 // (The step being taken: `steps` counts it at the end.)
                 w.non_finite = NonFinite::find(o, w.steps + 1, true);
             }
+            if !o.is_static() && w.non_finite.is_none() {
+                w.non_finite = NonFinite::beyond_range(o, &surface, w.steps + 1);
+            }
             // A static object's box holds its volume too: a closed surface holds
             // its phyxels, but an open one (a `plane`: surfels on top, phyxels
             // below) does not, and a box of its surfels alone is flat, so no surfel
