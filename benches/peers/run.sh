@@ -5,7 +5,8 @@
 # thrown at a box, at three resolutions, one and two threads; then the chart.
 #
 # Usage: bash benches/peers/run.sh [--quick] [--threads 1,2]
-#   (full: about an hour; --quick, the coarse resolution only: a few minutes)
+#   (--threads 1: over an hour, most of it the implicit solvers on the finer balls;
+#   --quick, the coarse resolution only: about ten minutes per thread count)
 # Writes benches/peers/results/{rust,splishsplash}.jsonl and docs/peers.svg, and prints
 # each case's Pareto front. Not part of CI.
 set -euo pipefail
