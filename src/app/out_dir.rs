@@ -47,10 +47,7 @@ pub fn is_run_file(name: &str) -> bool {
 /// what it points to); without, they are an error that names one and how to go on.
 /// Other files are left alone.
 pub fn prepare(dir: &Path, overwrite: bool) -> Result<(), String> {
-    if dir.exists() && !dir.is_dir() {
-        return Err("a file, not a directory: give a directory for the output".to_string());
-    }
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))?;
+    make_dir(dir)?;
     let mut found: Vec<String> = std::fs::read_dir(dir)
         .map_err(|e| format!("cannot read the directory: {e}"))?
         .filter_map(|e| e.ok())
@@ -77,7 +74,17 @@ pub fn prepare(dir: &Path, overwrite: bool) -> Result<(), String> {
     Ok(())
 }
 
-/// `manifest.json`: what one run wrote into its folder.
+/// Creates the output directory `dir` (and its parents). A path that exists as a file
+/// is said to be one: `create_dir_all` reported "File exists", as if the trouble were
+/// that something was there at all.
+pub fn make_dir(dir: &Path) -> Result<(), String> {
+    if dir.exists() && !dir.is_dir() {
+        return Err("a file, not a directory: give a directory for the output".to_string());
+    }
+    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))
+}
+
+/// `phyxel-manifest.json`: what one run wrote into its folder.
 #[derive(Serialize)]
 pub struct Manifest<'a> {
     pub scene: &'a str,

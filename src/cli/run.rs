@@ -14,15 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::profile::{start_profiler, write_flamegraph};
 
-/// Creates the output directory `dir` (and its parents). A path that exists as a file
-/// is said to be one: `create_dir_all` reported "File exists", as if the trouble were
-/// that something was there at all.
-pub(crate) fn make_dir(dir: &Path) -> Result<(), String> {
-    if dir.exists() && !dir.is_dir() {
-        return Err("a file, not a directory: give a directory for the output".to_string());
-    }
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create the directory: {e}"))
-}
+pub(crate) use phyxel::app::out_dir::make_dir;
 
 /// A flag that the first Ctrl-C sets (the run then stops after the step in flight and
 /// its frame; during the build, after the first step); a second Ctrl-C exits at once
