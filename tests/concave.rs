@@ -1,6 +1,6 @@
 //! Contact on bodies that are not convex or not thick: a ring dropped over a peg (the
 //! ring's hole is concave), a ball dropped into a cup and onto its sharp rim (a mesh
-//! made here) and a ball dropped on a thin plate. Besides the outcome, the detection's
+//! made here), a ball dropped on a thin plate and on a hat's thin brim (a mesh too). Besides the outcome, the detection's
 //! shortcuts (the early "clearly outside" on `f`, the far candidates classified by the
 //! other body's phyxels, `f` extended linearly in deep overlap) are checked during the
 //! runs against the paper's full test (eq. 2, `ImplicitSurface::inside`: project onto
@@ -290,13 +290,13 @@ fn cup_profile() -> Vec<(f32, f32)> {
     ]
 }
 
-/// Exact signed distance (m, negative inside) from the cup as built: the revolved
-/// profile, centred on its bounding box as the mesh loader centres it (so its base is at
-/// y = −height/2). Distance to the profile's edges off the axis; inside by crossings.
-fn cup_distance(x: Vec3) -> f32 {
-    let (r, y) = (x.x.hypot(x.z), x.y + CUP.2 / 2.0);
+/// Exact signed distance (m, negative inside) from the solid of revolution of
+/// `profile` (as [`revolved_obj`] takes it, y from 0 to `height`) as built: centred on
+/// its bounding box as the mesh loader centres it, so its base is at y = −height/2.
+/// Distance to the profile's edges off the axis; inside by crossings.
+fn revolved_distance(profile: &[(f32, f32)], height: f32, x: Vec3) -> f32 {
+    let (r, y) = (x.x.hypot(x.z), x.y + height / 2.0);
     let q = glam::Vec2::new(r, y);
-    let profile = cup_profile();
     let (mut d, mut inside) = (f32::INFINITY, false);
     for k in 0..profile.len() {
         let (a, b) = (profile[k], profile[(k + 1) % profile.len()]);
@@ -344,7 +344,8 @@ fn drop_into_cup(x: f32, y: f32, contact_damping: f32, seconds: f64) -> (World, 
         cup.display()
     ));
     std::fs::remove_dir_all(&dir).unwrap();
-    let exact = |other: usize, x: Vec3| (other == 0).then(|| cup_distance(x));
+    let exact =
+        |other: usize, x: Vec3| (other == 0).then(|| revolved_distance(&cup_profile(), CUP.2, x));
     let (mut agreement, mut touching) = (Agreement::default(), 0);
     for k in 1..=(seconds / w.dt as f64) as u64 {
         w.step();
@@ -434,6 +435,129 @@ fn a_ball_strikes_a_cups_rim() {
     );
     assert!(
         w.record.max_penetration < 0.25 * (outer - cavity),
+        "deepest overlap {} m",
+        w.record.max_penetration
+    );
+}
+
+/// A static hat (a mesh made here: a hub of radius 30 mm and height 80 mm on a brim of
+/// radius 110 mm and thickness 8 mm, two surfel spacings) with a ball (R = 25 mm,
+/// E = 1e5 Pa) dropped from 10 cm onto it at `x` off the axis, run for `seconds`; the
+/// detection checked every 100 steps against the full test with the hat's exact shape
+/// as arbiter. Returns the world and the agreement.
+fn drop_on_brim(x: f32, seconds: f64) -> (World, Agreement) {
+    let (brim, hub, height, thickness) = (0.11f32, 0.03f32, 0.08f32, 0.008f32);
+    let profile = [
+        (0.0, 0.0),
+        (brim, 0.0),
+        (brim, thickness),
+        (hub, thickness),
+        (hub, height),
+        (0.0, height),
+    ];
+    let dir = std::env::temp_dir().join(format!("phyxel-hat-{}-{x}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let hat = dir.join("hat.obj");
+    std::fs::write(&hat, revolved_obj(&profile, 64)).unwrap();
+    // The brim's top is at thickness − height/2 once the loader centres the mesh.
+    let top = thickness - height / 2.0;
+    let mut w = world(&format!(
+        r#"
+        gravity = [0.0, -9.81, 0.0]
+        [[objects]]
+        name = "hat"
+        shape = {{ type = "mesh", path = "{}" }}
+        spacing = 0.004
+        surfel_spacing = 0.004
+        static = true
+        material = {{ young = 1.0e6, friction = 0.3 }}
+        [[objects]]
+        name = "ball"
+        shape = {{ type = "sphere", radius = 0.025 }}
+        spacing = 0.00625
+        surfel_spacing = 0.004
+        position = [{x}, {}, 0.0]
+        material = {{ young = 1.0e5, friction = 0.3 }}
+        "#,
+        hat.display(),
+        top + 0.025 + 0.1
+    ));
+    std::fs::remove_dir_all(&dir).unwrap();
+    let exact =
+        |other: usize, x: Vec3| (other == 0).then(|| revolved_distance(&profile, height, x));
+    let mut agreement = Agreement::default();
+    for k in 1..=(seconds / w.dt as f64) as u64 {
+        w.step();
+        assert!(w.non_finite.is_none(), "{:?}", w.non_finite);
+        if k % 100 == 0 {
+            let a = shortcuts_agree(&w, 0, 1, 0.0002, &exact);
+            agreement.compared += a.compared;
+            agreement.full_test_wrong += a.full_test_wrong;
+        }
+    }
+    (w, agreement)
+}
+
+/// A ball dropped from 10 cm onto the middle of a hat's thin brim (8 mm, [`drop_on_brim`]),
+/// 0.6 s: it lands on the brim and bounces. Reference: the brim's faces. A surfel that
+/// crossed half the thickness would be nearer the far face and test as outside, so the
+/// deepest overlap must stay under half the thickness (4 mm), and the ball must stay
+/// above the brim's top (centre above it by more than 0.9 R).
+#[test]
+fn a_ball_lands_on_a_thin_brim() {
+    let (w, agreement) = drop_on_brim(0.07, 0.6);
+    let c = w.objects[1].phyxels.centre_of_mass();
+    println!(
+        "ball at {c:?}; deepest overlap {:.4} m; {} carriers compared, {} where the full \
+         test was wrong",
+        w.record.max_penetration, agreement.compared, agreement.full_test_wrong
+    );
+    assert!(
+        agreement.compared > 100,
+        "{} carriers compared",
+        agreement.compared
+    );
+    assert!(
+        w.record.max_penetration > 0.0,
+        "the ball never touched the brim"
+    );
+    assert!(
+        w.record.max_penetration < 0.004,
+        "deepest overlap {} m",
+        w.record.max_penetration
+    );
+    assert!(
+        c[1] > (0.008 - 0.04 + 0.9 * 0.025) as f64,
+        "ball centre at y = {}",
+        c[1]
+    );
+}
+
+/// A ball dropped from 10 cm onto the outer edge of a hat's thin brim ([`drop_on_brim`],
+/// its centre 10 mm outside the brim), 0.6 s: the 8 mm edge cuts into the ball's side
+/// and throws it off. Reference: the brim's faces; the deepest overlap must stay under
+/// half the thickness (4 mm), past which a brim surfel would be judged outside the ball's
+/// far side no more reliably than the ball's surfels are judged inside the brim.
+#[test]
+fn a_ball_falls_on_a_brims_edge() {
+    let (w, agreement) = drop_on_brim(0.12, 0.6);
+    let c = w.objects[1].phyxels.centre_of_mass();
+    println!(
+        "ball at {c:?}; deepest overlap {:.4} m; {} carriers compared, {} where the full \
+         test was wrong",
+        w.record.max_penetration, agreement.compared, agreement.full_test_wrong
+    );
+    assert!(
+        agreement.compared > 100,
+        "{} carriers compared",
+        agreement.compared
+    );
+    assert!(
+        w.record.max_penetration > 0.0,
+        "the ball never touched the brim"
+    );
+    assert!(
+        w.record.max_penetration < 0.004,
         "deepest overlap {} m",
         w.record.max_penetration
     );
