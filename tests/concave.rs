@@ -1,7 +1,7 @@
 //! Contact on bodies that are not convex or not thick: a ring dropped over a peg (the
 //! ring's hole is concave), a ball dropped into a cup and onto its sharp rim (a mesh
-//! made here), a ball dropped on a thin plate and on a hat's thin brim (a mesh too). Besides the outcome, the detection's
-//! shortcuts (the early "clearly outside" on `f`, the far candidates classified by the
+//! made here), a ball dropped on a thin plate and on a hat's thin brim (a mesh too).
+//! Besides the outcome, the detection's shortcuts (the early "clearly outside" on `f`, the far candidates classified by the
 //! other body's phyxels, `f` extended linearly in deep overlap) are checked during the
 //! runs against the paper's full test (eq. 2, `ImplicitSurface::inside`: project onto
 //! the other surface, compare with its normal) on every force carrier near the other
@@ -527,7 +527,7 @@ fn a_ball_lands_on_a_thin_brim() {
         w.record.max_penetration
     );
     assert!(
-        c[1] > (0.008 - 0.04 + 0.9 * 0.025) as f64,
+        c[1] > 0.008 - 0.04 + 0.9 * 0.025,
         "ball centre at y = {}",
         c[1]
     );
