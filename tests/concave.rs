@@ -1,16 +1,17 @@
 //! Contact on bodies that are not convex or not thick: a ring dropped over a peg (the
 //! ring's hole is concave), a ball dropped into a cup and onto its sharp rim (a mesh
 //! made here), a ball dropped on a thin plate and on a hat's thin brim (a mesh too).
-//! Besides the outcome, the detection's shortcuts (the early "clearly outside" on `f`, the far candidates classified by the
-//! other body's phyxels, `f` extended linearly in deep overlap) are checked during the
-//! runs against the paper's full test (eq. 2, `ImplicitSurface::inside`: project onto
-//! the other surface, compare with its normal) on every force carrier near the other
-//! body. The margin, 0.2 mm (5% of the surfel spacing), covers the full test's
-//! projection tolerance and f32 rounding; an early "outside" for `f` above −4 times its
-//! threshold fails every test. Beside a sharp convex edge the full test itself can be
-//! wrong, so where the exact shape is known (the cup) it decides each disagreement, and
-//! must side with the pipeline. The overlaps here stay within the kernel's reach, so
-//! the far candidates' classification by phyxels is not exercised (the hard case
+//! Besides the outcome, the detection's shortcuts (the early "clearly outside" on `f`,
+//! the far candidates classified by the other body's phyxels, `f` extended linearly in
+//! deep overlap) are checked during the runs against the paper's full test (eq. 2,
+//! `ImplicitSurface::inside`: project onto the other surface, compare with its normal)
+//! on every force carrier near the other body. The margin, 0.2 mm (5% of the surfel
+//! spacing), covers the full test's projection tolerance and f32 rounding; an early
+//! "outside" for `f` above −4 times its threshold fails the ring, plate and cup tests.
+//! Beside a sharp convex edge the full test itself can be wrong, so where the exact
+//! shape is known (the cup, the hat) it decides each disagreement, and must side with
+//! the pipeline. The overlaps here stay within the kernel's reach, so the far
+//! candidates' classification by phyxels is not exercised (the hard case
 //! `deep-penetration` is where it matters).
 
 use glam::Vec3;
