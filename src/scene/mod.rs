@@ -92,6 +92,10 @@ pub struct Scene {
     /// omitted: the preset's choice (`paper`: yes, `default`: no).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub resampled_forces: Option<bool>,
+    /// Contact pairs handled in order, each against the surfaces the pairs before it
+    /// left (`World::pairs_in_order`); omitted: the preset's choice (`paper`: yes).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pairs_in_order: Option<bool>,
     pub objects: Vec<ObjectSpec>,
 }
 

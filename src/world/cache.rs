@@ -44,6 +44,8 @@ pub(super) struct StepCache {
     pub spring_knn: Vec<(usize, f32)>,
     /// The springs of the step before, kept for their buffers.
     pub last_springs: crate::dynamics::implicit::ContactSprings,
+    /// The surfaces and scratch of pairs handled in order (`World::pairs_in_order`).
+    pub in_order: super::in_order::InOrderScratch,
 }
 
 /// Per object, the grids of the objects in a pair (rebuilt each step for moving objects,

@@ -8,6 +8,7 @@
 
 mod cache;
 mod guard;
+mod in_order;
 pub mod output;
 pub mod phase;
 mod record;
@@ -71,6 +72,11 @@ pub struct World {
     /// placed from the colliding ones (the default: `contact::resample` says why).
     /// Scene key `resampled_forces`; `preset = "paper"` sets it.
     pub resampled_forces: bool,
+    /// Handle the contact pairs one after another, each against the surfaces
+    /// `S ∖ C ∪ Φ` the pairs before it left, as the paper does (`in_order` module);
+    /// false: independently and in parallel. Scene key `pairs_in_order`; `preset =
+    /// "paper"` sets it.
+    pub pairs_in_order: bool,
     /// The configuration the scene was built in (`Scene::build`; reported by
     /// `run --json`, it changes nothing in the step).
     pub preset: crate::scene::Preset,
@@ -155,6 +161,7 @@ impl World {
             keep_stable: true,
             render_contacts: false,
             resampled_forces: false,
+            pairs_in_order: false,
             preset: crate::scene::Preset::Default,
             steps: 0,
             time: 0.0,

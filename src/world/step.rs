@@ -427,6 +427,9 @@ fn detect(w: &mut World, blocks_current: bool) -> u64 {
 /// Colliding surfels moved onto the contact surface Φ (paper §6).
 #[inline(never)] // a named frame in flamegraphs
 fn contact_surface(w: &mut World) -> u64 {
+    if w.pairs_in_order {
+        return super::in_order::contact_in_order(w);
+    }
     let touching = BumpVec::from_iter_in(
         w.detections
             .iter()
@@ -455,6 +458,10 @@ fn contact_surface(w: &mut World) -> u64 {
 fn resample(w: &mut World) -> u64 {
     if !(w.render_contacts || w.resampled_forces) {
         return 0;
+    }
+    if w.pairs_in_order {
+        // Done pair by pair in the contact-surface phase.
+        return w.patches.iter().map(|p| p.render.len() as u64).sum();
     }
     let view = SurfaceView::new(&w.objects, &w.cache.grids);
     let dt = w.dt;
