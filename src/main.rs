@@ -93,7 +93,7 @@ enum Command {
         contacts: Option<PathBuf>,
         /// The method's configuration (overrides the scene's `preset`): default, or paper
         /// (the strain JᵀJ − I, influence radius 3 r, contact forces on the resampled
-        /// contact surface, spread over two influence radii).
+        /// contact surface, spread over two influence radii, pairs handled in order).
         #[arg(long, value_parser = ["default", "paper"])]
         preset: Option<String>,
     },

@@ -22,6 +22,7 @@ use phyxel::dynamics::mls::{MlsStencil, cofactor};
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
+use phyxel::spatial::gather::RowBuffer;
 use rayon::prelude::*;
 
 pub mod implicit;
@@ -56,11 +57,12 @@ pub struct MlsDynamics {
     /// The stencil in lane layout for the SIMD kernel.
     lanes: LaneStencil,
     /// `P` per phyxel for the lane kernel's force pass (kept between steps), and
-    /// `[u, v, 0, 0]` per phyxel for its gathers: `gather::fixed_rows` rows each (65,536
-    /// for bodies up to that size, allocated zeroed, so the rows past the body's are
-    /// never touched), the length at which the gathers need no bounds checks.
-    stress_rows: Vec<lanes::StressRow>,
-    state: Vec<[f32; 8]>,
+    /// `[u, v, 0, 0]` per phyxel for its gathers: `gather::RowBuffer`s (65,536 rows
+    /// for bodies up to that size within the process's budget, allocated zeroed, so the
+    /// rows past the body's are never touched), the length at which the gathers need no
+    /// bounds checks.
+    stress_rows: RowBuffer<lanes::StressRow>,
+    state: RowBuffer<[f32; 8]>,
     /// Displacement gradient per phyxel (column b = ∂u/∂x_b).
     grad: Vec<Mat3>,
     /// `P_i` per phyxel (N per unit `d`), for the scalar reference.
@@ -95,8 +97,8 @@ impl MlsDynamics {
         let (in_off, incoming) = incoming_of(&stencil);
         let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
         let mut mls = Self {
-            stress_rows: vec![[0.0; 16]; phyxel::spatial::gather::fixed_rows(lanes.padded())],
-            state: vec![[0.0; 8]; phyxel::spatial::gather::fixed_rows(lanes.padded())],
+            stress_rows: RowBuffer::zeroed(lanes.padded()),
+            state: RowBuffer::zeroed(lanes.padded()),
             lanes,
             stencil,
             in_off,
@@ -243,7 +245,7 @@ impl MlsDynamics {
     /// kernel (eight phyxels per `f32x8`, see `lanes`). `dt` only matters for plastic flow.
     pub fn compute_forces(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let law = Law::new(material, dt, self.tau(material));
-        // The buffers were sized in `new` (`gather::fixed_rows`); the phyxel count, and so
+        // The buffers were sized in `new` (`gather::RowBuffer`); the phyxel count, and so
         // `padded`, never changes for a backend.
         let padded = self.lanes.padded();
         let vel = (law.tau > 0.0).then_some(&phyxels.vel);

@@ -16,7 +16,7 @@ use crate::columns::{LANES, load8, store8};
 use crate::dynamics::kernel::poly6_shape;
 use crate::dynamics::mls::cofactor;
 use crate::spatial::broad_phase::{Aabb, BLOCK};
-use crate::spatial::gather::{Rows, fixed_rows};
+use crate::spatial::gather::{RowBuffer, Rows};
 use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};
 use rayon::prelude::*;
@@ -59,9 +59,9 @@ pub struct SurfelBinding {
     /// Reference point `o` of the affine table (rest centroid of the phyxels).
     origin: Vec3,
     /// Per-phyxel [`AffineRow`]s of the current step, kept between steps so the step
-    /// does not allocate; [`fixed_rows`] rows, so that the sums' gathers need no bounds
+    /// does not allocate; a [`RowBuffer`], so that the sums' gathers need no bounds
     /// checks (`crate::spatial::gather`).
-    table: Vec<AffineRow>,
+    table: RowBuffer<AffineRow>,
     /// Surfel and phyxel counts of the rest shape it was built from.
     surfels: usize,
     phyxels: usize,
@@ -199,10 +199,9 @@ impl SurfelBinding {
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
         let o = self.origin;
         let surfels_len = surfels.len();
-        let table_len = fixed_rows(phyxels.len());
-        if self.table.len() != table_len {
+        if !self.table.serves(phyxels.len()) {
             // Zeroed, not written: the rows past the phyxels' are never touched.
-            self.table = vec![[[0.0; 8]; 2]; table_len];
+            self.table = RowBuffer::zeroed(phyxels.len());
         }
         self.table[..phyxels.len()]
             .par_chunks_mut(CHUNK)

@@ -117,7 +117,7 @@ pub enum Preset {
     Default,
     /// Müller et al. 2004 and Keiser et al. 2004 as written: the strain `JᵀJ − I`
     /// (`strain = "paper"`), influence radius 3 r, contact forces on the resampled
-    /// contact surface, spread over two influence radii.
+    /// contact surface, spread over two influence radii, pairs handled in order.
     Paper,
 }
 

@@ -479,9 +479,10 @@ fn surfels_are_the_sample_in_spatial_order() {
 
 /// `preset = "paper"` (scene key, or `BuildOptions::preset`, which overrides it) builds
 /// every object as the papers do: the strain `JᵀJ − I`, influence radius `3 r_i`, and
-/// contact forces on the resampled Φ, spread over two influence radii; the default keeps
-/// `2 r_i`, the placed contact surfels and one radius. The scene's own
-/// `resampled_forces` wins over the preset's. An object's own `influence` wins over the preset's; one outside [1.5, 4] is
+/// contact forces on the resampled Φ, spread over two influence radii, pairs handled in
+/// order; the default keeps `2 r_i`, the placed contact surfels, one radius and
+/// independent pairs. The scene's own `resampled_forces` and `pairs_in_order` win over
+/// the preset's. An object's own `influence` wins over the preset's; one outside [1.5, 4] is
 /// refused, naming the key.
 #[test]
 fn the_paper_preset_builds_the_papers_choices() {
@@ -518,6 +519,9 @@ fn the_paper_preset_builds_the_papers_choices() {
     let mut own = scene.clone();
     own.resampled_forces = Some(false);
     assert!(!build(&own, Some(Preset::Paper)).resampled_forces);
+    assert!(paper.pairs_in_order && !build(&scene, None).pairs_in_order);
+    own.pairs_in_order = Some(false);
+    assert!(!build(&own, Some(Preset::Paper)).pairs_in_order);
     check(
         &paper,
         StrainForm::Paper,

@@ -16,12 +16,98 @@
 /// index is the low half of the `u32` (one zero-extending load).
 pub const FIXED_ROWS: usize = 1 << 16;
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+
 /// The length to give a gathered buffer that uses `n` rows: [`FIXED_ROWS`] when they
 /// fit, else `n` (checked gathers). Allocate it zeroed (`vec![zero; len]` of a type
 /// whose zero is all-zero bytes, such as `f32` arrays): the pages of the rows past `n`
 /// are then never touched, so a small body's buffer costs address space, not memory.
 pub fn fixed_rows(n: usize) -> usize {
     if n <= FIXED_ROWS { FIXED_ROWS } else { n }
+}
+
+/// Bytes of address space the padded [`RowBuffer`]s of the process may hold at once.
+/// A padded buffer costs address space, not memory, but a small body has about 6 MB of
+/// them (the MLS force pass's two and the advection's table), so 2,000 small bodies
+/// reserved 12 GB, which a `ulimit -v` or strict overcommit refuses. Past the budget a
+/// buffer gets just its used rows: checked gathers, the same results.
+pub const FIXED_ROWS_BUDGET: usize = 1 << 30;
+
+/// Bytes the live padded [`RowBuffer`]s hold.
+static RESERVED: AtomicUsize = AtomicUsize::new(0);
+
+/// A zeroed buffer of rows for gathers: [`FIXED_ROWS`] rows (unchecked gathers) when the
+/// used rows fit and the process's padded buffers stay within [`FIXED_ROWS_BUDGET`],
+/// else exactly the used rows. Dereferences to the whole buffer.
+pub struct RowBuffer<T> {
+    rows: Vec<T>,
+    used: usize,
+    /// Bytes counted in the budget (0 unless padded).
+    reserved: usize,
+}
+
+impl<T: Copy + Default> RowBuffer<T> {
+    /// A zeroed buffer for `used` rows (`T::default()` must be all-zero bytes, as for
+    /// `f32` arrays, so that the padding's pages are never touched).
+    pub fn zeroed(used: usize) -> Self {
+        let bytes = FIXED_ROWS * std::mem::size_of::<T>();
+        let padded = used <= FIXED_ROWS
+            && RESERVED
+                .fetch_update(Ordering::Relaxed, Ordering::Relaxed, |r| {
+                    (r + bytes <= FIXED_ROWS_BUDGET).then_some(r + bytes)
+                })
+                .is_ok();
+        let len = if padded { FIXED_ROWS } else { used };
+        Self {
+            rows: vec![T::default(); len],
+            used,
+            reserved: if padded { bytes } else { 0 },
+        }
+    }
+
+    /// Whether the buffer was made for `used` rows.
+    pub fn serves(&self, used: usize) -> bool {
+        self.used == used
+    }
+}
+
+impl<T> std::ops::Deref for RowBuffer<T> {
+    type Target = [T];
+    fn deref(&self) -> &[T] {
+        &self.rows
+    }
+}
+
+impl<T> std::ops::DerefMut for RowBuffer<T> {
+    fn deref_mut(&mut self) -> &mut [T] {
+        &mut self.rows
+    }
+}
+
+impl<T> Drop for RowBuffer<T> {
+    fn drop(&mut self) {
+        RESERVED.fetch_sub(self.reserved, Ordering::Relaxed);
+    }
+}
+
+impl<T: Copy + Default> Clone for RowBuffer<T> {
+    fn clone(&self) -> Self {
+        let mut c = Self::zeroed(self.used);
+        c.rows[..self.used].copy_from_slice(&self.rows[..self.used]);
+        c
+    }
+}
+
+impl<T: Copy + Default> Default for RowBuffer<T> {
+    fn default() -> Self {
+        Self::zeroed(0)
+    }
+}
+
+impl<T> std::fmt::Debug for RowBuffer<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "RowBuffer({} of {} rows)", self.used, self.rows.len())
+    }
 }
 
 /// Rows a gather reads by `u32` index.
@@ -93,5 +179,29 @@ mod tests {
             let got = crate::with_rows!(&buf[..], |rows| read_all(&rows, n));
             assert_eq!(got, want, "{n} rows in a buffer of {len}");
         }
+    }
+
+    /// Padded buffers stop at the budget, and dropping one frees its share: of twenty
+    /// 64 MB buffers (rows of 1 KB) at most 16 are padded (1 GiB; other tests may hold
+    /// some of it), the others hold exactly their rows, and after they are dropped a
+    /// new one is padded again. A clone keeps the used rows.
+    #[test]
+    fn padded_buffers_stay_within_the_budget() {
+        type Row = [[f32; 32]; 8];
+        let bufs: Vec<RowBuffer<Row>> = (0..20).map(|_| RowBuffer::zeroed(100)).collect();
+        let padded = bufs.iter().filter(|b| b.len() == FIXED_ROWS).count();
+        assert!(
+            padded <= FIXED_ROWS_BUDGET / (FIXED_ROWS * 1024),
+            "{padded}"
+        );
+        assert!(bufs.iter().all(|b| b.len() == FIXED_ROWS || b.len() == 100));
+        assert!(padded < 20);
+        drop(bufs);
+        let mut b = RowBuffer::<Row>::zeroed(100);
+        assert_eq!(b.len(), FIXED_ROWS);
+        b[7][3][1] = 2.5;
+        let c = b.clone();
+        assert_eq!(c[7][3][1], 2.5);
+        assert!(c.serves(100) && !c.serves(101));
     }
 }
