@@ -96,6 +96,11 @@ enum Command {
         /// contact surface, spread over two influence radii, pairs handled in order).
         #[arg(long, value_parser = ["default", "paper"])]
         preset: Option<String>,
+        /// The memory the scene may need, estimated before it is built: bytes or a size
+        /// such as 512M or 8G [default: 80% of the memory available]. A scene estimated
+        /// above it is refused with the estimate.
+        #[arg(long, value_name = "SIZE", value_parser = phyxel::scene::memory::parse_size)]
+        max_memory: Option<u64>,
     },
     /// Run a scene once per backend and compare speed, contact and conservation.
     #[command(allow_negative_numbers = true)]
@@ -396,6 +401,7 @@ fn main() -> ExitCode {
             flamegraph,
             contacts,
             preset,
+            max_memory,
         } => {
             // Options that only shape output which is not being written: say so.
             let idle = [
@@ -436,6 +442,7 @@ fn main() -> ExitCode {
                     surfels,
                     phyxels: phyxel_count,
                     preset: preset.map(|p| Preset::parse(&p).expect("clap checks the value")),
+                    max_memory,
                 },
                 steps,
                 out,

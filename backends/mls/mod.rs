@@ -39,6 +39,8 @@ pub const NAME: &str = "mls";
 /// Power iterations for the largest stencil frequency (converges to within a few
 /// percent from below; the stable step keeps a margin for that).
 const POWER_ITERATIONS: usize = 60;
+/// Phyxels per task of the stiffness product (and the least a body needs to be split).
+const STIFFNESS_TASK: usize = 512;
 
 /// Fraction of the symplectic-Euler limit `2/ω_max` used as the stable bound: covers the
 /// power iteration's under-estimate and stiffening at finite strain.
@@ -199,31 +201,41 @@ impl MlsDynamics {
             1.0
         };
         let kv = material.k_volume();
-        stress.par_iter_mut().enumerate().for_each(|(i, p)| {
-            let g = st.gradient_of(i, |j| v[j]);
-            let e = (g + g.transpose()) * 0.5;
-            let tr = e.x_axis.x + e.y_axis.y + e.z_axis.z;
-            let sigma =
-                Mat3::from_diagonal(Vec3::splat(s * lambda * tr + kv * tr)) + e * (2.0 * s * mu);
-            *p = sigma * phyxels.volume[i];
-        });
+        // Small bodies in one task: 120 parallel calls per body (the power iteration)
+        // cost more to dispatch than to compute (5,000 small spheres: seconds).
+        let min_len = STIFFNESS_TASK;
+        stress
+            .par_iter_mut()
+            .with_min_len(min_len)
+            .enumerate()
+            .for_each(|(i, p)| {
+                let g = st.gradient_of(i, |j| v[j]);
+                let e = (g + g.transpose()) * 0.5;
+                let tr = e.x_axis.x + e.y_axis.y + e.z_axis.z;
+                let sigma = Mat3::from_diagonal(Vec3::splat(s * lambda * tr + kv * tr))
+                    + e * (2.0 * s * mu);
+                *p = sigma * phyxels.volume[i];
+            });
         let (in_off, incoming) = (&self.in_off, &self.incoming);
-        out.par_iter_mut().enumerate().for_each(|(j, o)| {
-            let own = stress[j] * st.d_self[j];
-            let mut sum = Vec3::ZERO;
-            let mut own_added = false;
-            for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
-                if !own_added && i as usize > j {
-                    sum += own;
-                    own_added = true;
+        out.par_iter_mut()
+            .with_min_len(min_len)
+            .enumerate()
+            .for_each(|(j, o)| {
+                let own = stress[j] * st.d_self[j];
+                let mut sum = Vec3::ZERO;
+                let mut own_added = false;
+                for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
+                    if !own_added && i as usize > j {
+                        sum += own;
+                        own_added = true;
+                    }
+                    sum += stress[i as usize] * st.d[k as usize];
                 }
-                sum += stress[i as usize] * st.d[k as usize];
-            }
-            if !own_added {
-                sum += own;
-            }
-            *o = sum;
-        });
+                if !own_added {
+                    sum += own;
+                }
+                *o = sum;
+            });
     }
 
     /// The rest stencil (for diagnostics and tests).

@@ -134,8 +134,9 @@ impl PyScene {
     /// "Backends in Python"); `surfels` and `phyxels` set the sample counts per
     /// deformable object; `dt` the time step (default: 90% of the stable bound, at most
     /// 1 ms); `allow_unstable` accepts a dt above the bound; `preset` (`"default"` or
-    /// `"paper"`) overrides the scene's.
-    #[pyo3(signature = (backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false, preset = None))]
+    /// `"paper"`) overrides the scene's; `max_memory` (bytes) is the memory the scene may
+    /// need, estimated before building (default: 80% of what the system has available).
+    #[pyo3(signature = (backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false, preset = None, max_memory = None))]
     #[allow(clippy::too_many_arguments)] // the keyword arguments of one Python method
     pub fn build(
         &self,
@@ -146,6 +147,7 @@ impl PyScene {
         dt: Option<f32>,
         allow_unstable: bool,
         preset: Option<&str>,
+        max_memory: Option<u64>,
     ) -> PyResult<PyWorld> {
         let preset = preset
             .map(crate::scene::Preset::parse)
@@ -171,6 +173,7 @@ impl PyScene {
             surfels,
             phyxels,
             preset,
+            max_memory,
         };
         let scene = self.scene.clone();
         let mut world = py

@@ -689,9 +689,9 @@ fn scene_of(py: Python<'_>, scene: &Bound<'_, PyAny>) -> PyResult<Scene> {
 
 /// Runs `scene` (a `Scene`, a built-in name or a path) for `steps` (default: the
 /// scene's) and returns the summary dict of `phyxel run --json`. Stops at a non-finite
-/// state as `run` does (the summary says where).
+/// state as `run` does (the summary says where). `max_memory` as in `Scene.build`.
 #[pyfunction]
-#[pyo3(signature = (scene, steps = None, backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false, preset = None))]
+#[pyo3(signature = (scene, steps = None, backend = None, surfels = None, phyxels = None, dt = None, allow_unstable = false, preset = None, max_memory = None))]
 #[allow(clippy::too_many_arguments)] // the keyword arguments of the Python function
 pub fn run<'py>(
     py: Python<'py>,
@@ -703,11 +703,21 @@ pub fn run<'py>(
     dt: Option<f32>,
     allow_unstable: bool,
     preset: Option<&str>,
+    max_memory: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let scene = PyScene {
         scene: scene_of(py, scene)?,
     };
-    let world = scene.build(py, backend, surfels, phyxels, dt, allow_unstable, preset)?;
+    let world = scene.build(
+        py,
+        backend,
+        surfels,
+        phyxels,
+        dt,
+        allow_unstable,
+        preset,
+        max_memory,
+    )?;
     let n = steps.unwrap_or(scene.scene.steps);
     match world.step(py, n) {
         Ok(()) => {}
@@ -748,6 +758,7 @@ pub fn compare<'py>(
                 None,
                 dt,
                 allow_unstable,
+                None,
                 None,
             )
         })

@@ -3,6 +3,7 @@
 mod build;
 pub mod camera;
 mod check;
+pub mod memory;
 #[cfg(test)]
 mod tests;
 mod warnings;
@@ -262,6 +263,9 @@ pub struct BuildOptions {
     pub phyxels: Option<u32>,
     /// Overrides the scene's `preset`.
     pub preset: Option<Preset>,
+    /// The memory the scene may need (bytes, estimated before building: `scene::memory`);
+    /// `None`: 80% of what the system reports available (no check where it does not say).
+    pub max_memory: Option<u64>,
 }
 
 /// An error that names where in the input it comes from.

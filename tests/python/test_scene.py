@@ -63,6 +63,15 @@ def test_unknown_key_and_bad_toml_are_refused():
         phyxel.Scene.load(pathlib.Path("/nonexistent/scene.toml"))
 
 
+def test_a_scene_past_the_memory_budget_is_refused():
+    scene = phyxel.Scene.builtin("two-spheres")
+    with pytest.raises(phyxel.SceneError, match="needs about .* budget of 1.0 KiB"):
+        scene.build(max_memory=1024)
+    with pytest.raises(phyxel.SceneError, match="--max-memory"):
+        phyxel.run("two-spheres", steps=1, max_memory=1024)
+    assert scene.build(max_memory=1 << 30).steps == 0
+
+
 def test_dt_above_the_bound_raises_unstable_error_with_the_bound():
     s = phyxel.Scene.builtin("two-spheres")
     bound = s.build().stable_dt

@@ -62,6 +62,7 @@ class Scene:
         dt: Optional[float] = None,
         allow_unstable: bool = False,
         preset: Optional[str] = None,
+        max_memory: Optional[int] = None,
     ) -> World: ...
 
 class Body:
@@ -134,6 +135,7 @@ def run(
     dt: Optional[float] = None,
     allow_unstable: bool = False,
     preset: Optional[str] = None,
+    max_memory: Optional[int] = None,
 ) -> dict[str, Any]: ...
 def compare(
     scene: Union[Scene, str],
