@@ -654,3 +654,38 @@ fn sampling_an_unloaded_mesh_surface_names_it() {
     };
     shape.sample_surface(0.01);
 }
+
+/// Sampling a mesh's volume costs lattice points × triangles (each point's winding
+/// number sums every triangle): past `MAX_INSIDE_TEST_WORK` the build is refused at
+/// once, naming the spacing, the counts and the remedies, instead of running for minutes
+/// (a 2-million-triangle mesh at 0.01 m ran past a minute silently). A torus of 384 × 192
+/// quads (147,456 triangles, a box of 0.2 × 0.06 × 0.2 m) at 1.5 mm tests about 7e5
+/// lattice points: 1e11 terms, refused at once; at 5 mm (2e9 / 147,456 ≈ 13,600 points
+/// allowed, 19,200 in its box) it is refused too, and at 15 mm (about 700 points) it
+/// builds.
+#[test]
+fn a_mesh_too_costly_to_sample_is_refused_at_once() {
+    let dir = TempDir::new("mesh", "costly");
+    write_obj(&dir.0.join("fine.obj"), &torus(0.07, 0.03, 384, 192));
+    for spacing in [0.0015, 0.005] {
+        let started = std::time::Instant::now();
+        let scene = Scene::load(&scene_with(&dir.0, "fine.obj", spacing, 0.01)).unwrap();
+        let e = scene
+            .build(&BuildOptions::default())
+            .unwrap_err()
+            .to_string();
+        for needle in [
+            format!("spacing = {spacing}"),
+            "147456 elements".into(),
+            "winding-number terms".into(),
+            "coarser spacing".into(),
+            "fewer triangles".into(),
+        ] {
+            assert!(e.contains(&needle), "{needle:?} not in: {e}");
+        }
+        assert!(started.elapsed().as_secs() < 10, "{e}");
+    }
+    let scene = Scene::load(&scene_with(&dir.0, "fine.obj", 0.015, 0.01)).unwrap();
+    let w = scene.build(&BuildOptions::default()).unwrap();
+    assert!(w.objects[0].phyxels.len() > 20);
+}

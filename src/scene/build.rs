@@ -310,7 +310,8 @@ pub(super) fn lattice_spacing_for(shape: &Shape, target: u32) -> f32 {
     let mut best = (f32::INFINITY, s);
     for _ in 0..8 {
         let affordable = phyxel_estimate(shape, s) <= 2.0 * MAX_PHYXELS as f64
-            && shape.lattice_points(s) <= MAX_LATTICE_POINTS;
+            && shape.lattice_points(s) <= MAX_LATTICE_POINTS
+            && shape.inside_test_work(s) <= MAX_INSIDE_TEST_WORK;
         if !(s.is_finite() && s > 0.0 && affordable) {
             break;
         }
@@ -400,6 +401,17 @@ impl ObjectSpec {
             }
         }
         let scan = shape.lattice_points(spacing);
+        let work = shape.inside_test_work(spacing);
+        if work > MAX_INSIDE_TEST_WORK {
+            let key = self.spacing_key(spacing);
+            return Err(format!(
+                "{key}: sampling the mesh's volume tests {scan:.2e} lattice points against \
+                 its {:.0} elements, {work:.2e} winding-number terms, more than the limit \
+                 of {MAX_INSIDE_TEST_WORK:e} (about half a minute): a coarser spacing, or a \
+                 mesh with fewer triangles",
+                work / scan
+            ));
+        }
         if scan > MAX_LATTICE_POINTS {
             let key = self.spacing_key(spacing);
             return Err(format!(

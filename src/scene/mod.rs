@@ -13,7 +13,10 @@ use crate::io::arrays::exact_array;
 use check::f32_range;
 
 pub use build::CONTACT_BOUND_WARNING;
-pub use check::{MAX_LATTICE_POINTS, MAX_PHYXELS, MAX_SURFELS, POSITION_RESOLUTION, fits_f32};
+pub use check::{
+    MAX_INSIDE_TEST_WORK, MAX_LATTICE_POINTS, MAX_PHYXELS, MAX_SURFELS, POSITION_RESOLUTION,
+    fits_f32,
+};
 pub use warnings::{
     FLAT_WARNING, IMPACT_DEPTH_WARNING, MASS_WARNING, SURFACE_WARNING, WEIGHT_WARNING,
 };

@@ -53,6 +53,14 @@ impl Surface {
         TriMesh::load(path, scale).map(Surface::Triangles)
     }
 
+    /// Triangles, or points of a cloud: the terms of one winding number.
+    pub fn elements(&self) -> usize {
+        match self {
+            Surface::Triangles(m) => m.triangles.len(),
+            Surface::Points(c) => c.points.len(),
+        }
+    }
+
     pub fn half_extents(&self) -> Vec3 {
         match self {
             Surface::Triangles(m) => m.half_extents(),

@@ -223,6 +223,18 @@ impl Shape {
         axis(h.x) * axis(h.y) * axis(h.z)
     }
 
+    /// Terms of the inside tests of sampling the volume at `spacing`: the lattice points
+    /// of the box times, for a loaded mesh, its triangles or points (the generalized
+    /// winding number sums one term per element); the lattice points alone for the
+    /// analytic shapes, whose test is one formula.
+    pub fn inside_test_work(&self, spacing: f32) -> f64 {
+        let per_point = match self {
+            Shape::Mesh { mesh: Some(m), .. } => m.elements().max(1) as f64,
+            _ => 1.0,
+        };
+        self.lattice_points(spacing) * per_point
+    }
+
     /// Analytic volume; a plane is a surface, so 0.
     pub fn volume(&self) -> f32 {
         match *self {
