@@ -286,7 +286,7 @@ impl std::error::Error for SceneError {}
 /// Longest line of a parse error shown (characters).
 const ECHO_LIMIT: usize = 160;
 
-/// `message` with every line cut to [`ECHO_LIMIT`] characters: the TOML parser quotes
+/// `message` with control characters replaced and every line cut to [`ECHO_LIMIT`] characters: the TOML parser quotes
 /// the offending line whole, and one line of a generated or hostile file can be
 /// hundreds of kilobytes (a deeply nested array echoed 200 KB).
 /// A caret line below a cut line whose caret the cut hides says the column instead.
@@ -294,6 +294,20 @@ fn clip_lines(message: &str) -> String {
     let mut out: Vec<String> = Vec::new();
     let mut cut = false;
     for l in message.lines() {
+        // The parser quotes the line: a control character in it (an escape sequence)
+        // must not reach the terminal raw. One replacement character for each keeps
+        // the caret under the column.
+        let shown: String = l
+            .chars()
+            .map(|c| {
+                if c.is_control() && c != '\t' {
+                    '\u{fffd}'
+                } else {
+                    c
+                }
+            })
+            .collect();
+        let l = shown.as_str();
         let n = l.chars().count();
         let caret = l.trim_start_matches([' ', '|']).starts_with('^');
         if cut && caret && n > ECHO_LIMIT {
