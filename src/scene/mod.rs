@@ -286,9 +286,10 @@ impl std::error::Error for SceneError {}
 /// Longest line of a parse error shown (characters).
 const ECHO_LIMIT: usize = 160;
 
-/// `message` with control characters replaced and every line cut to [`ECHO_LIMIT`] characters: the TOML parser quotes
-/// the offending line whole, and one line of a generated or hostile file can be
-/// hundreds of kilobytes (a deeply nested array echoed 200 KB).
+/// `message` with control characters replaced and every line cut to [`ECHO_LIMIT`]
+/// characters: the TOML parser quotes the offending line whole, and one line of a
+/// generated or hostile file can be hundreds of kilobytes (a deeply nested array echoed
+/// 200 KB).
 /// A caret line below a cut line whose caret the cut hides says the column instead.
 fn clip_lines(message: &str) -> String {
     let mut out: Vec<String> = Vec::new();
