@@ -12,7 +12,7 @@ use crate::io::arrays::exact_array;
 
 use check::f32_range;
 
-pub use build::CONTACT_BOUND_WARNING;
+pub use build::{CONTACT_BOUND_WARNING, SELF_OVERLAP_SHARE, SELF_OVERLAP_WORK};
 pub use check::{
     MAX_INSIDE_TEST_WORK, MAX_LATTICE_POINTS, MAX_PHYXELS, MAX_SURFELS, POSITION_RESOLUTION,
     fits_f32,

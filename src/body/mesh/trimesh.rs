@@ -213,6 +213,29 @@ impl TriMesh {
         if self.contains(p) { -d } else { d }
     }
 
+    /// Of the surface samples `points` with outward `normals`, how many have their point
+    /// `offset` outside along the normal still inside the solid (winding number above
+    /// one half), and how many were tested: a mesh whose parts overlap (two cubes in one
+    /// file) has part of its surface inside itself. At most `budget` winding-number
+    /// terms are spent (samples evenly strided, at least one).
+    pub fn buried_samples(
+        &self,
+        points: &[Vec3],
+        normals: &[Vec3],
+        offset: f32,
+        budget: f64,
+    ) -> (usize, usize) {
+        let per = self.triangles.len().max(1) as f64;
+        let want = ((budget / per) as usize).clamp(1, points.len().max(1));
+        let stride = points.len().div_ceil(want).max(1);
+        let picked: Vec<usize> = (0..points.len()).step_by(stride).collect();
+        let buried = picked
+            .par_iter()
+            .filter(|&&i| self.winding_number(points[i] + offset * normals[i]) > 0.5)
+            .count();
+        (buried, picked.len())
+    }
+
     /// Lattice points inside the surface (the lattice given by per-axis coordinates).
     pub fn lattice_inside(&self, xs: &[f32], ys: &[f32], zs: &[f32]) -> Vec<Vec3> {
         lattice_points(xs, ys, zs)
