@@ -618,13 +618,16 @@ fn check_memory(
     let (bytes, k) = largest;
     Err(SceneError(format!(
         "{origin}: the scene needs about {} of memory, more than the budget of {} ({source}); \
-         the largest of its {} objects, objects[{k}] '{}', about {}. Coarser spacings or \
+         the largest of its {} objects, objects[{k}]{}, about {}. Coarser spacings or \
          fewer objects make it smaller; `--max-memory SIZE` (`BuildOptions::max_memory`) \
          sets the budget",
         memory::human(total),
         memory::human(budget as f64),
         specs.len(),
-        specs[k].0.name,
+        match specs[k].0.name.as_str() {
+            "" => String::new(),
+            name => format!(" '{name}'"),
+        },
         memory::human(bytes),
     )))
 }
