@@ -129,11 +129,8 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
         } else {
             &patch.render
         };
-        let next = [
-            replaced(&s, true, &d.a_in_b, phi, w.objects[a].surfel_spacing),
-            replaced(&s, false, &d.b_in_a, phi, w.objects[b].surfel_spacing),
-        ];
-        let [na, nb] = next;
+        let na = replaced(&s, true, &d.a_in_b, phi, w.objects[a].surfel_spacing);
+        let nb = replaced(&s, false, &d.b_in_a, phi, w.objects[b].surfel_spacing);
         scratch.working[a] = Some(na);
         scratch.working[b] = Some(nb);
     }
