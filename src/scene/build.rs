@@ -591,7 +591,8 @@ fn check_memory(
     for (k, (spec, backend)) in specs.iter().enumerate() {
         // From the keys alone: `ObjectSpec::spacings` would search the lattice spacing
         // of a `phyxels = N` object by sampling, which the build does anyway. (A
-        // spacing the checks refuse comes out infinite or NaN and is left to them.)
+        // spacing the checks refuse comes out infinite or NaN, or past a limit, and is
+        // left to them.)
         let shape = &spec.shape;
         let spacing = match spec.phyxels {
             Some(n) => (shape.volume() as f64 / n as f64).cbrt(),
@@ -606,6 +607,10 @@ fn check_memory(
             (None, Some(s)) => shape.area() as f64 / (s as f64).powi(2),
             (None, None) => shape.area() as f64 / (0.5 * spacing).powi(2),
         };
+        // Past a per-object limit the object's own check says so, naming its key.
+        if phyxels > MAX_PHYXELS as f64 || surfels > MAX_SURFELS as f64 {
+            continue;
+        }
         let influence = spec
             .influence
             .unwrap_or(crate::body::phyxels::SUPPORT_FACTOR);
