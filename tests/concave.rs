@@ -332,37 +332,60 @@ fn revolved_distance(profile: &[(f32, f32)], height: f32, x: Vec3) -> f32 {
     if inside { -d } else { d }
 }
 
+/// Under gravity, a static mesh made here (the solid of revolution of `profile` in
+/// `segments`, E = 1e6 Pa, phyxel spacing `spacing`) and a ball of `(radius, spacing)`
+/// (E = 1e5 Pa) at `(x, y)`; surfels 4 mm apart, friction 0.3, both with
+/// `contact_damping` (0.2 is the default).
+fn ball_over_revolved_mesh(
+    profile: &[(f32, f32)],
+    segments: usize,
+    spacing: f32,
+    (radius, ball_spacing): (f32, f32),
+    [x, y]: [f32; 2],
+    contact_damping: f32,
+) -> World {
+    let dir = std::env::temp_dir().join(format!("phyxel-mesh-{}-{x}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = dir.join("mesh.obj");
+    std::fs::write(&mesh, revolved_obj(profile, segments)).unwrap();
+    let w = world(&format!(
+        r#"
+        gravity = [0.0, -9.81, 0.0]
+        [[objects]]
+        name = "mesh"
+        shape = {{ type = "mesh", path = "{}" }}
+        spacing = {spacing}
+        surfel_spacing = 0.004
+        static = true
+        material = {{ young = 1.0e6, friction = 0.3, contact_damping = {contact_damping} }}
+        [[objects]]
+        name = "ball"
+        shape = {{ type = "sphere", radius = {radius} }}
+        spacing = {ball_spacing}
+        surfel_spacing = 0.004
+        position = [{x}, {y}, 0.0]
+        material = {{ young = 1.0e5, friction = 0.3, contact_damping = {contact_damping} }}
+        "#,
+        mesh.display()
+    ));
+    std::fs::remove_dir_all(&dir).unwrap();
+    w
+}
+
 /// A ball (R = 30 mm, E = 1e5 Pa) dropped from `(x, y)` above a static cup (a mesh made
 /// here from [`CUP`], centred on its bounding box: base at −40 mm, floor top at −20 mm,
 /// rim at +40 mm) and run for `seconds`, the detection checked every 100 steps against
 /// the full test with the cup's exact shape as arbiter. Returns the world, the agreement
 /// and the checks with the pair in contact.
 fn drop_into_cup(x: f32, y: f32, contact_damping: f32, seconds: f64) -> (World, Agreement, u32) {
-    let dir = std::env::temp_dir().join(format!("phyxel-cup-{}-{x}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let cup = dir.join("cup.obj");
-    std::fs::write(&cup, revolved_obj(&cup_profile(), 48)).unwrap();
-    let mut w = world(&format!(
-        r#"
-        gravity = [0.0, -9.81, 0.0]
-        [[objects]]
-        name = "cup"
-        shape = {{ type = "mesh", path = "{}" }}
-        spacing = 0.01
-        surfel_spacing = 0.004
-        static = true
-        material = {{ young = 1.0e6, friction = 0.3, contact_damping = {contact_damping} }}
-        [[objects]]
-        name = "ball"
-        shape = {{ type = "sphere", radius = 0.03 }}
-        spacing = 0.0075
-        surfel_spacing = 0.004
-        position = [{x}, {y}, 0.0]
-        material = {{ young = 1.0e5, friction = 0.3, contact_damping = {contact_damping} }}
-        "#,
-        cup.display()
-    ));
-    std::fs::remove_dir_all(&dir).unwrap();
+    let mut w = ball_over_revolved_mesh(
+        &cup_profile(),
+        48,
+        0.01,
+        (0.03, 0.0075),
+        [x, y],
+        contact_damping,
+    );
     let exact =
         |other: usize, x: Vec3| (other == 0).then(|| revolved_distance(&cup_profile(), CUP.2, x));
     let (agreement, touching) = run_checked(&mut w, seconds, &exact);
@@ -467,34 +490,16 @@ fn drop_on_brim(x: f32, seconds: f64) -> World {
         (hub, height),
         (0.0, height),
     ];
-    let dir = std::env::temp_dir().join(format!("phyxel-hat-{}-{x}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let hat = dir.join("hat.obj");
-    std::fs::write(&hat, revolved_obj(&profile, 64)).unwrap();
     // The brim's top is at thickness − height/2 once the loader centres the mesh.
     let top = thickness - height / 2.0;
-    let mut w = world(&format!(
-        r#"
-        gravity = [0.0, -9.81, 0.0]
-        [[objects]]
-        name = "hat"
-        shape = {{ type = "mesh", path = "{}" }}
-        spacing = 0.004
-        surfel_spacing = 0.004
-        static = true
-        material = {{ young = 1.0e6, friction = 0.3 }}
-        [[objects]]
-        name = "ball"
-        shape = {{ type = "sphere", radius = 0.025 }}
-        spacing = 0.00625
-        surfel_spacing = 0.004
-        position = [{x}, {}, 0.0]
-        material = {{ young = 1.0e5, friction = 0.3 }}
-        "#,
-        hat.display(),
-        top + 0.025 + 0.1
-    ));
-    std::fs::remove_dir_all(&dir).unwrap();
+    let mut w = ball_over_revolved_mesh(
+        &profile,
+        64,
+        0.004,
+        (0.025, 0.00625),
+        [x, top + 0.025 + 0.1],
+        0.2,
+    );
     let exact =
         |other: usize, x: Vec3| (other == 0).then(|| revolved_distance(&profile, height, x));
     let (agreement, _) = run_checked(&mut w, seconds, &exact);
