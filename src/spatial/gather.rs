@@ -98,9 +98,14 @@ impl<T: Copy + Default> Clone for RowBuffer<T> {
     }
 }
 
-impl<T: Copy + Default> Default for RowBuffer<T> {
+/// Empty, and holding none of the budget (a padded buffer for no rows reserved 4 MB).
+impl<T> Default for RowBuffer<T> {
     fn default() -> Self {
-        Self::zeroed(0)
+        Self {
+            rows: Vec::new(),
+            used: 0,
+            reserved: 0,
+        }
     }
 }
 
