@@ -594,13 +594,9 @@ fn check_memory(
         // spacing the checks refuse comes out infinite or NaN, or past a limit, and is
         // left to them.)
         let shape = &spec.shape;
-        let spacing = match spec.phyxels {
-            Some(n) => (shape.volume() as f64 / n as f64).cbrt(),
-            None => spec.spacing as f64,
-        };
-        let phyxels = match spec.phyxels {
-            Some(n) => n as f64,
-            None => phyxel_estimate(shape, spec.spacing),
+        let (spacing, phyxels) = match spec.phyxels {
+            Some(n) => ((shape.volume() as f64 / n as f64).cbrt(), n as f64),
+            None => (spec.spacing as f64, phyxel_estimate(shape, spec.spacing)),
         };
         let surfels = match (spec.surfels, spec.surfel_spacing) {
             (Some(n), _) => n as f64,
