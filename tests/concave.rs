@@ -375,8 +375,9 @@ fn ball_over_revolved_mesh(
 /// A ball (R = 30 mm, E = 1e5 Pa) dropped from `(x, y)` above a static cup (a mesh made
 /// here from [`CUP`], centred on its bounding box: base at −40 mm, floor top at −20 mm,
 /// rim at +40 mm) and run for `seconds`, the detection checked every 100 steps against
-/// the full test with the cup's exact shape as arbiter. Returns the world, the agreement
-/// and the checks with the pair in contact.
+/// the full test with the cup's exact shape as arbiter. Reference: the cup's geometry;
+/// the deepest overlap over the run stays under a quarter of the wall thickness (5 mm).
+/// Returns the world, the agreement and the checks with the pair in contact.
 fn drop_into_cup(x: f32, y: f32, contact_damping: f32, seconds: f64) -> (World, Agreement, u32) {
     let mut w = ball_over_revolved_mesh(
         &cup_profile(),
@@ -389,6 +390,17 @@ fn drop_into_cup(x: f32, y: f32, contact_damping: f32, seconds: f64) -> (World, 
     let exact =
         |other: usize, x: Vec3| (other == 0).then(|| revolved_distance(&cup_profile(), CUP.2, x));
     let (agreement, touching) = run_checked(&mut w, seconds, &exact);
+    println!(
+        "deepest overlap {:.4} m; {} carriers compared over {touching} checks in contact, \
+         {} where the full test was wrong",
+        w.record.max_penetration, agreement.compared, agreement.full_test_wrong
+    );
+    let (outer, cavity, _, _) = CUP;
+    assert!(
+        w.record.max_penetration < 0.25 * (outer - cavity),
+        "deepest overlap {} m",
+        w.record.max_penetration
+    );
     (w, agreement, touching)
 }
 
@@ -404,16 +416,11 @@ fn drop_into_cup(x: f32, y: f32, contact_damping: f32, seconds: f64) -> (World, 
 /// detected colliding carriers equal the full test's every 100 steps (module docs).
 #[test]
 fn a_ball_drops_into_a_cup() {
-    let (outer, cavity, height, floor) = CUP;
+    let (_, cavity, height, floor) = CUP;
     let (w, agreement, touching) = drop_into_cup(0.015, 0.08, 1.0, 2.0);
     let c = w.objects[1].phyxels.centre_of_mass();
     let off_axis = c[0].hypot(c[2]);
-    println!(
-        "ball at {c:?}: {off_axis:.4} m off the cup's axis; deepest overlap {:.4} m; \
-         {} carriers compared over {touching} checks in contact, {} where the full test \
-         was wrong",
-        w.record.max_penetration, agreement.compared, agreement.full_test_wrong
-    );
+    println!("ball at {c:?}: {off_axis:.4} m off the cup's axis");
     assert!(
         touching >= 3,
         "the ball touched the cup in {touching} checks"
@@ -433,11 +440,6 @@ fn a_ball_drops_into_a_cup() {
         off_axis < (cavity - 0.03) as f64,
         "the ball is not in the cup: {off_axis} m"
     );
-    assert!(
-        w.record.max_penetration < 0.25 * (outer - cavity),
-        "deepest overlap {} m",
-        w.record.max_penetration
-    );
 }
 
 /// The ball of [`drop_into_cup`] released 25 mm off the axis from 12 cm above the rim
@@ -449,13 +451,7 @@ fn a_ball_drops_into_a_cup() {
 /// deepest overlap stays under a quarter of the wall thickness.
 #[test]
 fn a_ball_strikes_a_cups_rim() {
-    let (outer, cavity, _, _) = CUP;
-    let (w, agreement, touching) = drop_into_cup(0.025, 0.16, 0.2, 1.2);
-    println!(
-        "deepest overlap {:.4} m; {} carriers compared over {touching} checks in contact, \
-         {} where the full test was wrong",
-        w.record.max_penetration, agreement.compared, agreement.full_test_wrong
-    );
+    let (_, agreement, touching) = drop_into_cup(0.025, 0.16, 0.2, 1.2);
     assert!(
         touching >= 2,
         "the ball touched the cup in {touching} checks"
@@ -464,11 +460,6 @@ fn a_ball_strikes_a_cups_rim() {
         agreement.compared > 200,
         "{} carriers compared",
         agreement.compared
-    );
-    assert!(
-        w.record.max_penetration < 0.25 * (outer - cavity),
-        "deepest overlap {} m",
-        w.record.max_penetration
     );
 }
 
