@@ -161,6 +161,7 @@ fn forces_on_the_resampled_surface_balance_and_conserve() {
         poisson: 0.3,
         per_radius: 8.0,
         resampled_forces: true,
+        contact_stiffness: None,
     };
     let r = hertz_plane(&case, load_for(&case, 0.15), "mls").unwrap();
     println!("hertz-plane: {} N carried of {} N", r.contact_force, r.load);

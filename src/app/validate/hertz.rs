@@ -38,6 +38,9 @@ pub struct HertzCase {
     /// Forces on the resampled contact surface (`World::resampled_forces`); false: as
     /// the preset says.
     pub resampled_forces: bool,
+    /// Both materials' `contact_stiffness` (penalty spring per area in `E*/h`); `None`:
+    /// the default.
+    pub contact_stiffness: Option<f32>,
 }
 
 /// What one loaded run measured, averaged over the last third of the run.
@@ -95,7 +98,7 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         spacing = {h}
         surfel_spacing = {s}
         static = true
-        material = {{ young = {ep}, poisson = {np}, friction = 0.0 }}
+        material = {{ young = {ep}, poisson = {np}, friction = 0.0{kappa} }}
         [[objects]]
         name = "sphere"
         shape = {{ type = "sphere", radius = {r} }}
@@ -104,7 +107,7 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         position = [0.0, {y}, 0.0]
         load = [0.0, {f}, 0.0]
         load_ramp = {ramp}
-        material = {{ density = 1000.0, young = {e}, poisson = {nu}, damping = {damping}, contact_damping = 4.0, friction = 0.0 }}
+        material = {{ density = 1000.0, young = {e}, poisson = {nu}, damping = {damping}, contact_damping = 4.0, friction = 0.0{kappa} }}
         "#,
         ep = PLANE_STIFFNESS * case.young as f64,
         np = PLANE_POISSON,
@@ -120,6 +123,10 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
             ""
         },
         damping = 2.0e-4 * time_scale(case),
+        kappa = case
+            .contact_stiffness
+            .map(|k| format!(", contact_stiffness = {k}"))
+            .unwrap_or_default(),
     );
     Scene::parse(&text, "hertz-plane").expect("hertz-plane scene")
 }
