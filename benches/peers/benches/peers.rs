@@ -264,8 +264,11 @@ fn ball_record(
         wall,
         measured: c.as_ref().map_or(f64::NAN, |c| c.time),
         reference: ball::hertz_contact_time(),
-        extra: c.map_or(
-            json!({ "contact": "none found" }),
+        extra: c.map_or_else(
+            || {
+                let (v, lowest) = timer.trace().unwrap_or((f64::NAN, f64::NAN));
+                json!({ "contact": "none found", "final_velocity": v, "lowest_centre": lowest })
+            },
             |c| json!({ "restitution": c.restitution, "lowest_centre": c.lowest }),
         ),
     }

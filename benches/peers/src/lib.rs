@@ -90,6 +90,13 @@ impl ContactTimer {
         self.samples.push((time, vy, y));
     }
 
+    /// The last vertical velocity (m/s) and the lowest centre height (m): what a run
+    /// without a contact pulse did instead (never reached the box, or never left it).
+    pub fn trace(&self) -> Option<(f64, f64)> {
+        let last = self.samples.last()?.1;
+        Some((last, self.samples.iter().map(|s| s.2).fold(f64::MAX, f64::min)))
+    }
+
     /// The contact, `None` if the ball never touched or never left.
     pub fn contact(&self, v_in: f64) -> Option<Contact> {
         let mut prev = (0.0, v_in);
