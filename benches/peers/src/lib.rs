@@ -94,7 +94,10 @@ impl ContactTimer {
     /// without a contact pulse did instead (never reached the box, or never left it).
     pub fn trace(&self) -> Option<(f64, f64)> {
         let last = self.samples.last()?.1;
-        Some((last, self.samples.iter().map(|s| s.2).fold(f64::MAX, f64::min)))
+        Some((
+            last,
+            self.samples.iter().map(|s| s.2).fold(f64::MAX, f64::min),
+        ))
     }
 
     /// The contact, `None` if the ball never touched or never left.
