@@ -201,7 +201,8 @@ fn hertz_sources() {
             "| {} | {} | {} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} | {:.0} |",
             c.poisson,
             c.per_radius,
-            c.contact_stiffness.unwrap_or(4.0),
+            c.contact_stiffness
+                .unwrap_or(phyxel::body::material::Material::default().contact_stiffness),
             100.0 * (r.contact_force / r.load - 1.0),
             100.0 * (r.radius / r.hertz_radius - 1.0),
             100.0 * (r.pressure / r.hertz_pressure - 1.0),
