@@ -93,11 +93,12 @@ impl ContactTimer {
     /// The last vertical velocity (m/s) and the lowest centre height (m): what a run
     /// without a contact pulse did instead (never reached the box, or never left it).
     pub fn trace(&self) -> Option<(f64, f64)> {
-        let last = self.samples.last()?.1;
-        Some((
-            last,
-            self.samples.iter().map(|s| s.2).fold(f64::MAX, f64::min),
-        ))
+        Some((self.samples.last()?.1, self.lowest()))
+    }
+
+    /// Lowest centre height over the run (m).
+    fn lowest(&self) -> f64 {
+        self.samples.iter().map(|s| s.2).fold(f64::MAX, f64::min)
     }
 
     /// The contact, `None` if the ball never touched or never left.
@@ -123,7 +124,7 @@ impl ContactTimer {
         Some(Contact {
             time: acc[first..=last].iter().map(|a| a.1).sum(),
             restitution: self.samples.last()?.1 / -v_in,
-            lowest: self.samples.iter().map(|s| s.2).fold(f64::MAX, f64::min),
+            lowest: self.lowest(),
         })
     }
 }
