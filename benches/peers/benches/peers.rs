@@ -221,7 +221,7 @@ material = {{ density = {rho}, young = {e}, poisson = {nu} }}
                     }
                     let p = &w.objects[1].phyxels;
                     let vy = p.momentum()[1] / p.total_mass();
-                    timer.push(k as f64 * w.dt as f64, vy, p.centre_of_mass()[1] as f64);
+                    timer.push(k as f64 * w.dt as f64, vy, p.centre_of_mass()[1]);
                 }
                 out.push(ball_record(
                     "phyxel",
