@@ -277,7 +277,8 @@ impl Shape {
     }
 
     /// Phyxels: the cell centres of a simple cubic lattice at `spacing` that lie inside
-    /// (sdf < 0), in z, then y, then x order.
+    /// (sdf < 0), in z, then y, then x order. A box keeps the lattice's count per axis but
+    /// spreads its layers to integrate second moments exactly ([`box_axis`]).
     ///
     /// The lattice is symmetric about the origin and, per axis, has as many points as fit
     /// strictly inside the bounding box, so a box whose size is a multiple of `spacing` is
@@ -330,6 +331,12 @@ impl Shape {
             };
         }
         let half = self.half_extents().to_array();
+        if let Shape::Box { size } = *self {
+            return VolumeSample {
+                positions: box_phyxels(size.map(|s| fitted_count(0.5 * s, spacing)), size),
+                cell_volume,
+            };
+        }
         let fitted = self.lattice_inside(half.map(|h| fitted_count(h, spacing)), spacing);
         let positions = if fitted.is_empty() {
             let through_origin = half.map(|h| 2 * (h / spacing).floor() as usize + 1);
@@ -556,6 +563,40 @@ fn capsule_spine_point(p: Vec3, length: f32) -> Vec3 {
 /// (at least one, the centre).
 fn fitted_count(half: f32, spacing: f32) -> usize {
     (2.0 * half / spacing - FIT_TOLERANCE).ceil().max(1.0) as usize
+}
+
+/// A box's phyxels, `counts` layers per axis (those of the lattice that fit), in z, then
+/// y, then x order: on each axis the layers are spread evenly so that, with equal
+/// weights, they integrate `x²` over the box's `size` exactly ([`box_axis`]).
+fn box_phyxels(counts: [usize; 3], size: [f32; 3]) -> Vec<Vec3> {
+    let [xs, ys, zs] = std::array::from_fn(|c| box_axis(counts[c], size[c]));
+    let mut positions = Vec::with_capacity(counts.iter().product());
+    for z in zs {
+        for y in ys.clone() {
+            positions.extend(xs.clone().map(|x| Vec3::new(x, y, z)));
+        }
+    }
+    positions
+}
+
+/// `n` equal-weight quadrature points over `[−size/2, size/2]`, evenly spread and exact
+/// for polynomials up to degree 3: `Σ x_i² / n = size²/12` puts them `size/√(n²−1)` apart.
+///
+/// Why: nodal integration sums each phyxel's energy density times its volume, and the
+/// cell centres (`size/n` apart) are the midpoint rule, which counts `1 − 1/n²` of the
+/// second moment `∫x²`: a box's bending stiffness `E ∫y² dA` and rotational inertia come
+/// out 6% low at 4 phyxels through its thickness (the cantilever sagged that much more).
+/// With these points both are exact for any n ≥ 2 (two points are Gauss's `±size/(2√3)`);
+/// the layers are `n/√(n²−1)` spacings apart: 15% wider at 2, 3% at 4, 0.8% at 8 (at 1
+/// the single layer sits on the mid-plane, where it was).
+fn box_axis(n: usize, size: f32) -> impl Iterator<Item = f32> + Clone {
+    let step = if n > 1 {
+        size / ((n * n - 1) as f32).sqrt()
+    } else {
+        0.0
+    };
+    let mid = 0.5 * (n as f32 - 1.0);
+    (0..n).map(move |i| (i as f32 - mid) * step)
 }
 
 /// `n` coordinates `spacing` apart, centred on 0: they include 0 when `n` is odd and
