@@ -617,7 +617,7 @@ fn box_bending_energy_is_exact() {
     let (l, t, kappa) = (0.4f32, 0.1f32, 0.02f64);
     for n in [3u32, 4, 5, 8] {
         let spacing = t / n as f32;
-        let v = Shape::Box { size: [l, t, t] }.sample_volume(spacing);
+        let v = Shape::Box { size: [l, t, t] }.sample_volume_nodal(spacing);
         let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
         let mut m = MlsDynamics::new(&p, &mat);
         deform(&mut p, |x| {

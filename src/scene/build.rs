@@ -443,7 +443,17 @@ impl ObjectSpec {
         let mut shape = self.shape.clone();
         shape.load_mesh(Path::new(""))?;
         let (spacing, surfel_spacing) = self.spacings(&shape)?;
-        let vol = shape.sample_volume(spacing);
+        // Nodal integration's quadrature wants a box's layers spread; the particle
+        // backends' lattice models do not (`Shape::sample_volume_nodal`).
+        let nodal = [
+            crate::backends::mls::NAME,
+            crate::backends::mls::implicit::NAME,
+        ];
+        let vol = if nodal.contains(&backend) {
+            shape.sample_volume_nodal(spacing)
+        } else {
+            shape.sample_volume(spacing)
+        };
         // The estimates bound the sampling's cost; the count itself is known only now.
         if vol.positions.len() > MAX_PHYXELS {
             let key = self.spacing_key(spacing);

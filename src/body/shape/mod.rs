@@ -276,9 +276,27 @@ impl Shape {
         }
     }
 
+    /// Phyxels for a backend whose elastic energy is a sum over its phyxels (nodal
+    /// integration: `mls`, `mls-implicit`): as [`Shape::sample_volume`], except that a box
+    /// keeps the lattice's count per axis but spreads its layers to integrate second
+    /// moments exactly ([`box_axis`]). The particle backends keep the lattice, on which
+    /// their models are defined (LJ's bonds, SPH's kernel density).
+    ///
+    /// # Panics
+    /// As [`Shape::sample_volume`].
+    pub fn sample_volume_nodal(&self, spacing: f32) -> VolumeSample {
+        if let Shape::Box { size } = *self {
+            check_spacing(spacing);
+            return VolumeSample {
+                positions: box_phyxels(size.map(|s| fitted_count(0.5 * s, spacing)), size),
+                cell_volume: spacing.powi(3),
+            };
+        }
+        self.sample_volume(spacing)
+    }
+
     /// Phyxels: the cell centres of a simple cubic lattice at `spacing` that lie inside
-    /// (sdf < 0), in z, then y, then x order. A box keeps the lattice's count per axis but
-    /// spreads its layers to integrate second moments exactly ([`box_axis`]).
+    /// (sdf < 0), in z, then y, then x order.
     ///
     /// The lattice is symmetric about the origin and, per axis, has as many points as fit
     /// strictly inside the bounding box, so a box whose size is a multiple of `spacing` is
@@ -331,12 +349,6 @@ impl Shape {
             };
         }
         let half = self.half_extents().to_array();
-        if let Shape::Box { size } = *self {
-            return VolumeSample {
-                positions: box_phyxels(size.map(|s| fitted_count(0.5 * s, spacing)), size),
-                cell_volume,
-            };
-        }
         let fitted = self.lattice_inside(half.map(|h| fitted_count(h, spacing)), spacing);
         let positions = if fitted.is_empty() {
             let through_origin = half.map(|h| 2 * (h / spacing).floor() as usize + 1);
