@@ -14,7 +14,7 @@ METHODS = {"becker2009": (1, "Becker et al. 2009"), "peer2018": (2, "Peer et al.
 
 # ---- case definitions (must match phyxel's benches) ----
 RHO, NU = 1000.0, 0.3
-BAR_L, BAR_T, CLAMP_X = 1.0, 0.1, -0.45        # bar 1.0 x 0.1 x 0.1, fixed where x < -0.45
+BAR_L, BAR_T, CLAMP_X = 1.0, 0.1, -0.45        # bar 1.0 x 0.1 x 0.1, fixed where x <= -0.45
 BAR_E, G = 1e8, 9.81
 BALL_R, BALL_E, BALL_V, GAP = 0.1, 1e6, 0.5, 0.03  # src/lib.rs, mod ball
 
@@ -73,7 +73,9 @@ def build_scene(spec, tmp):
         # WCSPH with zero stiffness = no pressure forces, as in SPlisHSPlasH's own Beam.json:
         # the elastic solver alone carries the load (no boundaries in this scene)
         conf.update(gravitation=[0, -G, 0], simulationMethod=0, WCSPH={"stiffness": 0.0, "exponent": 1.0})
-        elastic.update(fixedBoxMin=[-1.0, -1.0, -1.0], fixedBoxMax=[CLAMP_X, 1.0, 1.0])
+        # bounds included, as phyxel's `fixed` box and Rapier's pins: at an odd count through
+        # the thickness a particle layer lies on the clamp's face x = -0.45
+        elastic.update(fixedBoxMin=[-1.0, -1.0, -1.0], fixedBoxMax=[CLAMP_X + 1e-4, 1.0, 1.0])
     else:
         n = spec["res"]
         c = lattice(2 * n, d)
@@ -229,15 +231,19 @@ def main():
                     "(velocity-based: 2-5 ms on these solids, +275%% / -84%% on the cantilever)")
     ap.add_argument("--gap", type=float, default=GAP, help="ball-impact: initial gap (m); SPlisHSPlasH's "
                     "boundary already acts within the kernel support 2*spacing")
+    ap.add_argument("--res", help="only these resolutions (comma-separated), e.g. 5,7")
     ap.add_argument("--timeout", type=float, default=1800, help="per run, seconds")
     ap.add_argument("--verbose", action="store_true", help="pass SPlisHSPlasH's log to stderr")
     ap.add_argument("--child", help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.child:
         return child(json.loads(a.child))
-    resolutions = {"cantilever": [4, 6, 8], "ball-impact": [8, 12, 16]}
+    resolutions = {"cantilever": [3, 4, 5, 6, 7, 8, 9], "ball-impact": [8, 12, 16]}
     for case in a.cases.split(","):
-        for res in resolutions[case][:1] if a.quick else resolutions[case]:
+        todo = resolutions[case][:1] if a.quick else resolutions[case]
+        if a.res:
+            todo = [r for r in todo if str(r) in a.res.split(",")]
+        for res in todo:
             for method in a.methods.split(","):
                 for dt in a.dts.split(","):
                     for th in a.threads.split(","):
