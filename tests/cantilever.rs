@@ -8,7 +8,7 @@ use phyxel::scene::{BuildOptions, Scene};
 /// 1/70, 1/90 m: odd counts put a phyxel layer on the clamp's face, so the clamp holds
 /// the bar where the reference does). What remains: shear, which Euler–Bernoulli omits
 /// (+1.1% by Timoshenko), the MLS fit's error near the clamp and the free end, and the
-/// discrete time average. Measured +2.2%, +1.0%, +0.5% (static sag of `mls-implicit`).
+/// discrete time average. Measured +2.5%, +1.3%, +0.7%.
 #[test]
 fn tip_deflection_converges_to_euler_bernoulli() {
     // Euler–Bernoulli `qL⁴/(8EI)` from the scene's bar: L = 0.95 m free length,

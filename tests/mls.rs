@@ -606,6 +606,8 @@ fn paper_strain_form_gives_its_hooke_law() {
 /// the quadrature of `y²` across the thickness: the cell centres' midpoint rule would
 /// keep `1 − 1/n²` of it (−6.25% at 4 through). Tolerance 2e-3 (κ = 0.02 /m: strains up
 /// to 1e-3, whose Green-strain terms are of order 1e-3 of the energy; f32 positions).
+/// The same sum gives the rotational inertia about the long axis: within 1e-5 of the
+/// solid box's `M t²/6`.
 #[test]
 fn box_bending_energy_is_exact() {
     let mat = Material {
@@ -619,6 +621,20 @@ fn box_bending_energy_is_exact() {
         let spacing = t / n as f32;
         let v = Shape::Box { size: [l, t, t] }.sample_volume_nodal(spacing);
         let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density);
+        // The rotational inertia about the long axis, `Σ m (y² + z²)`, is the same
+        // quadrature: exact against a solid box's `M (t² + t²)/12`.
+        let inertia: f64 = (0..p.len())
+            .map(|i| {
+                let x = p.rest.get(i).as_dvec3();
+                p.mass[i] as f64 * (x.y * x.y + x.z * x.z)
+            })
+            .sum();
+        let total: f64 = p.mass.iter().map(|&m| m as f64).sum();
+        let solid = total * 2.0 * (t as f64).powi(2) / 12.0;
+        assert!(
+            (inertia / solid - 1.0).abs() < 1e-5,
+            "{n} through: rotational inertia {inertia:e} against {solid:e} kg m²"
+        );
         let mut m = MlsDynamics::new(&p, &mat);
         deform(&mut p, |x| {
             let (x, y, z) = (x.x as f64, x.y as f64, x.z as f64);

@@ -219,9 +219,9 @@ pub fn cantilever_at(
 /// Cantilever rows (3, 5, 7 phyxels through the thickness in quick mode; 5, 7, 9 in
 /// full mode: odd counts put a layer of phyxels on the clamp's face at x = −0.45 m, so
 /// the bar is held where Euler–Bernoulli's is; at even counts the face falls between
-/// layers and the bar is held half a spacing deeper, +5% sag at 4 through): deflection and frequency within [`cantilever_tolerance`] at every
-/// resolution (MLS: 15% and 10%), both converging (docs/ACCURACY.md explains the
-/// O(spacing) error sources).
+/// layers and the bar is held half a spacing deeper, +5% sag at 4 through): deflection
+/// and frequency within [`cantilever_tolerance`] at every resolution (MLS: 5% and 5%),
+/// both converging (docs/ACCURACY.md, "Cantilever", explains the error sources).
 pub fn case_cantilever(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     let spacings: &[f32] = if quick {
         &[1.0 / 30.0, 0.02, 1.0 / 70.0]
@@ -262,8 +262,7 @@ pub const IMPLICIT_DTS: [f32; 3] = [1.0 / 240.0, 1.0 / 120.0, 1.0 / 60.0];
 
 /// The implicit backend's cantilever at 4 phyxels through the thickness and the steps
 /// of [`IMPLICIT_DTS`] (the first half period, as the quick suite measures). The
-/// deflection keeps its reference and tolerance: a step's size does not move the static
-/// shape. The frequency's reference is backward Euler's own: an oscillator of angular
+/// deflection keeps its reference: a step's size does not move the static shape. The frequency's reference is backward Euler's own: an oscillator of angular
 /// frequency ω stepped at dt turns by `atan(ω dt)` per step, so the period stretches by
 /// `ω dt / atan(ω dt)` (11% at a 60th of a second for this beam); the row checks that
 /// the backend is that integrator on the MLS beam, within the same tolerance.
@@ -271,8 +270,10 @@ fn implicit_dt_rows(_quick: bool) -> Result<Vec<Row>, String> {
     let backend = crate::backends::mls::implicit::NAME;
     let scene = builtin("cantilever");
     let (d_ref, f_ref) = euler_bernoulli(&scene);
-    let (s, through) = (0.025, 4);
-    let (d_tol, f_tol) = cantilever_tolerance(backend, through);
+    // At 4 through the clamp's face lies between layers and the bar is held half a
+    // spacing deeper: its static sag is +5.8%, so these rows keep bounds of their own.
+    let s = 0.025;
+    let (d_tol, f_tol) = DT_ROW_TOLERANCES;
     let mut rows = Vec::new();
     for &dt in &IMPLICIT_DTS {
         let (d, period, info) = cantilever_at(s, 0, backend, Some(dt))?;
@@ -297,11 +298,15 @@ fn implicit_dt_rows(_quick: bool) -> Result<Vec<Row>, String> {
     Ok(rows)
 }
 
+/// Tolerances `(deflection, frequency)` of the `cantilever-dt-*` rows (4 through the
+/// thickness: measured +3.8 to +5.3% and −1.7 to +5.2%).
+pub const DT_ROW_TOLERANCES: (f64, f64) = (0.15, 0.10);
+
 /// Tolerance of `cantilever-dt-damping` (relative error of the decrement per period):
 /// the decrement `π ln(1 + x²)/atan x` grows as `x = ω dt` to first order, and the MLS
-/// bar's first mode is 7% off Euler–Bernoulli's ω at 4 phyxels through the thickness
-/// (`cantilever-frequency`), plus the extrema's interpolation between samples (six per
-/// half period at 1/60 s): 15%.
+/// bar's first mode is off Euler–Bernoulli's ω at 4 phyxels through the thickness (about
+/// −3%: its static sag is +5.8%, the clamp held half a spacing deep), plus the extrema's
+/// interpolation between samples (six per half period at 1/60 s): 15% (measured 7–8%).
 pub const DAMPING_TOLERANCE: f64 = 0.15;
 
 /// Backward Euler's damping of the built-in cantilever's first mode, undamped material,
