@@ -206,6 +206,7 @@ pub fn tolerance(case: &str, backend: &str, default: f64) -> f64 {
 /// | 6 | 4.9 / 3.3 | 32.9 / 13.9 |
 /// | 7 | 0.93 / 0.30 | 23.3 / 10.5 |
 /// | 8 | 0.84 / 1.3 | 23.3 / 10.5 |
+/// | 9 (full suite) | −2.4 (too stiff) / 0.38 | 17.7 / 8.4 |
 ///
 /// At 3 through (and LJ's frequency at 4) the one-per-backend bounds apply, SPH 40% /
 /// 20% and LJ 80% / 30%, where twice the error would be looser. An SPH shear modulus
@@ -216,7 +217,8 @@ pub fn cantilever_tolerance(backend: &str, through: u32) -> (f64, f64) {
         ("sph", ..=3) => (0.40, 0.20),
         ("sph", 4) => (0.30, 0.15),
         ("sph", 5..=6) => (0.10, 0.07),
-        ("sph", _) => (0.02, 0.03),
+        ("sph", 7..=8) => (0.02, 0.03),
+        ("sph", _) => (0.05, 0.03),
         ("lj", ..=3) => (0.80, 0.30),
         ("lj", 4) => (0.65, 0.30),
         ("lj", 5) => (0.45, 0.25),
