@@ -138,9 +138,9 @@ mod phyxel_engine {
     /// the half period is six samples, so that mean fell 6–8% below the static sag.
     const SWING_DT: f32 = 0.01;
 
-    /// The settled sag (m): the tip's mean deflection over the last 0.5 s of a 2 s run,
-    /// as Rapier's damped bar is read.
-    fn settled_sag(spacing: f32, backend: &str, dt: Option<f32>) -> f64 {
+    /// The built-in cantilever at phyxel and surfel spacing `spacing` on `backend` at `dt`
+    /// (`None`: its default).
+    fn cantilever_world(spacing: f32, backend: &str, dt: Option<f32>) -> phyxel::world::World {
         let mut scene = Scene::builtin("cantilever").expect("built in");
         scene.objects[0].spacing = spacing;
         scene.objects[0].surfel_spacing = Some(spacing);
@@ -149,7 +149,13 @@ mod phyxel_engine {
             backend: Some(backend.into()),
             ..Default::default()
         };
-        let mut w = scene.build(&opts).unwrap_or_else(|e| panic!("{e}"));
+        scene.build(&opts).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// The settled sag (m): the tip's mean deflection over the last 0.5 s of a 2 s run,
+    /// as Rapier's damped bar is read.
+    fn settled_sag(spacing: f32, backend: &str, dt: Option<f32>) -> f64 {
+        let mut w = cantilever_world(spacing, backend, dt);
         let p = &w.objects[0].phyxels;
         let x_max = (0..p.len()).map(|i| p.rest.x[i]).fold(f32::MIN, f32::max);
         let tip: Vec<usize> = (0..p.len())
@@ -176,15 +182,7 @@ mod phyxel_engine {
     /// first maximum, a few steps at a frame): `(simulated s, wall s)` over 0.2 s after
     /// an untimed first step, as every engine here is timed.
     fn steady_cantilever(spacing: f32, backend: &str, dt: Option<f32>) -> (f64, f64) {
-        let mut scene = Scene::builtin("cantilever").expect("built in");
-        scene.objects[0].spacing = spacing;
-        scene.objects[0].surfel_spacing = Some(spacing);
-        let opts = BuildOptions {
-            dt,
-            backend: Some(backend.into()),
-            ..Default::default()
-        };
-        let mut w = scene.build(&opts).unwrap_or_else(|e| panic!("{e}"));
+        let mut w = cantilever_world(spacing, backend, dt);
         w.step();
         let steps = (0.2 / w.dt as f64).ceil() as usize;
         let t = Instant::now();
