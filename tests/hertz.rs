@@ -33,9 +33,10 @@ fn finite(r: &HertzRun) -> bool {
 /// R = 0.05 m, E = 1e7 Pa (load 4.9 N and 124 N).
 ///
 /// References:
-/// - Newton: averaged over the last third of the run, the sphere is at rest, so the
-///   contact carries the load: within 5% (the target for force balance;
-///   measured 1.0% and 0.3%).
+/// - Newton: over the run's last 0.3 s (scaled) the sphere is at rest, so the contact
+///   carries the load: the force swings by less than 1% of the load over that window
+///   (it swung ±30% before the harness settled the bounce) and its mean is the load
+///   within 1% (measured 0.00%).
 /// - Similarity of linear elastostatics: with lengths in R, stresses in E and the
 ///   engine's contact constants dimensionless (penalty stiffness `κE*/h`, surfel spacing
 ///   `h/5`), both cases must show the same relative patch radius, central pressure and
@@ -66,7 +67,12 @@ fn a_pressed_sphere_carries_its_load_and_scales_with_r_and_e() {
         );
         assert!(finite(r), "{r:?}");
         assert!(
-            (r.contact_force / r.load - 1.0).abs() < 0.05,
+            r.force_swing < 0.01,
+            "not at rest: the contact force swings by {:.1}% of the load",
+            100.0 * r.force_swing
+        );
+        assert!(
+            (r.contact_force / r.load - 1.0).abs() < 0.01,
             "force balance: {} N carried of {} N",
             r.contact_force,
             r.load
@@ -103,11 +109,11 @@ fn a_pressed_sphere_carries_its_load_and_scales_with_r_and_e() {
 #[test]
 #[ignore]
 fn hertz_study() {
-    println!("| R (m) | E (Pa) | ν | per R | load (N) | force | a | p₀ | profile RMS |");
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("| R (m) | E (Pa) | ν | per R | load (N) | force | a | p₀ | profile RMS | swing |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     let row = |c: &HertzCase, r: &HertzRun| {
         println!(
-            "| {} | {:.0e} | {} | {} | {:.4} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} |",
+            "| {} | {:.0e} | {} | {} | {:.4} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} | {:.1e} |",
             c.radius,
             c.young,
             c.poisson,
@@ -116,7 +122,8 @@ fn hertz_study() {
             100.0 * (r.contact_force / r.load - 1.0),
             100.0 * (r.radius / r.hertz_radius - 1.0),
             100.0 * (r.pressure / r.hertz_pressure - 1.0),
-            r.profile_rms
+            r.profile_rms,
+            r.force_swing
         );
         assert!(finite(r) && (r.contact_force / r.load - 1.0).abs() < 0.05);
     };
@@ -193,12 +200,12 @@ fn hertz_paper_preset() {
 #[test]
 #[ignore]
 fn hertz_sources() {
-    println!("| ν | per R | κ | force | a | p₀ | profile RMS | steps/s |");
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("| ν | per R | κ | force | a | p₀ | profile RMS | swing | steps/s |");
+    println!("|---|---|---|---|---|---|---|---|---|");
     let row = |c: &HertzCase| {
         let r = hertz_plane(c, load_for(c, 0.15), "mls").unwrap();
         println!(
-            "| {} | {} | {} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} | {:.0} |",
+            "| {} | {} | {} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} | {:.1e} | {:.0} |",
             c.poisson,
             c.per_radius,
             c.contact_stiffness
@@ -207,6 +214,7 @@ fn hertz_sources() {
             100.0 * (r.radius / r.hertz_radius - 1.0),
             100.0 * (r.pressure / r.hertz_pressure - 1.0),
             r.profile_rms,
+            r.force_swing,
             1.0 / r.info.seconds_per_step
         );
         assert!(finite(&r));

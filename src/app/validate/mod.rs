@@ -240,6 +240,16 @@ pub struct RunInfo {
 /// Steps `world` while timing the steps; `observe` sees the world after each step and
 /// returns false to stop.
 fn timed(world: &mut World, max_steps: usize, mut observe: impl FnMut(&World) -> bool) -> RunInfo {
+    timed_mut(world, max_steps, |w| observe(w))
+}
+
+/// [`timed`], with the observer allowed to change the world between steps (outside the
+/// timing).
+fn timed_mut(
+    world: &mut World,
+    max_steps: usize,
+    mut observe: impl FnMut(&mut World) -> bool,
+) -> RunInfo {
     let mut wall = 0.0;
     let mut steps = 0;
     for _ in 0..max_steps {
