@@ -63,24 +63,13 @@ fn static_sag_at_every_count_through() {
             ..Default::default()
         };
         let mut w = scene.build(&opts).unwrap();
-        let p = &w.objects[0].phyxels;
-        let x_max = (0..p.len()).map(|i| p.rest.x[i]).fold(f32::MIN, f32::max);
-        let tip: Vec<usize> = (0..p.len())
-            .filter(|&i| p.rest.x[i] > x_max - 0.5 * s)
-            .collect();
-        let sag = |w: &phyxel::world::World| {
-            let p = &w.objects[0].phyxels;
-            tip.iter()
-                .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
-                .sum::<f64>()
-                / tip.len() as f64
-        };
+        let tip = validate::CantileverTip::of(&w, s);
         let mut last = 0.0;
         for _ in 0..40 {
-            last = sag(&w);
+            last = tip.deflection(&w);
             w.step();
         }
-        let d = sag(&w);
+        let d = tip.deflection(&w);
         assert!(
             (d - last).abs() < 1e-5 * d,
             "{through} through: not static ({last} → {d} m)"

@@ -156,23 +156,14 @@ mod phyxel_engine {
     /// as Rapier's damped bar is read.
     fn settled_sag(spacing: f32, backend: &str, dt: Option<f32>) -> f64 {
         let mut w = cantilever_world(spacing, backend, dt);
-        let p = &w.objects[0].phyxels;
-        let x_max = (0..p.len()).map(|i| p.rest.x[i]).fold(f32::MIN, f32::max);
-        let tip: Vec<usize> = (0..p.len())
-            .filter(|&i| p.rest.x[i] > x_max - 0.5 * spacing)
-            .collect();
+        let tip = phyxel::validate::CantileverTip::of(&w, spacing);
         let steps = (2.0 / w.dt as f64).round() as usize;
         let last = (0.5 / w.dt as f64).round() as usize;
         let mut sum = 0.0;
         for k in 0..steps {
             w.step();
             if k >= steps - last {
-                let p = &w.objects[0].phyxels;
-                sum += tip
-                    .iter()
-                    .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
-                    .sum::<f64>()
-                    / tip.len() as f64;
+                sum += tip.deflection(&w);
             }
         }
         sum / last as f64

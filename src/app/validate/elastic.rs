@@ -124,14 +124,45 @@ fn cantilever_scene(spacing: f32, undamped: bool) -> Scene {
     scene
 }
 
+/// The free end of a cantilever (object 0, along +x, sagging along −y): the phyxels
+/// within half a spacing of its largest rest x. Its deflection is what the validation,
+/// the static test and the peers bench read.
+#[derive(Clone, Debug)]
+pub struct CantileverTip(Vec<usize>);
+
+impl CantileverTip {
+    /// The tip of `world`'s bar at phyxel `spacing` (m).
+    pub fn of(world: &World, spacing: f32) -> Self {
+        let bar = &world.objects[0].phyxels;
+        let x_max = (0..bar.len())
+            .map(|i| bar.rest.x[i])
+            .fold(f32::MIN, f32::max);
+        Self(
+            (0..bar.len())
+                .filter(|&i| bar.rest.x[i] > x_max - 0.5 * spacing)
+                .collect(),
+        )
+    }
+
+    /// Mean downward displacement of the tip's phyxels from rest (m).
+    pub fn deflection(&self, w: &World) -> f64 {
+        let p = &w.objects[0].phyxels;
+        self.0
+            .iter()
+            .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
+            .sum::<f64>()
+            / self.0.len() as f64
+    }
+}
+
 /// The cantilever's world on `backend` at `dt` (`None`: the scene's default), and its
-/// tip phyxels (within half a spacing of the free end).
+/// tip.
 fn cantilever_world(
     scene: &Scene,
     spacing: f32,
     backend: &str,
     dt: Option<f32>,
-) -> Result<(World, Vec<usize>), String> {
+) -> Result<(World, CantileverTip), String> {
     let world = build(
         scene,
         &BuildOptions {
@@ -139,23 +170,8 @@ fn cantilever_world(
             ..opts(backend)
         },
     )?;
-    let bar = &world.objects[0].phyxels;
-    let x_max = (0..bar.len())
-        .map(|i| bar.rest.x[i])
-        .fold(f32::MIN, f32::max);
-    let tip = (0..bar.len())
-        .filter(|&i| bar.rest.x[i] > x_max - 0.5 * spacing)
-        .collect();
+    let tip = CantileverTip::of(&world, spacing);
     Ok((world, tip))
-}
-
-/// Mean downward displacement of the `tip` phyxels (m).
-fn tip_deflection(w: &World, tip: &[usize]) -> f64 {
-    let p = &w.objects[0].phyxels;
-    tip.iter()
-        .map(|&i| (p.rest.y[i] - p.pos.y[i]) as f64)
-        .sum::<f64>()
-        / tip.len() as f64
 }
 
 /// [`cantilever`] at time step `dt` (s; `None`: the scene's default).
@@ -174,7 +190,7 @@ pub fn cantilever_at(
     let mut maxima: Vec<usize> = Vec::new();
     let mut finite = true;
     let info = timed(&mut world, 200_000, |w| {
-        let d = tip_deflection(w, &tip);
+        let d = tip.deflection(w);
         finite = d.is_finite();
         series.push(d);
         let k = series.len();
@@ -325,7 +341,7 @@ pub fn cantilever_damping(dt: f32) -> Result<(f64, RunInfo), String> {
     let mut series = vec![0.0f64];
     let steps = (1.5 * period / dt as f64).ceil() as usize;
     let info = timed(&mut world, steps, |w| {
-        let d = tip_deflection(w, &tip);
+        let d = tip.deflection(w);
         series.push(d);
         d.is_finite()
     });
