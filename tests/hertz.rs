@@ -100,7 +100,7 @@ fn a_pressed_sphere_carries_its_load_and_scales_with_r_and_e() {
     }
 }
 
-/// The study behind docs/ACCURACY.md's Hertz table (about 15 minutes on two cores):
+/// The study behind docs/ACCURACY.md's Hertz table (minutes on two cores):
 /// `cargo test --release --test hertz -- --ignored --nocapture`. Every (R, E, ν) of the
 /// issue's matrix at 8 phyxels per radius (load for a = 0.15 R), then R = 0.1 m,
 /// E = 1e5 Pa at 8, 12 and 16 phyxels per radius and ν = 0.25, 0.4 with three loads
@@ -186,14 +186,16 @@ fn hertz_paper_preset() {
 }
 
 /// Where the patch's error comes from (docs/ACCURACY.md, "Hertz on a rigid plane"):
-/// `cargo test --release --test hertz -- --ignored --nocapture hertz_sources` (about
-/// 35 minutes on two cores). R = 0.1 m, E = 1e5 Pa, load for `a = 0.15 R`:
+/// `cargo test --release --test hertz -- --ignored --nocapture hertz_sources` (the
+/// longest part of the study). R = 0.1 m, E = 1e5 Pa, load for `a = 0.15 R`:
 /// - resolution: ν = 0.25 and 0.4 at 24 phyxels per radius (58,000 phyxels), and
-///   ν = 0.25 at 32 (140,000), beside the study's 8, 12 and 16;
+///   ν = 0.25 at 32 (140,000), beside the study's 8, 12 and 16; and the approach fit
+///   at 24 (ν = 0.25, three loads);
 /// - the penalty layer: `contact_stiffness` κ = 4 (default), 16 and 64 at 8, 12 and 16
 ///   per radius, ν = 0.25. The spring's overlap under Hertz's pressure is
 ///   `4h/(πκa)` of Hertz's approach (26% at 8 per radius and κ = 4), a Winkler layer in
-///   series with the sphere that flattens the patch.
+///   series with the sphere that flattens the patch (`benches/hertz/winkler.py` gives
+///   what that layer alone does to Hertz's contact).
 ///
 /// Asserts only finite results, and force balance within 5% at the default κ; the
 /// errors are what it reports.
@@ -231,4 +233,23 @@ fn hertz_sources() {
     for (poisson, per) in [(0.25, 24.0), (0.4, 24.0), (0.25, 32.0)] {
         row(&case(0.1, 1.0e5, poisson, per));
     }
+    // The approach at 24 per radius, as the study's fit at 8 to 16.
+    let c = case(0.1, 1.0e5, 0.25, 24.0);
+    let runs: Vec<HertzRun> = [0.12, 0.15, 0.19]
+        .iter()
+        .map(|&q| hertz_plane(&c, load_for(&c, q), "mls").unwrap())
+        .collect();
+    assert!(runs.iter().all(finite));
+    let (coef, b) = approach_fit(&runs);
+    println!(
+        "\n24 per R, ν 0.25: approach c {:+.1}% of Hertz's, b {b:.3e} m/N; a at 0.12 / 0.15 / \
+         0.19 R {:+.1} / {:+.1} / {:+.1}%, p₀ {:+.1} / {:+.1} / {:+.1}%",
+        100.0 * (coef / hertz_approach_coefficient(&c) - 1.0),
+        100.0 * (runs[0].radius / runs[0].hertz_radius - 1.0),
+        100.0 * (runs[1].radius / runs[1].hertz_radius - 1.0),
+        100.0 * (runs[2].radius / runs[2].hertz_radius - 1.0),
+        100.0 * (runs[0].pressure / runs[0].hertz_pressure - 1.0),
+        100.0 * (runs[1].pressure / runs[1].hertz_pressure - 1.0),
+        100.0 * (runs[2].pressure / runs[2].hertz_pressure - 1.0),
+    );
 }

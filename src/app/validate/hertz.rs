@@ -13,10 +13,10 @@
 //! each step it scales the sphere's phyxel velocities by `e^{−α dt}`, a drag `α = 1.4 ω`
 //! on the bounce of the sphere's mass m on Hertz's contact stiffness `2E*a`
 //! (`ω² = 2E*a/m`). A drag does no work on a body at rest, so it leaves that state as it
-//! is. The contact dashpot cannot do this: it acts on the overlap's rate, which is the
-//! penalty layer's share of the approach (a few to 26%), so it damped the bounce at a
-//! damping ratio of about 0.005, and the contact force swung ±30% about the load for
-//! the whole run. [`HertzRun::force_swing`] reports what is left.
+//! is. The contact dashpot does not settle it: it acts on the overlap's rate, which is
+//! the penalty layer's share of the approach (a few to 26%), so it damps the bounce at a
+//! damping ratio of about 0.005, and without the drag the contact force swings ±30%
+//! about the load through the run. [`HertzRun::force_swing`] reports what is left.
 //! References, with `a ≪ R`:
 //! - force balance: at rest the contact carries the load, `Σ f_n = F`;
 //! - patch radius `a = (3FR/(4E*))^{1/3}`, measured from the second moment of the normal
