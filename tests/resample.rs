@@ -184,3 +184,43 @@ fn forces_on_the_resampled_surface_balance_and_conserve() {
     println!("newtons-cradle: the last sphere carries {last:.4} of the momentum");
     assert!(last > 0.8, "{last}");
 }
+
+/// docs/ACCURACY.md's "Resampling Φ" table: the sphere on a rigid plane
+/// (`validate::hertz_plane`, ν = 0.3, a = 0.15 R) at 8 and 12 phyxels per radius with
+/// the forces on the contact surfels (default) and on the resampled Φ, at rest:
+/// `cargo test --release --test resample -- --ignored --nocapture`. Asserts force
+/// balance within 1% (Newton); the errors are what it reports.
+#[test]
+#[ignore]
+fn resampled_forces_on_hertz() {
+    use phyxel::validate::{HertzCase, hertz_plane, load_for};
+    println!("| per R | forces on | force | a | p₀ | profile RMS | s/step |");
+    println!("|---|---|---|---|---|---|---|");
+    for per_radius in [8.0, 12.0] {
+        for resampled_forces in [false, true] {
+            let case = HertzCase {
+                radius: 0.1,
+                young: 1.0e5,
+                poisson: 0.3,
+                per_radius,
+                resampled_forces,
+                contact_stiffness: None,
+            };
+            let r = hertz_plane(&case, load_for(&case, 0.15), "mls").unwrap();
+            println!(
+                "| {per_radius} | {} | {:+.1}% | {:+.1}% | {:+.1}% | {:.3} | {:.1e} |",
+                if resampled_forces {
+                    "resampled Φ"
+                } else {
+                    "contact surfels"
+                },
+                100.0 * (r.contact_force / r.load - 1.0),
+                100.0 * (r.radius / r.hertz_radius - 1.0),
+                100.0 * (r.pressure / r.hertz_pressure - 1.0),
+                r.profile_rms,
+                r.info.seconds_per_step
+            );
+            assert!((r.contact_force / r.load - 1.0).abs() < 0.01);
+        }
+    }
+}
