@@ -35,8 +35,8 @@ fn finite(r: &HertzRun) -> bool {
 /// References:
 /// - Newton: over the run's last 0.3 s (scaled) the sphere is at rest, so the contact
 ///   carries the load: the force swings by less than 1% of the load over that window
-///   (it swung ±30% before the harness settled the bounce) and its mean is the load
-///   within 1% (measured 0.00%).
+///   (unsettled, the sphere's bounce swings it ±30%) and its mean is the load within 1%
+///   (measured 0.00%).
 /// - Similarity of linear elastostatics: with lengths in R, stresses in E and the
 ///   engine's contact constants dimensionless (penalty stiffness `κE*/h`, surfel spacing
 ///   `h/5`), both cases must show the same relative patch radius, central pressure and
@@ -100,7 +100,7 @@ fn a_pressed_sphere_carries_its_load_and_scales_with_r_and_e() {
     }
 }
 
-/// The study behind docs/ACCURACY.md's Hertz table (minutes on two cores):
+/// The study behind docs/ACCURACY.md's Hertz table (19 minutes on two cores):
 /// `cargo test --release --test hertz -- --ignored --nocapture`. Every (R, E, ν) of the
 /// issue's matrix at 8, 12 and 16 phyxels per radius (load for a = 0.15 R), then R = 0.1 m,
 /// E = 1e5 Pa at 8, 12 and 16 phyxels per radius and ν = 0.25, 0.4 with three loads
