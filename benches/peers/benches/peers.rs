@@ -98,9 +98,8 @@ mod phyxel_engine {
 
     /// phyxel's own cantilever measurement (`phyxel validate`'s quick rows): the mean tip
     /// deflection from rest to the first maximum (settled, at frame-rate steps:
-    /// [`settled_sag`]), at 3 to 9 phyxels through the
-    /// thickness (at odd counts a layer lies on the clamp's face; at even counts the bar
-    /// is held half a spacing deeper).
+    /// [`settled_sag`]), at 3 to 9 phyxels through the thickness (at odd counts a layer
+    /// lies on the clamp's face; at even counts the bar is held half a spacing deeper).
     pub fn cantilever(quick: bool) -> Vec<Record> {
         let mut out = Vec::new();
         for through in resolutions(&[3u32, 4, 5, 6, 7, 8, 9], quick) {

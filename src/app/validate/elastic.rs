@@ -278,7 +278,8 @@ pub const IMPLICIT_DTS: [f32; 3] = [1.0 / 240.0, 1.0 / 120.0, 1.0 / 60.0];
 
 /// The implicit backend's cantilever at 4 phyxels through the thickness and the steps
 /// of [`IMPLICIT_DTS`] (the first half period, as the quick suite measures). The
-/// deflection keeps its reference: a step's size does not move the static shape. The frequency's reference is backward Euler's own: an oscillator of angular
+/// deflection keeps its reference: a step's size does not move the static shape. The
+/// frequency's reference is backward Euler's own: an oscillator of angular
 /// frequency ω stepped at dt turns by `atan(ω dt)` per step, so the period stretches by
 /// `ω dt / atan(ω dt)` (11% at a 60th of a second for this beam); the row checks that
 /// the backend is that integrator on the MLS beam, within the same tolerance.
