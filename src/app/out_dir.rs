@@ -74,6 +74,66 @@ pub fn prepare(dir: &Path, overwrite: bool) -> Result<(), String> {
     Ok(())
 }
 
+/// Checks an output file of a run beside its frames (`--contacts`, `--flamegraph`)
+/// before anything is written: it may not be a directory or a special file
+/// ([`crate::io::atomic::check_output`]), the same file as one of `inputs` (the scene
+/// file, its meshes), the same as another of the run's outputs (`others`), or a name
+/// inside the frames' folder `out` that the run writes or `--overwrite` removes
+/// ([`is_run_file`]), or that folder itself. The message names no option; the caller
+/// prefixes it.
+pub fn check_side_output(
+    path: &Path,
+    out: Option<&Path>,
+    inputs: &[&Path],
+    others: &[&Path],
+) -> Result<(), String> {
+    crate::io::atomic::check_output(path)?;
+    let same = |a: &Path, b: &Path| same_file(a, b);
+    if let Some(input) = inputs.iter().find(|i| same(path, i)) {
+        return Err(format!(
+            "is the input {}: give another path for the output",
+            input.display()
+        ));
+    }
+    if let Some(other) = others.iter().find(|o| same(path, o)) {
+        return Err(format!(
+            "is also the output {}: give each output its own path",
+            other.display()
+        ));
+    }
+    if let Some(out) = out {
+        if same(path, out) {
+            return Err("is the --out folder: give a file path".to_string());
+        }
+        let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
+        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+        if same(parent.unwrap_or(Path::new(".")), out) && is_run_file(name) {
+            return Err(format!(
+                "is a frame or manifest name inside the --out folder {} (the run writes \
+                 or removes it): give a path outside it or another name",
+                out.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` name one file: both exist and canonicalise alike, or neither
+/// exists and their parents do with the same file name.
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+        (Ok(x), Ok(y)) => x == y,
+        (Err(_), Err(_)) => {
+            let parent = |p: &Path| {
+                let d = p.parent().filter(|d| !d.as_os_str().is_empty());
+                std::fs::canonicalize(d.unwrap_or(Path::new("."))).ok()
+            };
+            a.file_name() == b.file_name() && parent(a).is_some() && parent(a) == parent(b)
+        }
+        _ => false,
+    }
+}
+
 /// Creates the output directory `dir` (and its parents). A path that exists as a file
 /// is said to be one: `create_dir_all` reported "File exists", as if the trouble were
 /// that something was there at all.

@@ -257,11 +257,11 @@ pub fn run(
         SceneError(format!("--contacts {}: {e}", path.display()))
     };
     let mut contacts = match &opts.contacts {
-        // Streamed (it can be followed during the run), so not an AtomicFile.
+        // Streamed (it can be followed during the run): renamed into place at once.
         Some(path) => Some((
-            std::io::BufWriter::new(
-                std::fs::File::create(path).map_err(|e| contacts_err(path, e))?,
-            ),
+            crate::io::atomic::AtomicFile::create(path)
+                .and_then(|f| f.into_stream())
+                .map_err(|e| contacts_err(path, e))?,
             path,
         )),
         None => None,

@@ -1,14 +1,15 @@
 //! `run --flamegraph`: the sampling profiler, its SVG, and the frames of most own time.
 
+use phyxel::io::atomic::AtomicFile;
 use std::path::Path;
 
 /// A sampling profiler (timer signal, so no perf permissions are needed) and the file
-/// its flamegraph goes to, created before the run so that a bad path fails at once,
-/// not after the whole run.
+/// its flamegraph goes to, started (as a hidden temporary, [`AtomicFile`]) before the
+/// run so that a bad path fails at once, not after the whole run.
 pub(crate) fn start_profiler(
     path: &Path,
-) -> Result<(pprof::ProfilerGuard<'static>, std::fs::File), String> {
-    let file = std::fs::File::create(path).map_err(|e| e.to_string())?;
+) -> Result<(pprof::ProfilerGuard<'static>, AtomicFile), String> {
+    let file = AtomicFile::create(path).map_err(|e| e.to_string())?;
     let guard = pprof::ProfilerGuardBuilder::default()
         .frequency(997)
         .blocklist(&["libc", "libgcc", "pthread", "vdso"])
@@ -28,7 +29,7 @@ pub(crate) const TOP_FRAMES: usize = 5;
 /// errors, so a full disk (or `/dev/full`) panicked inside it.
 pub(crate) fn write_flamegraph(
     guard: &pprof::ProfilerGuard<'_>,
-    mut file: std::fs::File,
+    mut file: AtomicFile,
 ) -> Result<Option<OwnTime>, String> {
     use std::io::Write;
     let report = guard.report().build().map_err(|e| e.to_string())?;
@@ -38,7 +39,7 @@ pub(crate) fn write_flamegraph(
     let mut svg = Vec::new();
     report.flamegraph(&mut svg).map_err(|e| e.to_string())?;
     file.write_all(&svg)
-        .and_then(|()| file.flush())
+        .and_then(|()| file.commit())
         .map_err(|e| format!("cannot write the flamegraph: {e}"))?;
     // The innermost symbol of a stack (inlined callees first) is the flamegraph's leaf.
     let leaves = report.data.iter().map(|(stack, &n)| {

@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::profile::{start_profiler, write_flamegraph};
 
+use phyxel::app::out_dir;
 pub(crate) use phyxel::app::out_dir::make_dir;
 
 /// A flag that the first Ctrl-C sets (the run then stops after the step in flight and
@@ -60,6 +61,10 @@ pub(crate) fn run_scene(
     let Some((scene, file_prefix)) = resolve_scene(arg) else {
         return ExitCode::FAILURE;
     };
+    if let Err(e) = check_side_outputs(arg, &scene, opts, flamegraph) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
     let steps = opts.steps.unwrap_or(scene.steps);
     let opts = &RunOptions {
         interrupt: Some(on_ctrl_c()),
@@ -112,12 +117,8 @@ pub(crate) fn run_scene(
                 }
             }
             Ok(None) => {
-                // The file was created up front (to fail early on a bad path): remove it
-                // only if it is the empty regular file made then, never a device or a
-                // file that was there.
-                if std::fs::symlink_metadata(path).is_ok_and(|m| m.is_file() && m.len() == 0) {
-                    let _ = std::fs::remove_file(path);
-                }
+                // The temporary made up front is removed with its AtomicFile: a file
+                // that was there stays as it was.
                 eprintln!(
                     "warning: --flamegraph {}: no samples (the run was shorter than the \
                      profiler's 1 ms period); no file written: run more --steps",
@@ -254,6 +255,39 @@ pub(crate) fn print_table(s: &RunSummary) {
 /// The scene `arg` names (built-in or file) and the prefix for errors from building it:
 /// errors from a scene file name the scene, so the file is prefixed to name it too.
 /// `None` after printing the error.
+/// Refuses `--contacts` and `--flamegraph` paths that would overwrite an input, each
+/// other, or the frames' folder and its files ([`out_dir::check_side_output`]).
+fn check_side_outputs(
+    arg: &str,
+    scene: &Scene,
+    opts: &RunOptions,
+    flamegraph: Option<&Path>,
+) -> Result<(), String> {
+    let mut inputs: Vec<std::path::PathBuf> = Vec::new();
+    if Scene::builtin(arg).is_none() {
+        let file = Path::new(arg);
+        let base = file.parent().unwrap_or(Path::new(""));
+        inputs.push(file.to_path_buf());
+        for o in &scene.objects {
+            if let phyxel::body::shape::Shape::Mesh { path, .. } = &o.shape {
+                inputs.push(base.join(path));
+            }
+        }
+    }
+    let inputs: Vec<&Path> = inputs.iter().map(|p| p.as_path()).collect();
+    let outputs = [
+        ("--contacts", opts.contacts.as_deref()),
+        ("--flamegraph", flamegraph),
+    ];
+    for (k, (flag, path)) in outputs.iter().enumerate() {
+        let Some(path) = path else { continue };
+        let others: Vec<&Path> = outputs[..k].iter().filter_map(|o| o.1).collect();
+        out_dir::check_side_output(path, opts.out.as_deref(), &inputs, &others)
+            .map_err(|e| format!("{flag} {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
 pub(crate) fn resolve_scene(arg: &str) -> Option<(Scene, String)> {
     let file_prefix = if Scene::builtin(arg).is_some() {
         String::new()

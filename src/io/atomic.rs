@@ -6,11 +6,61 @@
 //! the destination when complete. So an interrupted run leaves no truncated frame under a
 //! frame's name, and a symbolic link planted where a frame goes is replaced, not
 //! followed: nothing is written outside the output folder.
+//!
+//! Every writer of the crate goes through [`AtomicFile`] (frames, renders, the manifest,
+//! the contacts stream, the flamegraph, Python's frames), so every output gets the same
+//! check ([`check_output`]): a destination that exists must be a regular file or a link;
+//! a device, FIFO, socket or directory is refused, before writing and again before the
+//! rename (which would otherwise replace `/dev/null` with a regular file).
 
 use std::fs::{File, OpenOptions};
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+
+/// Checks that an output may go to `dest`: it is absent, a regular file or a link (which
+/// the rename replaces, never follows). Anything else (a device, FIFO, socket or
+/// directory) is refused: the message says what it is, without the path (the caller
+/// names it).
+pub fn check_output(dest: &Path) -> Result<(), String> {
+    let meta = match std::fs::symlink_metadata(dest) {
+        Ok(m) => m,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        Err(e) => return Err(format!("cannot inspect the output path: {e}")),
+    };
+    let t = meta.file_type();
+    if t.is_file() || t.is_symlink() {
+        return Ok(());
+    }
+    let what = if t.is_dir() {
+        "a directory"
+    } else {
+        special_kind(&t)
+    };
+    Err(format!(
+        "{what}, not a regular file: outputs only create or replace regular files; give a \
+         file path"
+    ))
+}
+
+#[cfg(unix)]
+fn special_kind(t: &std::fs::FileType) -> &'static str {
+    use std::os::unix::fs::FileTypeExt;
+    if t.is_char_device() || t.is_block_device() {
+        "a device"
+    } else if t.is_fifo() {
+        "a FIFO"
+    } else if t.is_socket() {
+        "a socket"
+    } else {
+        "a special file"
+    }
+}
+
+#[cfg(not(unix))]
+fn special_kind(_: &std::fs::FileType) -> &'static str {
+    "a special file"
+}
 
 /// A file being written: [`Write`] into it, then [`AtomicFile::commit`]. Dropped
 /// without a commit, it removes what it wrote.
@@ -21,10 +71,13 @@ pub struct AtomicFile {
 }
 
 impl AtomicFile {
-    /// Starts `dest`'s replacement. The error names `dest`.
+    /// Starts `dest`'s replacement. The error names `dest`; a destination that
+    /// [`check_output`] refuses is an `InvalidInput` error.
     pub fn create(dest: &Path) -> std::io::Result<Self> {
         let named =
             |e: std::io::Error| std::io::Error::new(e.kind(), format!("{}: {e}", dest.display()));
+        check_output(dest)
+            .map_err(|e| named(std::io::Error::new(std::io::ErrorKind::InvalidInput, e)))?;
         let name = dest.file_name().ok_or_else(|| {
             named(std::io::Error::new(
                 std::io::ErrorKind::InvalidInput,
@@ -67,7 +120,30 @@ impl AtomicFile {
         // Closed before the rename. No fsync: the guard is against an interrupted
         // process, not a power cut, and a sync per frame would cost more than the frame.
         drop(file.into_inner().map_err(|e| named(e.into_error()))?);
-        std::fs::rename(&self.tmp, &self.dest).map_err(named)
+        self.rename_onto_dest()
+    }
+
+    /// Moves the file onto its destination now and goes on writing it there: a stream
+    /// (the contacts JSONL) that can be followed during the run, with the same refusals
+    /// and the same replacement of a link as a whole file. Flush it at its end.
+    pub fn into_stream(mut self) -> std::io::Result<BufWriter<File>> {
+        self.rename_onto_dest()?;
+        Ok(self.file.take().expect("not yet committed"))
+    }
+
+    fn rename_onto_dest(&mut self) -> std::io::Result<()> {
+        let named = |e: std::io::Error| {
+            std::io::Error::new(e.kind(), format!("{}: {e}", self.dest.display()))
+        };
+        // Checked again: something may have been made there while the file was written.
+        let renamed = check_output(&self.dest)
+            .map_err(|e| std::io::Error::new(std::io::ErrorKind::InvalidInput, e))
+            .and_then(|()| std::fs::rename(&self.tmp, &self.dest));
+        if renamed.is_err() {
+            let _ = std::fs::remove_file(&self.tmp);
+            self.file = None;
+        }
+        renamed.map_err(named)
     }
 }
 
@@ -124,6 +200,83 @@ mod tests {
         assert!(!std::fs::symlink_metadata(&dest).unwrap().is_symlink());
         assert_eq!(std::fs::read_to_string(&dest).unwrap(), "frame");
         assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// A device, a FIFO or a directory at the destination is refused and left as it
+    /// was; nothing is left beside it.
+    #[cfg(unix)]
+    #[test]
+    fn a_special_file_at_the_destination_is_refused() {
+        let d = dir("special");
+        let fifo = d.join("fifo");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let sub = d.join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        for dest in [fifo.as_path(), sub.as_path(), Path::new("/dev/null")] {
+            let e = write(dest, b"frame").err().expect("refused");
+            assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput, "{e}");
+            assert!(e.to_string().contains("not a regular file"), "{e}");
+        }
+        use std::os::unix::fs::FileTypeExt;
+        assert!(
+            std::fs::symlink_metadata(&fifo)
+                .unwrap()
+                .file_type()
+                .is_fifo()
+        );
+        assert!(
+            std::fs::symlink_metadata("/dev/null")
+                .unwrap()
+                .file_type()
+                .is_char_device()
+        );
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 2);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// A FIFO made at the destination while the file is written is refused at the
+    /// rename, and the temporary is removed.
+    #[cfg(unix)]
+    #[test]
+    fn a_special_file_made_during_the_write_is_refused_at_the_rename() {
+        let d = dir("race");
+        let dest = d.join("frame.ply");
+        let mut f = AtomicFile::create(&dest).unwrap();
+        f.write_all(b"frame").unwrap();
+        let made = std::process::Command::new("mkfifo")
+            .arg(&dest)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        assert!(f.commit().is_err());
+        use std::os::unix::fs::FileTypeExt;
+        assert!(
+            std::fs::symlink_metadata(&dest)
+                .unwrap()
+                .file_type()
+                .is_fifo()
+        );
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    /// A stream is visible under its name from the start and keeps what is written.
+    #[test]
+    fn a_stream_is_renamed_at_once_and_written_there() {
+        let d = dir("stream");
+        let dest = d.join("contacts.jsonl");
+        std::fs::write(&dest, "old").unwrap();
+        let mut s = AtomicFile::create(&dest).unwrap().into_stream().unwrap();
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "");
+        s.write_all(b"line\n").unwrap();
+        s.flush().unwrap();
+        assert_eq!(std::fs::read_to_string(&dest).unwrap(), "line\n");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
         std::fs::remove_dir_all(&d).unwrap();
     }
 

@@ -100,8 +100,9 @@ pub fn write_phyxels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
         let p = &o.phyxels;
         pos.extend((0..p.len()).map(|i| p.pos.get(i)));
         vel.extend((0..p.len()).map(|i| p.vel.get(i)));
-        mass.extend(p.mass.iter().copied());
-        radius.extend(p.radius.iter().copied());
+        // The scalar columns are padded for the SIMD loops: only the first `len` count.
+        mass.extend_from_slice(&p.mass[..p.len()]);
+        radius.extend_from_slice(&p.radius[..p.len()]);
         object.extend((0..p.len()).map(|_| o.id as i32));
     }
     let columns = [
