@@ -75,3 +75,24 @@ fn stable_bound(message: &str) -> Option<f64> {
 pub fn error(message: impl Into<String>) -> PyErr {
     Error::new_err(message.into())
 }
+
+/// Runs the body of a binding's method or function, so that no panic crosses into
+/// Python: one becomes `phyxel.Error` naming it (pyo3's `PanicException` is a
+/// `BaseException`, which `except Exception` does not catch).
+pub fn shield<T>(f: impl FnOnce() -> PyResult<T>) -> PyResult<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f)).unwrap_or_else(|panic| {
+        Err(error(format!(
+            "internal error: {} (please report it)",
+            panic_message(panic.as_ref())
+        )))
+    })
+}
+
+/// The message a panic carried (`panic!` gives a `String` or a `&str`).
+pub fn panic_message(panic: &(dyn std::any::Any + Send)) -> String {
+    panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_else(|| "a panic".into())
+}

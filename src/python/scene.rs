@@ -51,33 +51,39 @@ impl PyScene {
     /// The built-in scene `name` (`phyxel.scenes()` lists them).
     #[staticmethod]
     fn builtin(py: Python<'_>, name: &str) -> PyResult<Self> {
-        Scene::builtin(name)
-            .map(|scene| Self { scene })
-            .ok_or_else(|| {
-                let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
-                let e = SceneError(format!(
-                    "{name}: not a built-in scene (built-in: {})",
-                    names.join(", ")
-                ));
-                scene_error(py, &e)
-            })
+        super::errors::shield(|| {
+            Scene::builtin(name)
+                .map(|scene| Self { scene })
+                .ok_or_else(|| {
+                    let names: Vec<&str> = BUILTIN.iter().map(|(n, _)| *n).collect();
+                    let e = SceneError(format!(
+                        "{name}: not a built-in scene (built-in: {})",
+                        names.join(", ")
+                    ));
+                    scene_error(py, &e)
+                })
+        })
     }
 
     /// Reads a scene file (TOML); mesh paths are relative to it.
     #[staticmethod]
     fn load(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        Scene::load(&path)
-            .map(|scene| Self { scene })
-            .map_err(|e| scene_error(py, &e))
+        super::errors::shield(|| {
+            Scene::load(&path)
+                .map(|scene| Self { scene })
+                .map_err(|e| scene_error(py, &e))
+        })
     }
 
     /// Parses scene TOML; `origin` names it in errors.
     #[staticmethod]
     #[pyo3(signature = (text, origin = "scene"))]
     fn from_toml(py: Python<'_>, text: &str, origin: &str) -> PyResult<Self> {
-        Scene::parse(text, origin)
-            .map(|scene| Self { scene })
-            .map_err(|e| scene_error(py, &e))
+        super::errors::shield(|| {
+            Scene::parse(text, origin)
+                .map(|scene| Self { scene })
+                .map_err(|e| scene_error(py, &e))
+        })
     }
 
     /// A scene from a dict with the keys of a scene file (`None` values mean the
@@ -85,14 +91,16 @@ impl PyScene {
     #[staticmethod]
     #[pyo3(signature = (d, origin = "scene"))]
     fn from_dict(py: Python<'_>, d: &Bound<'_, PyDict>, origin: &str) -> PyResult<Self> {
-        let json = py_to_json(d.as_any())?;
-        let value: serde_json::Value = serde_json::from_str(&json)
-            .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
-        let toml_value = toml::Value::try_from(without_nulls(value))
-            .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
-        let text = toml::to_string(&toml_value)
-            .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
-        Self::from_toml(py, &text, origin)
+        super::errors::shield(|| {
+            let json = py_to_json(d.as_any())?;
+            let value: serde_json::Value = serde_json::from_str(&json)
+                .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+            let toml_value = toml::Value::try_from(without_nulls(value))
+                .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+            let text = toml::to_string(&toml_value)
+                .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+            Self::from_toml(py, &text, origin)
+        })
     }
 
     /// The scene as TOML text (what `phyxel scenes --show` prints).
@@ -102,8 +110,10 @@ impl PyScene {
 
     /// The scene as a dict with the keys of a scene file.
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let json = serde_json::to_string(&self.scene).map_err(|e| error(e.to_string()))?;
-        json_to_py(py, &json)
+        super::errors::shield(|| {
+            let json = serde_json::to_string(&self.scene).map_err(|e| error(e.to_string()))?;
+            json_to_py(py, &json)
+        })
     }
 
     /// The scene's name.
@@ -149,43 +159,45 @@ impl PyScene {
         preset: Option<&str>,
         max_memory: Option<u64>,
     ) -> PyResult<PyWorld> {
-        let preset = preset
-            .map(crate::scene::Preset::parse)
-            .transpose()
-            .map_err(pyo3::exceptions::PyValueError::new_err)?;
-        let (name, class) = match backend {
-            None => (None, None),
-            Some(b) => match b.extract::<String>() {
-                Ok(name) => (Some(name), None),
-                Err(_) if b.is_callable() => (None, Some(b)),
-                Err(_) => {
-                    return Err(pyo3::exceptions::PyTypeError::new_err(
-                        "backend: a backend name (str) or a Python backend class",
-                    ));
-                }
-            },
-        };
-        let opts = BuildOptions {
-            dt,
-            backend: name,
-            // A Python backend's bound is checked once it is installed.
-            allow_unstable: allow_unstable || class.is_some(),
-            surfels,
-            phyxels,
-            preset,
-            max_memory,
-        };
-        let scene = self.scene.clone();
-        let mut world = py
-            .detach(|| scene.build(&opts))
-            .map_err(|e| scene_error(py, &e))?;
-        if let Some(class) = class {
-            super::backend::install(py, &mut world, class)?;
-            world.keep_stable = !allow_unstable;
-            world.dt = python_backend_dt(&world, &scene, dt, allow_unstable)
+        super::errors::shield(|| {
+            let preset = preset
+                .map(crate::scene::Preset::parse)
+                .transpose()
+                .map_err(pyo3::exceptions::PyValueError::new_err)?;
+            let (name, class) = match backend {
+                None => (None, None),
+                Some(b) => match b.extract::<String>() {
+                    Ok(name) => (Some(name), None),
+                    Err(_) if b.is_callable() => (None, Some(b)),
+                    Err(_) => {
+                        return Err(pyo3::exceptions::PyTypeError::new_err(
+                            "backend: a backend name (str) or a Python backend class",
+                        ));
+                    }
+                },
+            };
+            let opts = BuildOptions {
+                dt,
+                backend: name,
+                // A Python backend's bound is checked once it is installed.
+                allow_unstable: allow_unstable || class.is_some(),
+                surfels,
+                phyxels,
+                preset,
+                max_memory,
+            };
+            let scene = self.scene.clone();
+            let mut world = py
+                .detach(|| scene.build(&opts))
                 .map_err(|e| scene_error(py, &e))?;
-        }
-        Ok(PyWorld::new(world, scene))
+            if let Some(class) = class {
+                super::backend::install(py, &mut world, class)?;
+                world.keep_stable = !allow_unstable;
+                world.dt = python_backend_dt(&world, &scene, dt, allow_unstable)
+                    .map_err(|e| scene_error(py, &e))?;
+            }
+            Ok(PyWorld::new(world, scene))
+        })
     }
 
     fn __repr__(&self) -> String {

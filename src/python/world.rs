@@ -109,10 +109,17 @@ impl PyWorld {
         }
     }
 
+    /// The state, locked. A panic while it was held (caught by
+    /// [`shield`](super::errors::shield)) leaves the lock poisoned: the state is then
+    /// marked unusable, so later calls say why instead of failing on the lock.
     fn lock(&self) -> PyResult<MutexGuard<'_, State>> {
-        self.state
-            .lock()
-            .map_err(|_| error("the world's lock was poisoned by an earlier error"))
+        Ok(self.state.lock().unwrap_or_else(|poisoned| {
+            self.state.clear_poison();
+            let mut s = poisoned.into_inner();
+            s.poisoned
+                .get_or_insert_with(|| "a panic while the world was in use".to_string());
+            s
+        }))
     }
 
     /// One step with the GIL released; a panic becomes `phyxel.Error` and poisons the
@@ -132,11 +139,7 @@ impl PyWorld {
         let mut s = self.lock()?;
         s.wall += t0.elapsed().as_secs_f64();
         if let Err(panic) = result {
-            let why = panic
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "a panic".into());
+            let why = super::errors::panic_message(panic.as_ref());
             s.poisoned = Some(why.clone());
             s.world = Some(world);
             return Err(error(why));
@@ -228,179 +231,198 @@ impl PyWorld {
     /// when the state stops being finite (after that step; the world stays readable).
     #[pyo3(signature = (n = 1))]
     fn step(&self, py: Python<'_>, n: u64) -> PyResult<()> {
-        for _ in 0..n {
-            self.step_once(py)?;
-            if let Some(e) = &self.lock()?.world()?.non_finite {
-                return Err(NonFiniteError::new_err(e.to_string()));
+        super::errors::shield(|| {
+            for _ in 0..n {
+                self.step_once(py)?;
+                if let Some(e) = &self.lock()?.world()?.non_finite {
+                    return Err(NonFiniteError::new_err(e.to_string()));
+                }
+                py.check_signals()?;
             }
-            py.check_signals()?;
-        }
-        Ok(())
+            Ok(())
+        })
     }
 
     /// Time step (s). Setting it checks only that it is a finite number > 0: see
     /// `stable_dt` for the explicit bound.
     #[getter]
     fn dt(&self) -> PyResult<f32> {
-        Ok(self.lock()?.world()?.dt)
+        super::errors::shield(|| Ok(self.lock()?.world()?.dt))
     }
 
     #[setter]
     fn set_dt(&self, dt: f32) -> PyResult<()> {
-        if !(dt.is_finite() && dt > 0.0) {
-            return Err(PyValueError::new_err(format!(
-                "dt = {dt}: must be a finite number > 0"
-            )));
-        }
-        self.lock()?.world_mut()?.dt = dt;
-        Ok(())
+        super::errors::shield(|| {
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(PyValueError::new_err(format!(
+                    "dt = {dt}: must be a finite number > 0"
+                )));
+            }
+            self.lock()?.world_mut()?.dt = dt;
+            Ok(())
+        })
     }
 
     /// Simulated time (s).
     #[getter]
     fn time(&self) -> PyResult<f64> {
-        Ok(self.lock()?.world()?.time)
+        super::errors::shield(|| Ok(self.lock()?.world()?.time))
     }
 
     /// Steps taken.
     #[getter]
     fn steps(&self) -> PyResult<u64> {
-        Ok(self.lock()?.world()?.steps)
+        super::errors::shield(|| Ok(self.lock()?.world()?.steps))
     }
 
     /// Largest stable time step (s) over the objects and their contacts.
     #[getter]
     fn stable_dt(&self) -> PyResult<f32> {
-        Ok(self.lock()?.world()?.stable_dt().0)
+        super::errors::shield(|| Ok(self.lock()?.world()?.stable_dt().0))
     }
 
     /// Gravitational acceleration (m/s²).
     #[getter]
     fn gravity(&self) -> PyResult<[f32; 3]> {
-        Ok(self.lock()?.world()?.gravity.to_array())
+        super::errors::shield(|| Ok(self.lock()?.world()?.gravity.to_array()))
     }
 
     #[setter]
     fn set_gravity(&self, g: [f32; 3]) -> PyResult<()> {
-        if g.iter().any(|c| !c.is_finite()) {
-            return Err(PyValueError::new_err(format!(
-                "gravity = {g:?}: must be finite"
-            )));
-        }
-        self.lock()?.world_mut()?.gravity = g.into();
-        Ok(())
+        super::errors::shield(|| {
+            if g.iter().any(|c| !c.is_finite()) {
+                return Err(PyValueError::new_err(format!(
+                    "gravity = {g:?}: must be finite"
+                )));
+            }
+            self.lock()?.world_mut()?.gravity = g.into();
+            Ok(())
+        })
     }
 
     /// Largest penetration depth of a contact over the run (m).
     #[getter]
     fn max_penetration(&self) -> PyResult<f32> {
-        Ok(self.lock()?.world()?.record.max_penetration)
+        super::errors::shield(|| Ok(self.lock()?.world()?.record.max_penetration))
     }
 
     /// Where the state first became non-finite (`None`: finite so far).
     #[getter]
     fn non_finite(&self) -> PyResult<Option<String>> {
-        Ok(self
-            .lock()?
-            .world()?
-            .non_finite
-            .as_ref()
-            .map(|e| e.to_string()))
+        super::errors::shield(|| {
+            Ok(self
+                .lock()?
+                .world()?
+                .non_finite
+                .as_ref()
+                .map(|e| e.to_string()))
+        })
     }
 
     /// Mechanical energy of the moving objects (J): kinetic, elastic, potential, contact
     /// and their total.
     fn energy<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let e = self.lock()?.world()?.energy();
-        let d = PyDict::new(py);
-        d.set_item("kinetic", e.kinetic)?;
-        d.set_item("elastic", e.elastic)?;
-        d.set_item("potential", e.potential)?;
-        d.set_item("contact", e.contact)?;
-        d.set_item("total", e.total())?;
-        Ok(d)
+        super::errors::shield(|| {
+            let e = self.lock()?.world()?.energy();
+            let d = PyDict::new(py);
+            d.set_item("kinetic", e.kinetic)?;
+            d.set_item("elastic", e.elastic)?;
+            d.set_item("potential", e.potential)?;
+            d.set_item("contact", e.contact)?;
+            d.set_item("total", e.total())?;
+            Ok(d)
+        })
     }
 
     /// Total linear momentum of the moving objects (kg·m/s).
     fn momentum(&self) -> PyResult<[f64; 3]> {
-        Ok(self.lock()?.world()?.momentum())
+        super::errors::shield(|| Ok(self.lock()?.world()?.momentum()))
     }
 
     /// The run so far as `phyxel run --json` prints it (a dict with the same keys;
     /// `wall_seconds` counts the time spent in `step`).
     fn summary<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let summary = self.lock()?.run_summary()?;
-        let json = serde_json::to_string(&summary).map_err(|e| error(e.to_string()))?;
-        json_to_py(py, &json)
+        super::errors::shield(|| {
+            let summary = self.lock()?.run_summary()?;
+            let json = serde_json::to_string(&summary).map_err(|e| error(e.to_string()))?;
+            json_to_py(py, &json)
+        })
     }
 
     /// The bodies, in the world's order (a fracture appends pieces).
     #[getter]
     fn objects(slf: &Bound<'_, Self>) -> PyResult<Vec<PyBody>> {
-        let ids: Vec<u32> = slf
-            .get()
-            .lock()?
-            .world()?
-            .objects
-            .iter()
-            .map(|o| o.id)
-            .collect();
-        Ok(ids
-            .into_iter()
-            .map(|id| PyBody {
-                world: slf.clone().unbind(),
-                id,
-            })
-            .collect())
+        super::errors::shield(|| {
+            let ids: Vec<u32> = slf
+                .get()
+                .lock()?
+                .world()?
+                .objects
+                .iter()
+                .map(|o| o.id)
+                .collect();
+            Ok(ids
+                .into_iter()
+                .map(|id| PyBody {
+                    world: slf.clone().unbind(),
+                    id,
+                })
+                .collect())
+        })
     }
 
     fn __len__(&self) -> PyResult<usize> {
-        Ok(self.lock()?.world()?.objects.len())
+        super::errors::shield(|| Ok(self.lock()?.world()?.objects.len()))
     }
 
     /// `world[k]` (index) or `world["name"]`.
     fn __getitem__(slf: &Bound<'_, Self>, key: &Bound<'_, PyAny>) -> PyResult<PyBody> {
-        let id = {
-            let s = slf.get().lock()?;
-            let objects = &s.world()?.objects;
-            if let Ok(k) = key.extract::<isize>() {
-                let n = objects.len() as isize;
-                let at = if k < 0 { k + n } else { k };
-                if !(0..n).contains(&at) {
-                    return Err(PyIndexError::new_err(format!(
-                        "object index {k} out of range ({n} objects)"
-                    )));
-                }
-                objects[at as usize].id
-            } else if let Ok(name) = key.extract::<String>() {
-                match objects.iter().find(|o| o.name == name) {
-                    Some(o) => o.id,
-                    None => {
-                        let names: Vec<&str> = objects.iter().map(|o| o.name.as_str()).collect();
-                        return Err(PyKeyError::new_err(format!(
-                            "no object named '{name}' (objects: {})",
-                            names.join(", ")
+        super::errors::shield(|| {
+            let id = {
+                let s = slf.get().lock()?;
+                let objects = &s.world()?.objects;
+                if let Ok(k) = key.extract::<isize>() {
+                    let n = objects.len() as isize;
+                    let at = if k < 0 { k + n } else { k };
+                    if !(0..n).contains(&at) {
+                        return Err(PyIndexError::new_err(format!(
+                            "object index {k} out of range ({n} objects)"
                         )));
                     }
+                    objects[at as usize].id
+                } else if let Ok(name) = key.extract::<String>() {
+                    match objects.iter().find(|o| o.name == name) {
+                        Some(o) => o.id,
+                        None => {
+                            let names: Vec<&str> =
+                                objects.iter().map(|o| o.name.as_str()).collect();
+                            return Err(PyKeyError::new_err(format!(
+                                "no object named '{name}' (objects: {})",
+                                names.join(", ")
+                            )));
+                        }
+                    }
+                } else {
+                    return Err(PyTypeError::new_err(
+                        "world[key]: key must be an index (int) or a name (str)",
+                    ));
                 }
-            } else {
-                return Err(PyTypeError::new_err(
-                    "world[key]: key must be an index (int) or a name (str)",
-                ));
-            }
-        };
-        Ok(PyBody {
-            world: slf.clone().unbind(),
-            id,
+            };
+            Ok(PyBody {
+                world: slf.clone().unbind(),
+                id,
+            })
         })
     }
 
     /// The body with id `id`.
     fn object(slf: &Bound<'_, Self>, id: u32) -> PyResult<PyBody> {
-        object_index(slf.get().lock()?.world()?, id)?;
-        Ok(PyBody {
-            world: slf.clone().unbind(),
-            id,
+        super::errors::shield(|| {
+            object_index(slf.get().lock()?.world()?, id)?;
+            Ok(PyBody {
+                world: slf.clone().unbind(),
+                id,
+            })
         })
     }
 
@@ -409,30 +431,32 @@ impl PyWorld {
     /// arrays) `positions`, `normals` (from a into b), `areas` (m²), `forces` (N, on a;
     /// b receives the opposite) and `velocities` (of a relative to b, m/s).
     fn patches<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
-        let s = self.lock()?;
-        let w = s.world()?;
-        let mut out = Vec::with_capacity(w.patches.len());
-        for p in &w.patches {
-            let d = PyDict::new(py);
-            d.set_item("a", w.objects.get(p.a).map(|o| o.id))?;
-            d.set_item("b", w.objects.get(p.b).map(|o| o.id))?;
-            let m = p.surfels.len();
-            let rows = |f: &dyn Fn(&ContactSurfel) -> glam::Vec3| {
-                let mut c = Vec3s::zeros(m);
-                for (i, s) in p.surfels.iter().enumerate() {
-                    c.set(i, f(s));
-                }
-                rows3(py, &c, m)
-            };
-            d.set_item("positions", rows(&|s| s.pos))?;
-            d.set_item("normals", rows(&|s| s.normal))?;
-            d.set_item("forces", rows(&|s| s.force))?;
-            d.set_item("velocities", rows(&|s| s.velocity))?;
-            let areas: Vec<f32> = p.surfels.iter().map(|s| s.area).collect();
-            d.set_item("areas", column(py, &areas))?;
-            out.push(d);
-        }
-        Ok(out)
+        super::errors::shield(|| {
+            let s = self.lock()?;
+            let w = s.world()?;
+            let mut out = Vec::with_capacity(w.patches.len());
+            for p in &w.patches {
+                let d = PyDict::new(py);
+                d.set_item("a", w.objects.get(p.a).map(|o| o.id))?;
+                d.set_item("b", w.objects.get(p.b).map(|o| o.id))?;
+                let m = p.surfels.len();
+                let rows = |f: &dyn Fn(&ContactSurfel) -> glam::Vec3| {
+                    let mut c = Vec3s::zeros(m);
+                    for (i, s) in p.surfels.iter().enumerate() {
+                        c.set(i, f(s));
+                    }
+                    rows3(py, &c, m)
+                };
+                d.set_item("positions", rows(&|s| s.pos))?;
+                d.set_item("normals", rows(&|s| s.normal))?;
+                d.set_item("forces", rows(&|s| s.force))?;
+                d.set_item("velocities", rows(&|s| s.velocity))?;
+                let areas: Vec<f32> = p.surfels.iter().map(|s| s.area).collect();
+                d.set_item("areas", column(py, &areas))?;
+                out.push(d);
+            }
+            Ok(out)
+        })
     }
 
     /// Each touching pair's contact totals at the last step, as `phyxel run --contacts`
@@ -440,11 +464,13 @@ impl PyWorld {
     /// `contact_surfels`, `force`, `normal_force`, `friction_force`, `centre`, `torque`,
     /// `area`, `centroid`, `peak_pressure`, `max_penetration`.
     fn contact_totals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let s = self.lock()?;
-        let w = s.world()?;
-        let json = serde_json::to_string(&crate::app::summary::contact_pairs(w))
-            .map_err(|e| error(e.to_string()))?;
-        json_to_py(py, &json)
+        super::errors::shield(|| {
+            let s = self.lock()?;
+            let w = s.world()?;
+            let json = serde_json::to_string(&crate::app::summary::contact_pairs(w))
+                .map_err(|e| error(e.to_string()))?;
+            json_to_py(py, &json)
+        })
     }
 
     /// Writes the render surface (surfels, contact surfels marked) to `path` as binary
@@ -460,47 +486,51 @@ impl PyWorld {
         phyxels: bool,
         contacts: bool,
     ) -> PyResult<()> {
-        let format = Format::parse(format).map_err(PyValueError::new_err)?;
-        if phyxels && contacts {
-            return Err(PyValueError::new_err(
-                "write_frame: phyxels=True and contacts=True: one frame per call",
-            ));
-        }
-        let s = self.lock()?;
-        let w = s.world()?;
-        let written = if phyxels {
-            output::write_phyxels(w, &path).map(|_| ())
-        } else if contacts {
-            output::contact_frame(w).write(&path, format)
-        } else {
-            output::surface_frame(w).write(&path, format)
-        };
-        written.map_err(|e| error(format!("{}: cannot write the frame: {e}", path.display())))
+        super::errors::shield(|| {
+            let format = Format::parse(format).map_err(PyValueError::new_err)?;
+            if phyxels && contacts {
+                return Err(PyValueError::new_err(
+                    "write_frame: phyxels=True and contacts=True: one frame per call",
+                ));
+            }
+            let s = self.lock()?;
+            let w = s.world()?;
+            let written = if phyxels {
+                output::write_phyxels(w, &path).map(|_| ())
+            } else if contacts {
+                output::contact_frame(w).write(&path, format)
+            } else {
+                output::surface_frame(w).write(&path, format)
+            };
+            written.map_err(|e| error(format!("{}: cannot write the frame: {e}", path.display())))
+        })
     }
 
     /// The render surface drawn by the software splat renderer, as an `(h, w, 3)` uint8
     /// array; the camera is the scene's, else fitted to the objects.
     #[pyo3(signature = (size = (800, 600)))]
     fn render<'py>(&self, py: Python<'py>, size: (u32, u32)) -> PyResult<Bound<'py, PyArray3<u8>>> {
-        let (w, h) = size;
-        if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
-            return Err(PyValueError::new_err(format!(
-                "size = ({w}, {h}): each side must be 1..16384 pixels"
-            )));
-        }
-        let (frame, camera) = {
-            let s = self.lock()?;
-            (output::surface_frame(s.world()?), s.scene.camera)
-        };
-        let opts = RenderOptions {
-            width: w,
-            height: h,
-            camera,
-            ..RenderOptions::default()
-        };
-        let image = py.detach(|| render(&frame, &opts));
-        let a = PyArray1::from_vec(py, image.rgb);
-        a.reshape([h as usize, w as usize, 3])
+        super::errors::shield(|| {
+            let (w, h) = size;
+            if !(1..=16384).contains(&w) || !(1..=16384).contains(&h) {
+                return Err(PyValueError::new_err(format!(
+                    "size = ({w}, {h}): each side must be 1..16384 pixels"
+                )));
+            }
+            let (frame, camera) = {
+                let s = self.lock()?;
+                (output::surface_frame(s.world()?), s.scene.camera)
+            };
+            let opts = RenderOptions {
+                width: w,
+                height: h,
+                camera,
+                ..RenderOptions::default()
+            };
+            let image = py.detach(|| render(&frame, &opts));
+            let a = PyArray1::from_vec(py, image.rgb);
+            a.reshape([h as usize, w as usize, 3])
+        })
     }
 
     fn __repr__(&self) -> String {
@@ -567,57 +597,61 @@ impl PyBody {
     /// The object's name.
     #[getter]
     fn name(&self) -> PyResult<String> {
-        self.with(|o| o.name.clone())
+        super::errors::shield(|| self.with(|o| o.name.clone()))
     }
 
     /// The name of the object's dynamics backend (`"static"` for fixed obstacles).
     #[getter]
     fn backend(&self) -> PyResult<String> {
-        self.with(|o| o.dynamics.name().to_string())
+        super::errors::shield(|| self.with(|o| o.dynamics.name().to_string()))
     }
 
     /// True for an object that never moves.
     #[getter]
     fn is_static(&self) -> PyResult<bool> {
-        self.with(|o| o.is_static())
+        super::errors::shield(|| self.with(|o| o.is_static()))
     }
 
     /// Total mass (kg).
     #[getter]
     fn mass(&self) -> PyResult<f64> {
-        self.with(|o| o.phyxels.total_mass())
+        super::errors::shield(|| self.with(|o| o.phyxels.total_mass()))
     }
 
     /// Phyxel positions `(n, 3)` (m). Assign an `(n, 3)` array to move the phyxels; the
     /// surfels follow at the next step.
     #[getter]
     fn phyxel_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        self.with(|o| rows3(py, &o.phyxels.pos, o.phyxels.len()))
+        super::errors::shield(|| self.with(|o| rows3(py, &o.phyxels.pos, o.phyxels.len())))
     }
 
     #[setter]
     fn set_phyxel_positions(&self, a: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
-        self.with_mut(|o| {
-            finite_rows(&a, o.phyxels.len(), "phyxel_positions")?;
-            write_rows(&mut o.phyxels.pos, &a, false);
-            // The compensated sums' carries belong to the old positions.
-            o.phyxels.pos_carry.fill_zero();
-            Ok(())
+        super::errors::shield(|| {
+            self.with_mut(|o| {
+                finite_rows(&a, o.phyxels.len(), "phyxel_positions")?;
+                write_rows(&mut o.phyxels.pos, &a, false);
+                // The compensated sums' carries belong to the old positions.
+                o.phyxels.pos_carry.fill_zero();
+                Ok(())
+            })
         })
     }
 
     /// Phyxel velocities `(n, 3)` (m/s). Assign an `(n, 3)` array to set them.
     #[getter]
     fn phyxel_velocities<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        self.with(|o| rows3(py, &o.phyxels.vel, o.phyxels.len()))
+        super::errors::shield(|| self.with(|o| rows3(py, &o.phyxels.vel, o.phyxels.len())))
     }
 
     #[setter]
     fn set_phyxel_velocities(&self, a: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
-        self.with_mut(|o| {
-            finite_rows(&a, o.phyxels.len(), "phyxel_velocities")?;
-            write_rows(&mut o.phyxels.vel, &a, false);
-            Ok(())
+        super::errors::shield(|| {
+            self.with_mut(|o| {
+                finite_rows(&a, o.phyxels.len(), "phyxel_velocities")?;
+                write_rows(&mut o.phyxels.vel, &a, false);
+                Ok(())
+            })
         })
     }
 
@@ -625,40 +659,42 @@ impl PyBody {
     /// step distributed, plus any applied since.
     #[getter]
     fn phyxel_forces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        self.with(|o| rows3(py, &o.phyxels.force, o.phyxels.len()))
+        super::errors::shield(|| self.with(|o| rows3(py, &o.phyxels.force, o.phyxels.len())))
     }
 
     /// Adds external forces `(n, 3)` (N) to the phyxels, for the next step only.
     fn apply_forces(&self, forces: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
-        self.with_mut(|o| {
-            finite_rows(&forces, o.phyxels.len(), "forces")?;
-            write_rows(&mut o.phyxels.force, &forces, true);
-            Ok(())
+        super::errors::shield(|| {
+            self.with_mut(|o| {
+                finite_rows(&forces, o.phyxels.len(), "forces")?;
+                write_rows(&mut o.phyxels.force, &forces, true);
+                Ok(())
+            })
         })
     }
 
     /// Phyxel masses `(n,)` (kg).
     #[getter]
     fn phyxel_masses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        self.with(|o| column(py, &o.phyxels.mass[..o.phyxels.len()]))
+        super::errors::shield(|| self.with(|o| column(py, &o.phyxels.mass[..o.phyxels.len()])))
     }
 
     /// Surfel positions `(m, 3)` (m).
     #[getter]
     fn surfel_positions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        self.with(|o| rows3(py, &o.surfels.pos, o.surfels.len()))
+        super::errors::shield(|| self.with(|o| rows3(py, &o.surfels.pos, o.surfels.len())))
     }
 
     /// Surfel unit normals `(m, 3)`.
     #[getter]
     fn surfel_normals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f32>>> {
-        self.with(|o| rows3(py, &o.surfels.normal, o.surfels.len()))
+        super::errors::shield(|| self.with(|o| rows3(py, &o.surfels.normal, o.surfels.len())))
     }
 
     /// Surfel disc radii `(m,)` (m).
     #[getter]
     fn surfel_radii<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f32>>> {
-        self.with(|o| column(py, &o.surfels.radius[..o.surfels.len()]))
+        super::errors::shield(|| self.with(|o| column(py, &o.surfels.radius[..o.surfels.len()])))
     }
 
     fn __repr__(&self) -> String {
@@ -705,26 +741,28 @@ pub fn run<'py>(
     preset: Option<&str>,
     max_memory: Option<u64>,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let scene = PyScene {
-        scene: scene_of(py, scene)?,
-    };
-    let world = scene.build(
-        py,
-        backend,
-        surfels,
-        phyxels,
-        dt,
-        allow_unstable,
-        preset,
-        max_memory,
-    )?;
-    let n = steps.unwrap_or(scene.scene.steps);
-    match world.step(py, n) {
-        Ok(()) => {}
-        Err(e) if e.is_instance_of::<NonFiniteError>(py) => {}
-        Err(e) => return Err(e),
-    }
-    world.summary(py)
+    super::errors::shield(|| {
+        let scene = PyScene {
+            scene: scene_of(py, scene)?,
+        };
+        let world = scene.build(
+            py,
+            backend,
+            surfels,
+            phyxels,
+            dt,
+            allow_unstable,
+            preset,
+            max_memory,
+        )?;
+        let n = steps.unwrap_or(scene.scene.steps);
+        match world.step(py, n) {
+            Ok(()) => {}
+            Err(e) if e.is_instance_of::<NonFiniteError>(py) => {}
+            Err(e) => return Err(e),
+        }
+        world.summary(py)
+    })
 }
 
 /// Runs `scene` once per backend of `backends` (names or Python backend classes;
@@ -739,30 +777,32 @@ pub fn compare<'py>(
     dt: Option<f32>,
     allow_unstable: bool,
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
-    let backends = match backends {
-        Some(b) => b,
-        None => crate::backends::NAMES
+    super::errors::shield(|| {
+        let backends = match backends {
+            Some(b) => b,
+            None => crate::backends::NAMES
+                .iter()
+                .map(|n| pyo3::types::PyString::new(py, n).into_any())
+                .collect(),
+        };
+        backends
             .iter()
-            .map(|n| pyo3::types::PyString::new(py, n).into_any())
-            .collect(),
-    };
-    backends
-        .iter()
-        .map(|b| {
-            run(
-                py,
-                scene,
-                steps,
-                Some(b),
-                None,
-                None,
-                dt,
-                allow_unstable,
-                None,
-                None,
-            )
-        })
-        .collect()
+            .map(|b| {
+                run(
+                    py,
+                    scene,
+                    steps,
+                    Some(b),
+                    None,
+                    None,
+                    dt,
+                    allow_unstable,
+                    None,
+                    None,
+                )
+            })
+            .collect()
+    })
 }
 
 /// The validation suite (`phyxel validate --json`): one dict per row, accuracy cases
@@ -778,21 +818,23 @@ pub fn validate<'py>(
     backend: Option<String>,
     preset: &str,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let preset = crate::scene::Preset::parse(preset).map_err(PyValueError::new_err)?;
-    let backends: Vec<String> = backend.into_iter().collect();
-    for b in &backends {
-        suite::check_backend(b).map_err(PyValueError::new_err)?;
-    }
-    let only = case.as_deref();
-    let rows = py.detach(|| {
-        suite::with_preset(preset, || {
-            let mut rows = suite::run_accuracy(&backends, quick, only, |_| {});
-            rows.extend(suite::run_stability(&backends, quick, only, |_| {}));
-            rows
-        })
-    });
-    let json = serde_json::to_string(&rows).map_err(|e| error(e.to_string()))?;
-    json_to_py(py, &json)
+    super::errors::shield(|| {
+        let preset = crate::scene::Preset::parse(preset).map_err(PyValueError::new_err)?;
+        let backends: Vec<String> = backend.into_iter().collect();
+        for b in &backends {
+            suite::check_backend(b).map_err(PyValueError::new_err)?;
+        }
+        let only = case.as_deref();
+        let rows = py.detach(|| {
+            suite::with_preset(preset, || {
+                let mut rows = suite::run_accuracy(&backends, quick, only, |_| {});
+                rows.extend(suite::run_stability(&backends, quick, only, |_| {}));
+                rows
+            })
+        });
+        let json = serde_json::to_string(&rows).map_err(|e| error(e.to_string()))?;
+        json_to_py(py, &json)
+    })
 }
 
 /// Registers the world's exception.

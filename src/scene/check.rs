@@ -99,7 +99,15 @@ impl ObjectSpec {
         self.check_sampling()?;
         self.check_motion()?;
         self.check_backend()?;
-        self.check_fixed()
+        self.check_fixed()?;
+        kinematic_keys(self).map_err(|(key, m)| (key.to_string(), m))
+    }
+
+    /// Checks every value of the object, as [`Scene::validate`] does for each of its
+    /// objects: for a body made outside a scene file (the viewer's drops and tool).
+    /// The error is "KEY: message".
+    pub fn validate(&self) -> Result<(), String> {
+        self.check().map_err(|(key, m)| format!("{key}: {m}"))
     }
 
     /// Sample counts and spacings: one way to give each, within the limits.
@@ -389,6 +397,38 @@ pub(super) fn sample_count(name: &str, n: Option<u32>, limit: usize) -> Result<(
 
 /// A static object never moves: the keys that only act on moving objects are refused,
 /// `Err((key, message))`, rather than ignored.
+/// A kinematic body follows its path rigidly: anchors, loads, self-collision, breaking
+/// and flow would do nothing to it (or, anchors, stretch it), so they are errors.
+fn kinematic_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
+    if o.is_static || o.backend_name() != backends::KINEMATIC {
+        return Ok(());
+    }
+    let idle = "has no effect on a kinematic body (it moves rigidly along its path)";
+    if !o.fixed.is_empty() {
+        return Err((
+            "fixed",
+            format!(
+                "{} fixed box(es): a kinematic body moves rigidly along its path, and \
+                 anchoring part of it would stretch it; leave `fixed` out",
+                o.fixed.len()
+            ),
+        ));
+    }
+    if o.load != [0.0; 3] {
+        return Err(("load", format!("load = {:?}: {idle}", o.load)));
+    }
+    if o.load_ramp != 0.0 {
+        return Err(("load_ramp", format!("load_ramp = {}: {idle}", o.load_ramp)));
+    }
+    if o.self_collision {
+        return Err(("self_collision", format!("self_collision = true: {idle}")));
+    }
+    if o.material.fracture {
+        return Err(("material", format!("fracture = true: {idle}")));
+    }
+    Ok(())
+}
+
 pub(super) fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> {
     let idle = "has no effect on a static object";
     if let Some(b) = &o.backend {

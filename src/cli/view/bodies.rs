@@ -150,6 +150,14 @@ pub(super) fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> R
         load_ramp: 0.0,
         self_collision: false,
     };
+    // As a scene file's object: finite, and where f32 resolves its spacing.
+    spec.validate()?;
+    if !tool && let Some(other) = overlapped(world, at, radius) {
+        return Err(format!(
+            "a sphere of radius {radius:.3e} m at {at} would overlap '{other}': drop it \
+             elsewhere (contact resolves touching surfaces, not bodies inside one another)"
+        ));
+    }
     let id = world
         .objects
         .iter()
@@ -168,6 +176,18 @@ pub(super) fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> R
         world.dt = bound * DT_FRACTION;
     }
     Ok(id)
+}
+
+/// The name of a body that a sphere of `radius` at `at` would overlap: one with a phyxel
+/// inside the sphere, widened by half that body's phyxel spacing (so that a sphere
+/// wholly inside a coarsely sampled body is found too).
+fn overlapped(world: &World, at: Vec3, radius: f32) -> Option<&str> {
+    world.objects.iter().find_map(|o| {
+        let p = &o.phyxels;
+        (0..p.len())
+            .any(|i| p.pos.get(i).distance(at) < radius + 0.5 * p.spacing[i])
+            .then_some(o.name.as_str())
+    })
 }
 
 /// Removes body `id`; the contact lists, which index objects, are dropped with it (the

@@ -59,6 +59,17 @@ pub(crate) fn view(scene: Option<Scene>, opts: ViewOptions) -> ExitCode {
     };
     let (source, sim, shared, title) = match (&opts.frames, scene) {
         (Some(dir), _) => match replay::Replay::open(dir) {
+            // `--after N` picks frame N of a replay: one past the end is no frame.
+            Ok(r) if opts.screenshot.is_some() && opts.after >= r.len() => {
+                eprintln!(
+                    "error: --after {}: {} holds {} surfel frames (0..={}): give one of them",
+                    opts.after,
+                    dir.display(),
+                    r.len(),
+                    r.len() - 1
+                );
+                return ExitCode::FAILURE;
+            }
             Ok(r) => (
                 Source::Replay(r),
                 None,

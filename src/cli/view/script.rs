@@ -77,7 +77,8 @@ pub(crate) struct Script {
 fn ray(r: &Ray, what: &str) -> Result<Command, String> {
     let (eye, at) = (Vec3::from(r.eye), Vec3::from(r.at));
     let d = (at - eye).normalize_or_zero();
-    let bounded = |p: Vec3| p.abs().max_element() <= MAX_COORDINATE;
+    // `is_finite` first: `max_element` passes NaN by.
+    let bounded = |p: Vec3| p.is_finite() && p.abs().max_element() <= MAX_COORDINATE;
     if !(bounded(eye) && bounded(at)) || d == Vec3::ZERO {
         return Err(format!(
             "{what}: eye {eye} and at {at} must be distinct, within ±{MAX_COORDINATE:e} m"
@@ -95,7 +96,7 @@ impl Event {
     fn command(&self) -> Result<Command, String> {
         let point = |p: [f32; 3], what: &str| {
             let v = Vec3::from(p);
-            if v.abs().max_element() <= MAX_COORDINATE {
+            if v.is_finite() && v.abs().max_element() <= MAX_COORDINATE {
                 Ok(v)
             } else {
                 Err(format!(
