@@ -240,16 +240,19 @@ enum Command {
     },
 }
 
-/// Presets named on the command line (clap checked the names), each once.
-fn presets_of(names: &[String]) -> Vec<Preset> {
+/// Presets named on the command line (clap checked the names); one named twice is an
+/// error, as a backend named twice is (`--backends mls,mls`).
+fn presets_of(flag: &str, names: &[String]) -> Result<Vec<Preset>, ExitCode> {
     let mut out: Vec<Preset> = Vec::new();
     for n in names {
         let p = Preset::parse(n.trim()).expect("clap checks the value");
-        if !out.contains(&p) {
-            out.push(p);
+        if out.contains(&p) {
+            eprintln!("error: {flag}: '{}' is listed twice", n.trim());
+            return Err(ExitCode::FAILURE);
         }
+        out.push(p);
     }
-    out
+    Ok(out)
 }
 
 fn main() -> ExitCode {
@@ -344,14 +347,17 @@ fn main() -> ExitCode {
             plot,
             case,
             preset,
-        } => validate(
-            quick,
-            backend,
-            json,
-            plot.as_deref(),
-            case.as_deref(),
-            &presets_of(&preset),
-        ),
+        } => match presets_of("--preset", &preset) {
+            Ok(presets) => validate(
+                quick,
+                backend,
+                json,
+                plot.as_deref(),
+                case.as_deref(),
+                &presets,
+            ),
+            Err(code) => code,
+        },
         Command::Compare {
             scene,
             backends,
@@ -360,16 +366,20 @@ fn main() -> ExitCode {
             dt,
             allow_unstable,
             presets,
-        } => match dt.map(dt_option).transpose() {
-            Ok(dt) => compare(
+        } => match (
+            dt.map(dt_option).transpose(),
+            presets_of("--presets", &presets),
+        ) {
+            (_, Err(code)) => code,
+            (Ok(dt), Ok(presets)) => compare(
                 &scene,
                 &backends,
-                &presets_of(&presets),
+                &presets,
                 steps,
                 json,
                 (dt, allow_unstable),
             ),
-            Err(e) => {
+            (Err(e), _) => {
                 eprintln!("error: {e}");
                 ExitCode::FAILURE
             }

@@ -125,9 +125,13 @@ pub struct BodySummary {
 fn solver_warning(b: &BodySummary) -> Option<String> {
     let s = b.solver?;
     (s.unconverged > 0).then(|| {
+        let nan = match s.non_finite {
+            0 => String::new(),
+            n => format!("; {n} with a residual that is not a number"),
+        };
         format!(
             "object '{}': backend {}: {} of {} steps stopped above the solver tolerance {:e} \
-             (largest relative residual {:e}): lower dt (--dt)",
+             (largest finite relative residual {:e}{nan}): lower dt (--dt)",
             b.name, b.backend, s.unconverged, s.steps, s.tolerance, s.max_residual
         )
     })

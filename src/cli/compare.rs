@@ -55,6 +55,25 @@ pub(crate) fn compare(
         .iter()
         .flat_map(|b| presets.iter().map(move |&p| (b, p)))
         .collect();
+    // Every run's build checked before any runs: a refused one (a dt above one
+    // backend's stable bound) would otherwise discard the runs made before it.
+    let options = |b: &String, preset: Preset| RunOptions {
+        build: BuildOptions {
+            backend: Some(b.clone()),
+            dt,
+            allow_unstable,
+            preset: Some(preset),
+            ..Default::default()
+        },
+        steps,
+        ..Default::default()
+    };
+    for &(b, preset) in &runs {
+        if let Err(e) = scene.build(&options(b, preset).build) {
+            eprintln!("error: backend {b}: {file_prefix}{e} (nothing was run)");
+            return ExitCode::FAILURE;
+        }
+    }
     let mut summaries = Vec::with_capacity(runs.len());
     for (k, &(b, preset)) in runs.iter().enumerate() {
         let with = if preset == Preset::Default {
@@ -68,17 +87,7 @@ pub(crate) fn compare(
             runs.len(),
             scene.name
         );
-        let opts = RunOptions {
-            build: BuildOptions {
-                backend: Some(b.clone()),
-                dt,
-                allow_unstable,
-                preset: Some(preset),
-                ..Default::default()
-            },
-            steps,
-            ..Default::default()
-        };
+        let opts = options(b, preset);
         let bar = step_bar(total, b);
         let result = run(&scene, &opts, |s| {
             if s % 16 == 0 {

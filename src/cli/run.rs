@@ -185,6 +185,18 @@ pub(crate) fn note_run(prefix: &str, s: &RunSummary) {
     if let Some(w) = &s.energy_warning {
         eprintln!("warning: {prefix}{w}");
     }
+    // Steps accepted at the f32 floor are converged as far as f32 forces allow, but not
+    // to the tolerance: said, so that a residual above it is never silent.
+    for b in &s.bodies {
+        if let Some(v) = b.solver.filter(|v| v.at_floor > 0) {
+            eprintln!(
+                "note: {prefix}object '{}': {} of {} implicit steps were accepted at the f32 \
+                 floor of the forces, above the tolerance {:e} (largest relative residual \
+                 {:.3e})",
+                b.name, v.at_floor, v.steps, v.tolerance, v.max_residual
+            );
+        }
+    }
     let Some(first) = s.dt_changes.first() else {
         return;
     };

@@ -23,6 +23,12 @@ pub(crate) fn validate(
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
+    if let Some(c) = only
+        && let Err(e) = validate::check_case(c)
+    {
+        eprintln!("error: --{e}");
+        return ExitCode::FAILURE;
+    }
     if let Some(dir) = plot
         && let Err(e) = make_dir(dir)
     {

@@ -66,9 +66,12 @@ pub struct SolverStats {
     pub cg_iterations: u64,
     /// Most CG iterations in one step.
     pub max_cg_per_step: u32,
-    /// Final relative residual of the last step, and the largest of any step.
+    /// Final relative residual of the last step (`null` in JSON when it is not a
+    /// number), and the largest finite one of any step.
     pub last_residual: f32,
     pub max_residual: f32,
+    /// Steps whose residual was not a number (NaN or infinite): unconverged too.
+    pub non_finite: u64,
     /// The tolerance on the relative residual.
     pub tolerance: f32,
     /// Steps accepted at the solver's floor (its f32 rounding) above the tolerance.

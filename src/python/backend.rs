@@ -11,11 +11,11 @@
 //! engine keeps fixed phyxels in place and clears the forces after the step.
 
 use super::scene::json_to_py;
-use super::world::{finite_rows, rows_writable};
+use super::world::{finite_rows, real_rows, rows_writable};
 use crate::body::material::Material;
 use crate::body::phyxels::Phyxels;
 use crate::dynamics::{Dynamics, StepContext};
-use numpy::{AllowTypeChange, PyArray1, PyArrayLike2};
+use numpy::PyArray1;
 use pyo3::prelude::*;
 
 /// A Python object driving one body's phyxels.
@@ -86,8 +86,8 @@ impl PyDynamics {
         let g = ctx.gravity.to_array();
         self.obj.bind(py).call_method1("step", (&view, ctx.dt, g))?;
         // Both read and checked before either is written: a bad one changes nothing.
-        let pos: PyArrayLike2<'_, f32, AllowTypeChange> = view.getattr("positions")?.extract()?;
-        let vel: PyArrayLike2<'_, f32, AllowTypeChange> = view.getattr("velocities")?.extract()?;
+        let pos = real_rows(&view.getattr("positions")?, "positions")?;
+        let vel = real_rows(&view.getattr("velocities")?, "velocities")?;
         finite_rows(&pos, n, "positions")?;
         finite_rows(&vel, n, "velocities")?;
         // Fixed phyxels keep their place and velocity, whatever the backend wrote.

@@ -17,33 +17,97 @@ pub struct PyScene {
     pub scene: Scene,
 }
 
-/// Removes `null`s from a JSON value: TOML has none, and a missing key means the
-/// scene's default, which is what `None` means in Python.
-fn without_nulls(v: serde_json::Value) -> serde_json::Value {
-    use serde_json::Value;
-    match v {
-        Value::Object(map) => Value::Object(
-            map.into_iter()
-                .filter(|(_, v)| !v.is_null())
-                .map(|(k, v)| (k, without_nulls(v)))
-                .collect(),
-        ),
-        Value::Array(items) => Value::Array(items.into_iter().map(without_nulls).collect()),
-        other => other,
+/// A Python value as a TOML value for a scene (`None`: the key is left out, meaning the
+/// default); NumPy arrays and scalars as their lists and numbers. `budget` is what is
+/// left of the bytes a scene file may hold ([`crate::io::SCENE_FILE_LIMIT`]), counted
+/// about as the TOML text would: a dict of a million entries is refused in its walk,
+/// not after building it. The error names the key path.
+fn py_to_toml(
+    obj: &Bound<'_, PyAny>,
+    path: &str,
+    budget: &mut usize,
+) -> Result<Option<toml::Value>, String> {
+    use pyo3::types::{PyBool, PyFloat, PyInt, PyList, PyString, PyTuple};
+    let at = if path.is_empty() { "the scene" } else { path };
+    fn spend(budget: &mut usize, n: usize, at: &str) -> Result<(), String> {
+        *budget = budget.checked_sub(n).ok_or_else(|| {
+            format!(
+                "{at}: the scene is larger than the {} bytes a scene file may hold",
+                crate::io::SCENE_FILE_LIMIT
+            )
+        })?;
+        Ok(())
     }
+    spend(budget, 8, at)?;
+    if obj.is_none() {
+        return Ok(None);
+    }
+    if let Ok(b) = obj.cast::<PyBool>() {
+        return Ok(Some(toml::Value::Boolean(b.is_true())));
+    }
+    if obj.cast::<PyInt>().is_ok() {
+        let i: i64 = obj
+            .extract()
+            .map_err(|_| format!("{at} = {obj}: an integer beyond 64 bits"))?;
+        return Ok(Some(toml::Value::Integer(i)));
+    }
+    if let Ok(f) = obj.cast::<PyFloat>() {
+        return Ok(Some(toml::Value::Float(f.value())));
+    }
+    if let Ok(s) = obj.cast::<PyString>() {
+        let s = s.to_string();
+        spend(budget, s.len(), at)?;
+        return Ok(Some(toml::Value::String(s)));
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        let mut table = toml::map::Map::new();
+        for (k, v) in d.iter() {
+            let key: String = k
+                .extract()
+                .map_err(|_| format!("{at}: key {k}: keys must be strings"))?;
+            spend(budget, key.len(), at)?;
+            let inner = if path.is_empty() {
+                key.clone()
+            } else {
+                format!("{path}.{key}")
+            };
+            if let Some(v) = py_to_toml(&v, &inner, budget)? {
+                table.insert(key, v);
+            }
+        }
+        return Ok(Some(toml::Value::Table(table)));
+    }
+    if obj.cast::<PyList>().is_ok() || obj.cast::<PyTuple>().is_ok() {
+        let mut items = Vec::new();
+        for (i, v) in obj.try_iter().map_err(|e| e.to_string())?.enumerate() {
+            let v = v.map_err(|e| e.to_string())?;
+            match py_to_toml(&v, &format!("{path}[{i}]"), budget)? {
+                Some(v) => items.push(v),
+                None => return Err(format!("{path}[{i}] = None: a list holds values only")),
+            }
+        }
+        return Ok(Some(toml::Value::Array(items)));
+    }
+    // NumPy arrays and scalars (and anything else with `tolist`): their Python values.
+    if obj.hasattr("tolist").unwrap_or(false)
+        && let Ok(list) = obj.call_method0("tolist")
+        && !list.is(obj)
+    {
+        return py_to_toml(&list, path, budget);
+    }
+    let kind = obj
+        .get_type()
+        .name()
+        .map(|n| n.to_string())
+        .unwrap_or_default();
+    Err(format!(
+        "{at}: a {kind} is not a scene value (numbers, strings, booleans, lists and dicts)"
+    ))
 }
 
 /// A JSON string as a Python object (through the standard `json` module).
 pub fn json_to_py<'py>(py: Python<'py>, text: &str) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (text,))
-}
-
-/// A Python object as a JSON string (through the standard `json` module).
-pub fn py_to_json(obj: &Bound<'_, PyAny>) -> PyResult<String> {
-    obj.py()
-        .import("json")?
-        .call_method1("dumps", (obj,))?
-        .extract()
 }
 
 #[pymethods]
@@ -80,6 +144,14 @@ impl PyScene {
     #[pyo3(signature = (text, origin = "scene"))]
     fn from_toml(py: Python<'_>, text: &str, origin: &str) -> PyResult<Self> {
         super::errors::shield(|| {
+            let limit = crate::io::SCENE_FILE_LIMIT;
+            if text.len() as u64 > limit {
+                let e = SceneError(format!(
+                    "{origin}: {} bytes, more than the limit of {limit} bytes for a scene",
+                    text.len()
+                ));
+                return Err(scene_error(py, &e));
+            }
             Scene::parse(text, origin)
                 .map(|scene| Self { scene })
                 .map_err(|e| scene_error(py, &e))
@@ -92,13 +164,33 @@ impl PyScene {
     #[pyo3(signature = (d, origin = "scene"))]
     fn from_dict(py: Python<'_>, d: &Bound<'_, PyDict>, origin: &str) -> PyResult<Self> {
         super::errors::shield(|| {
-            let json = py_to_json(d.as_any())?;
-            let value: serde_json::Value = serde_json::from_str(&json)
-                .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
-            let toml_value = toml::Value::try_from(without_nulls(value))
-                .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
-            let text = toml::to_string(&toml_value)
-                .map_err(|e| scene_error(py, &SceneError(format!("{origin}: {e}"))))?;
+            let fail = |m: String| scene_error(py, &SceneError(format!("{origin}: {m}")));
+            let mut budget = crate::io::SCENE_FILE_LIMIT as usize;
+            let value = py_to_toml(d.as_any(), "", &mut budget)
+                .map_err(fail)?
+                .unwrap_or_else(|| toml::Value::Table(Default::default()));
+            let text = toml::to_string(&value).map_err(|e| fail(e.to_string()))?;
+            // A value of the wrong type is named by the key and value the user gave,
+            // not by a line and column of this internal TOML text.
+            if let Err(e) = toml::from_str::<Scene>(&text) {
+                let line = e
+                    .span()
+                    .map(|s| {
+                        let start = text[..s.start].rfind('\n').map_or(0, |i| i + 1);
+                        let end = text[s.start..]
+                            .find('\n')
+                            .map_or(text.len(), |i| s.start + i);
+                        let table = text[..start]
+                            .lines()
+                            .rev()
+                            .find(|l| l.starts_with('['))
+                            .map(|t| format!("{t} "))
+                            .unwrap_or_default();
+                        format!("{table}{}: ", text[start..end].trim())
+                    })
+                    .unwrap_or_default();
+                return Err(fail(format!("{line}{}", e.message().trim())));
+            }
             Self::from_toml(py, &text, origin)
         })
     }

@@ -187,6 +187,36 @@ fn read_only<T>(a: Bound<'_, T>) -> Bound<'_, T> {
     a
 }
 
+/// `a` as a float32 array, if it holds real numbers: NumPy's casts would store a
+/// datetime as its count of seconds, keep a complex number's real part, a masked
+/// array's masked values, and parse strings. Floating and integer dtypes only; the
+/// error names `what`.
+pub(super) fn real_rows<'py>(
+    a: &Bound<'py, PyAny>,
+    what: &str,
+) -> PyResult<PyArrayLike2<'py, f32, AllowTypeChange>> {
+    let np = a.py().import("numpy")?;
+    if a.is_instance(&np.getattr("ma")?.getattr("MaskedArray")?)? {
+        return Err(PyTypeError::new_err(format!(
+            "{what}: a masked array: its masked entries would be stored as they are; \
+             give a plain array (e.g. `a.filled(...)`)"
+        )));
+    }
+    let arr = np
+        .call_method1("asarray", (a,))
+        .map_err(|e| PyValueError::new_err(format!("{what}: not an array of numbers: {e}")))?;
+    let dtype = arr.getattr("dtype")?;
+    let kind: String = dtype.getattr("kind")?.extract()?;
+    if !matches!(kind.as_str(), "f" | "i" | "u") {
+        return Err(PyTypeError::new_err(format!(
+            "{what}: dtype {}: must be real numbers (a floating or integer dtype)",
+            dtype.str()?
+        )));
+    }
+    arr.extract()
+        .map_err(|e| PyValueError::new_err(format!("{what}: must be an (n, 3) array: {e}")))
+}
+
 /// Checks an `(n, 3)` array of finite values; the error names `what`.
 pub(super) fn finite_rows(
     a: &PyArrayLike2<'_, f32, AllowTypeChange>,
@@ -250,15 +280,46 @@ impl PyWorld {
         super::errors::shield(|| Ok(self.lock()?.world()?.dt))
     }
 
+    /// Setting it checks what `Scene.build(dt=...)` checks: a finite number within
+    /// f32's normal range, at most the stable bound (else `UnstableError`; see
+    /// `set_dt` to go past it).
     #[setter]
-    fn set_dt(&self, dt: f32) -> PyResult<()> {
+    fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
+        self.set_dt_checked(py, dt, false)
+    }
+
+    /// Sets the time step (s) as assigning `dt` does; `allow_unstable=True` accepts a dt
+    /// above the stable bound (explicit integration then blows up).
+    #[pyo3(name = "set_dt", signature = (dt, allow_unstable = false))]
+    fn set_dt_checked(&self, py: Python<'_>, dt: f64, allow_unstable: bool) -> PyResult<()> {
         super::errors::shield(|| {
             if !(dt.is_finite() && dt > 0.0) {
                 return Err(PyValueError::new_err(format!(
                     "dt = {dt}: must be a finite number > 0"
                 )));
             }
-            self.lock()?.world_mut()?.dt = dt;
+            if !crate::scene::fits_f32(dt) {
+                return Err(PyValueError::new_err(format!(
+                    "dt = {dt:e}: outside the range of f32 numbers ({:e} to {:e})",
+                    f32::MIN_POSITIVE,
+                    f32::MAX
+                )));
+            }
+            let dt = dt as f32;
+            let mut s = self.lock()?;
+            let w = s.world_mut()?;
+            let (stable, limiter) = w.stable_dt();
+            if dt > stable && !allow_unstable {
+                let limiter = limiter.map_or("?", |o| o.name.as_str());
+                let suggest = crate::world::DT_FRACTION * stable;
+                let e = crate::scene::SceneError(format!(
+                    "world: dt = {dt} s exceeds the stable bound {stable} s of object \
+                     '{limiter}' (explicit integration would blow up); use dt = {suggest:.3e} \
+                     (90% of the bound) or smaller, or set_dt(dt, allow_unstable=True)"
+                ));
+                return Err(super::errors::scene_error(py, &e));
+            }
+            w.dt = dt;
             Ok(())
         })
     }
@@ -626,8 +687,9 @@ impl PyBody {
     }
 
     #[setter]
-    fn set_phyxel_positions(&self, a: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
+    fn set_phyxel_positions(&self, a: &Bound<'_, PyAny>) -> PyResult<()> {
         super::errors::shield(|| {
+            let a = real_rows(a, "phyxel_positions")?;
             self.with_mut(|o| {
                 finite_rows(&a, o.phyxels.len(), "phyxel_positions")?;
                 write_rows(&mut o.phyxels.pos, &a, false);
@@ -645,8 +707,9 @@ impl PyBody {
     }
 
     #[setter]
-    fn set_phyxel_velocities(&self, a: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
+    fn set_phyxel_velocities(&self, a: &Bound<'_, PyAny>) -> PyResult<()> {
         super::errors::shield(|| {
+            let a = real_rows(a, "phyxel_velocities")?;
             self.with_mut(|o| {
                 finite_rows(&a, o.phyxels.len(), "phyxel_velocities")?;
                 write_rows(&mut o.phyxels.vel, &a, false);
@@ -663,8 +726,9 @@ impl PyBody {
     }
 
     /// Adds external forces `(n, 3)` (N) to the phyxels, for the next step only.
-    fn apply_forces(&self, forces: PyArrayLike2<'_, f32, AllowTypeChange>) -> PyResult<()> {
+    fn apply_forces(&self, forces: &Bound<'_, PyAny>) -> PyResult<()> {
         super::errors::shield(|| {
+            let forces = real_rows(forces, "forces")?;
             self.with_mut(|o| {
                 finite_rows(&forces, o.phyxels.len(), "forces")?;
                 write_rows(&mut o.phyxels.force, &forces, true);
@@ -779,7 +843,30 @@ pub fn compare<'py>(
 ) -> PyResult<Vec<Bound<'py, PyAny>>> {
     super::errors::shield(|| {
         let backends = match backends {
-            Some(b) => b,
+            Some(b) if b.is_empty() => {
+                return Err(PyValueError::new_err(
+                    "backends = []: give at least one backend (or leave it out for all)",
+                ));
+            }
+            Some(b) => {
+                // Checked before any runs, as `phyxel compare --backends` does.
+                let mut seen: Vec<String> = Vec::new();
+                for name in b.iter().filter_map(|x| x.extract::<String>().ok()) {
+                    if seen.contains(&name) {
+                        return Err(PyValueError::new_err(format!(
+                            "backends: {name:?} is given twice: each backend runs once"
+                        )));
+                    }
+                    if !crate::backends::NAMES.contains(&name.as_str()) {
+                        return Err(PyValueError::new_err(format!(
+                            "backends: {name:?}: unknown backend (available: {})",
+                            crate::backends::NAMES.join(", ")
+                        )));
+                    }
+                    seen.push(name);
+                }
+                b
+            }
             None => crate::backends::NAMES
                 .iter()
                 .map(|n| pyo3::types::PyString::new(py, n).into_any())
@@ -825,6 +912,9 @@ pub fn validate<'py>(
             suite::check_backend(b).map_err(PyValueError::new_err)?;
         }
         let only = case.as_deref();
+        if let Some(c) = only {
+            suite::check_case(c).map_err(PyValueError::new_err)?;
+        }
         let rows = py.detach(|| {
             suite::with_preset(preset, || {
                 let mut rows = suite::run_accuracy(&backends, quick, only, |_| {});

@@ -20,6 +20,11 @@ use bumpalo::Bump;
 pub(super) struct StepCache {
     /// Surfel bounding box per object (static objects: computed once).
     pub boxes: Vec<Aabb>,
+    /// `boxes` of the step before (empty for an object new at its index): how far each
+    /// body moved in a step ([`super::guard::crossing_warning`]).
+    pub previous_boxes: Vec<Aabb>,
+    /// A crossing warning was given (one per run).
+    pub crossing_warned: bool,
     /// Per index, the [`Object::serial`] of the object whose box and grids are cached
     /// there: static objects' are kept from step to step, so an object list that changed
     /// under them (reordered, replaced, even by an object of the same id) must not

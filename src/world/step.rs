@@ -214,6 +214,7 @@ fn advect(w: &mut World) -> u64 {
 fn broad_phase(w: &mut World, blocks_current: bool) -> u64 {
     let n = w.objects.len();
     w.cache.boxes.resize(n, Aabb::EMPTY);
+    w.cache.previous_boxes.clone_from(&w.cache.boxes);
     w.cache.grids.surfel.resize_with(n, || None);
     w.cache.owner.resize(n, u64::MAX);
     for (k, o) in w.objects.iter().enumerate() {
@@ -222,6 +223,7 @@ fn broad_phase(w: &mut World, blocks_current: bool) -> u64 {
         if fresh {
             w.cache.owner[k] = o.serial();
             w.cache.grids.surfel[k] = None;
+            w.cache.previous_boxes[k] = Aabb::EMPTY;
         }
         if fresh || !o.is_static() {
             let surface = match current_blocks(blocks_current, o) {
@@ -249,6 +251,18 @@ fn broad_phase(w: &mut World, blocks_current: bool) -> u64 {
                 surface
             };
         }
+    }
+    if !w.cache.crossing_warned
+        && let Some(warning) = super::guard::crossing_warning(
+            &w.objects,
+            &w.cache.previous_boxes,
+            &w.cache.boxes,
+            w.steps + 1,
+            w.dt,
+        )
+    {
+        w.cache.crossing_warned = true;
+        w.record.warnings.push(warning);
     }
     let is_static = BumpVec::from_iter_in(w.objects.iter().map(|o| o.is_static()), &w.cache.arena);
     overlapping_pairs(&w.cache.boxes, &is_static, &mut w.pairs);

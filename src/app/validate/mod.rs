@@ -419,6 +419,30 @@ pub const RUNNERS: &[(&[&str], CaseFn)] = &[
     (&["newtons-cradle"], case_cradle),
 ];
 
+/// Checks a `--case` prefix before anything runs: not empty (which would select every
+/// case), and the start of some case's name ([`CASES`], [`STABILITY_CASES`]).
+pub fn check_case(prefix: &str) -> Result<(), String> {
+    let names: Vec<&str> = CASES
+        .iter()
+        .map(|c| c.0)
+        .chain(STABILITY_CASES.iter().copied())
+        .collect();
+    if prefix.is_empty() {
+        return Err(format!(
+            "case \"\": empty; leave it out to run every case, or give the start of one \
+             ({})",
+            names.join(", ")
+        ));
+    }
+    if names.iter().any(|n| n.starts_with(prefix)) {
+        return Ok(());
+    }
+    Err(format!(
+        "case {prefix:?}: no case's name starts with it (cases: {})",
+        names.join(", ")
+    ))
+}
+
 /// Checks a `--backend` value: one of [`backends::NAMES`].
 pub fn check_backend(name: &str) -> Result<(), String> {
     if backends::NAMES.contains(&name) {

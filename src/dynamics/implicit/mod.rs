@@ -81,14 +81,19 @@ pub const NEWTON_TOLERANCE: f32 = 1e-4;
 pub const MOMENTUM_SHARE: f64 = 1e-3;
 
 /// A step whose Newton iteration stagnates (the residual no longer halves) below this
-/// fraction of its scale, with its whole momentum in the scale, is accepted: it has
-/// reached the f32 rounding of the forces (a body moving freely rounds its forces at
-/// about 1e-3 of its momentum per step, a thousand times its [`MOMENTUM_SHARE`]'s
-/// tolerance).
+/// fraction of its scale is accepted: it has reached the f32 rounding of the forces.
+/// A moving body's floor is its momentum's instead ([`MOMENTUM_FLOOR`]).
 /// A displacement of 1 cm is resolved to 1e-9 m, which a stiff body's stiffness (2.5e6
 /// N/m per phyxel for the E = 1e8 Pa cantilever) turns into force noise of a few percent
 /// of a phyxel's weight; the cantilever's steps stagnate at 0.2–1.5% of their impulses.
 pub const FLOOR_TOLERANCE: f64 = 0.05;
+
+/// A stagnated step of a moving body is also accepted below this fraction of its whole
+/// momentum `‖vₙ‖_M`: a body moving freely rounds its forces at about 1e-3 of its
+/// momentum per step (five times that is allowed). [`FLOOR_TOLERANCE`] of the
+/// momentum would accept steps 50 times above the tolerance as at the floor (two
+/// spheres closing at 2 m/s at dt = 0.05 s stagnate at a residual of 0.69).
+pub const MOMENTUM_FLOOR: f64 = 5e-3;
 
 /// Newton iterations per step at most.
 pub const MAX_NEWTON: u32 = 10;
@@ -145,7 +150,12 @@ impl SolverStats {
         self.newton_iterations += r.newton_iterations as u64;
         self.cg_iterations += r.cg_iterations as u64;
         self.max_cg_per_step = self.max_cg_per_step.max(r.cg_iterations);
-        self.max_residual = self.max_residual.max(r.residual);
+        // A NaN residual is counted, not lost (`f32::max` passes NaN by).
+        if r.residual.is_finite() {
+            self.max_residual = self.max_residual.max(r.residual);
+        } else {
+            self.non_finite += 1;
+        }
         self.last_residual = r.residual;
         self.tolerance = r.tolerance;
         self.at_floor += r.at_floor as u64;
@@ -257,7 +267,7 @@ pub fn solve(
         let sp = &springs.springs[e.index as usize];
         e.approach0 = sp.normal.dot(e.relative(&s.v0, springs));
     }
-    let (mut newton, mut cg, mut scale, mut floor_scale) = (0u32, 0u32, 0.0f64, 0.0f64);
+    let (mut newton, mut cg, mut scale, mut floor) = (0u32, 0u32, 0.0f64, 0.0f64);
     let (mut previous, mut stagnated) = (f64::INFINITY, false);
     let mut rel;
     loop {
@@ -294,14 +304,14 @@ pub fn solve(
             // small, but the forces' rounding is not.
             let impulse = dt as f64 * external.sqrt();
             scale = norm.max(MOMENTUM_SHARE * momentum).max(impulse).max(1e-30);
-            floor_scale = scale.max(momentum);
+            floor = (FLOOR_TOLERANCE * scale).max(MOMENTUM_FLOOR * momentum);
         }
         rel = norm / scale;
         if rel <= settings.tolerance as f64 || newton >= settings.max_newton || !rel.is_finite() {
             break;
         }
         // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE).
-        if rel > 0.5 * previous && norm <= FLOOR_TOLERANCE * floor_scale {
+        if rel > 0.5 * previous && norm <= floor {
             stagnated = true;
             break;
         }

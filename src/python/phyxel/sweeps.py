@@ -56,11 +56,20 @@ def _scene(task):
 
 def run_task(task):
     """Runs one task in this process and returns its rows (a list of dicts)."""
-    base = {k: _label(v) for k, v in task.items() if k != "material"}
-    for k, v in (task.get("material") or {}).items():
-        base[f"material.{k}"] = v
     t0 = time.perf_counter()
+    if not isinstance(task, dict):
+        error = f"TypeError: a task is a dict of keys ({', '.join(RUN_KEYS)}), not {type(task).__name__} {task!r:.80}"
+        return [dict(task=repr(task)[:80], error=error, task_seconds=time.perf_counter() - t0)]
+    base = {k: _label(v) for k, v in task.items() if k != "material"}
+    material = task.get("material")
+    if isinstance(material, dict):
+        for k, v in material.items():
+            base[f"material.{k}"] = v
+    elif material is not None:
+        base["material"] = repr(material)[:80]
     try:
+        if material is not None and not isinstance(material, dict):
+            raise TypeError(f"material = {material!r:.80}: a dict of material keys (young, poisson, ...)")
         unknown = set(task) - set(RUN_KEYS) - {"validate", "quick"}
         if unknown:
             raise ValueError(f"unknown task keys {sorted(unknown)} (known: {', '.join(RUN_KEYS)}, validate, quick)")
@@ -91,6 +100,13 @@ def sweep(tasks, client=None, frame=True):
     dask-jobqueue's clusters on Slurm or PBS, docs/PYTHON.md): each task runs on a worker
     with phyxel installed. Without one the tasks run here, one after another.
     `frame=False` returns the list of row dicts instead (no pandas needed)."""
+    if isinstance(tasks, dict):
+        raise TypeError(
+            "sweep takes a list of task dicts, not one dict: for the product of axes use "
+            "sweep(grid(scene=[...], backend=[...], ...)); for one task, sweep([task])"
+        )
+    if isinstance(tasks, (str, bytes)):
+        raise TypeError("sweep takes a list of task dicts, not a string")
     tasks = list(tasks)
     if client is None:
         nested = [run_task(t) for t in tasks]
