@@ -1871,12 +1871,12 @@ fn presets_run_and_compare_side_by_side() {
     assert!(!out.status.success() && err.contains("--preset") && err.contains("papr"));
 }
 
-/// `--flamegraph` to a file that cannot take it (`/dev/full`: every write fails, as on a
-/// full disk): pprof's writer unwrapped its write error and the run exited 101 with its
-/// summary lost. Now the summary is printed, the error names the flag and the path, the
-/// exit code is 1, and the device is left where it was.
+/// `--flamegraph` to a device (`/dev/full`: every write fails, as on a full disk) is
+/// refused before the run, like every output that is not a regular file: the error
+/// names the flag and the path, the exit code is 1, nothing runs, and the device is
+/// left where it was.
 #[test]
-fn a_flamegraph_that_cannot_be_written_keeps_the_summary() {
+fn a_flamegraph_to_a_device_is_refused_before_the_run() {
     let out = phyxel(&[
         "run",
         "two-spheres",
@@ -1888,13 +1888,14 @@ fn a_flamegraph_that_cannot_be_written_keeps_the_summary() {
     ]);
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "stderr: {err}");
-    let v: Value = serde_json::from_slice(&out.stdout).expect("the summary on stdout");
-    assert_eq!(field(&v, "steps"), 300);
+    assert!(out.stdout.is_empty());
     assert!(
-        err.contains("--flamegraph /dev/full") && err.contains("cannot write"),
+        err.contains("--flamegraph /dev/full") && err.contains("not a regular file"),
         "{err}"
     );
-    assert!(Path::new("/dev/full").exists());
+    use std::os::unix::fs::FileTypeExt;
+    let full = std::fs::symlink_metadata("/dev/full").unwrap();
+    assert!(full.file_type().is_char_device());
 }
 
 /// Inputs that are not regular files are refused before they are opened: a FIFO as the

@@ -364,6 +364,62 @@ fn bad_input_fails_with_a_message_and_a_pause_ends_a_screenshot_run() {
         "{err}"
     );
 
+    // NaN passed the range check (`max_element` passes NaN by) and panicked the
+    // simulation thread.
+    for event in ["tool = [nan, 0.0, 0.0]", "drop = [nan, 0.5, 0.0]"] {
+        std::fs::write(
+            dir.0.join("nan.toml"),
+            format!("[[event]]\nstep = 0\n{event}\n"),
+        )
+        .unwrap();
+        let out = run(&[
+            "two-spheres",
+            "--input",
+            "nan.toml",
+            "--screenshot",
+            "n.png",
+        ]);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            out.status.code() == Some(1)
+                && err.contains("must be within")
+                && !err.contains("panicked"),
+            "{event}: {err}"
+        );
+    }
+
+    // Five drops at one point stacked inside one another: only the first is added.
+    let drops: String = (1..=5)
+        .map(|k| format!("[[event]]\nstep = {k}\ndrop = [0.0, 0.5, 0.0]\n"))
+        .collect();
+    std::fs::write(dir.0.join("drops.toml"), drops).unwrap();
+    let out = run(&[
+        "two-spheres",
+        "--input",
+        "drops.toml",
+        "--screenshot",
+        "e.png",
+        "--after",
+        "8",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let objects = json["objects"].as_array().expect("objects");
+    assert_eq!(objects.len(), 3, "two spheres and one drop: {objects:?}");
+
+    // A frame past a replay's last is no frame: refused, not the last one shown.
+    let out = run(&["--frames", "odd", "--screenshot", "d.png", "--after", "99"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.code() == Some(1) && err.contains("--after 99"),
+        "{err}"
+    );
+
     let out = run(&["two-spheres", "--seconds", "nan"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
