@@ -218,7 +218,7 @@ mod tests {
         let sub = d.join("sub");
         std::fs::create_dir(&sub).unwrap();
         for dest in [fifo.as_path(), sub.as_path(), Path::new("/dev/null")] {
-            let e = write(dest, b"frame").err().expect("refused");
+            let e = write(dest, b"frame").expect_err("refused");
             assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput, "{e}");
             assert!(e.to_string().contains("not a regular file"), "{e}");
         }

@@ -236,7 +236,7 @@ pub(super) fn crossing_warning(
         let ti = travel(i);
         // Pruned: no pair with `i` can exceed the share unless `i` or its partner moved
         // far; the partner's own turn covers the second case.
-        if !(ti > 0.5 * CROSSING_SHARE * thinnest) {
+        if ti.is_nan() || ti <= 0.5 * CROSSING_SHARE * thinnest {
             continue;
         }
         for j in (0..objects.len()).filter(|&j| j != i) {
