@@ -5,6 +5,11 @@
 //! panics. Where no external force acts (no gravity, no static body), the total
 //! momentum stays the initial one within [`MOMENTUM_TOLERANCE`] of the momentum scale.
 //!
+//! Some scenes have a kinematic tool (a rigid sphere driven along +x at a random speed
+//! into the row of bodies). At every step no body's centre of mass may lie inside
+//! another body ([`centre_inside`]): contact that lets bodies pass through each other
+//! fails the soak, at any dt the scene defaults to.
+//!
 //! Every scene is printed (seed and TOML) before it runs, so a failure shows what to
 //! rerun: `PHYXEL_SOAK_SEED=<seed> cargo test --release --test soak -- --nocapture`
 //! runs that one scene; `PHYXEL_SOAK_SCENES=N` sets how many (default [`SCENES`]).
@@ -12,7 +17,7 @@
 use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};
 
-/// Scenes per run (about 40 s on two cores).
+/// Scenes per run (about 50 s on two cores).
 const SCENES: u64 = 240;
 /// The first seed: scene k has seed `FIRST_SEED + k`.
 const FIRST_SEED: u64 = 0x50a4_0000;
@@ -51,8 +56,8 @@ impl Rng {
     }
 }
 
-/// One random scene as TOML, and whether an external force acts (gravity or a static
-/// body).
+/// One random scene as TOML, and whether an external force acts (gravity, a static
+/// body or a kinematic tool).
 fn random_scene(seed: u64) -> (String, bool) {
     let mut r = Rng(seed);
     let gravity = r.chance(0.5);
@@ -133,7 +138,73 @@ fn random_scene(seed: u64) -> (String, bool) {
         );
         x += size;
     }
-    (toml, gravity || ground)
+    // A tool behind the row, driven into it (it moves rigidly at its velocity).
+    let tool = r.chance(0.3);
+    if tool {
+        let speed = r.log(0.2, 2.0);
+        let at = -0.3 - 0.03 - r.range(0.0005, 0.003);
+        toml += &format!(
+            "[[objects]]\nname = \"tool\"\nshape = {{ type = \"sphere\", radius = 0.03 }}\n\
+             backend = \"kinematic\"\nspacing = 0.012\nposition = [{at:.4}, 0.0, 0.0]\n\
+             velocity = [{speed:.3}, 0.0, 0.0]\nmaterial = {{ young = 1e7 }}\n"
+        );
+    }
+    (toml, gravity || ground || tool)
+}
+
+/// Whether the kinematic `tool` (a rigid sphere) may bury itself in body `b`: Hertz's
+/// largest indentation of a rigid sphere of radius R into a half-space of modulus
+/// `E* = E/(1 − ν²)` by a body of mass m closing at speed v,
+/// `δ = (15 m v² / (16 E* √R))^(2/5)` (Johnson, Contact Mechanics, §11.4), exceeds R/2.
+/// The closing speed is the tool's x velocity less the body's (all bodies start ahead
+/// of it along +x).
+fn buries(tool: &phyxel::Object, b: &phyxel::Object) -> bool {
+    if b.is_static() {
+        return false;
+    }
+    let radius = 0.03f64;
+    let v = (tool.phyxels.vel.get(0).x - b.phyxels.vel.get(0).x).max(0.0) as f64;
+    let m = b.phyxels.total_mass();
+    let (e, nu) = (b.material.young as f64, b.material.poisson as f64);
+    let e_star = e / (1.0 - nu * nu);
+    let depth = (15.0 * m * v * v / (16.0 * e_star * radius.sqrt())).powf(0.4);
+    depth > 0.5 * radius
+}
+
+/// Whether the centre of mass of `a` lies inside body `b`, judged by an independent
+/// reference, not the contact pipeline's implicit surface (which is what is under test):
+/// the winding number of `b`'s oriented surfels at the point, `w = Σ A_k n_k·(s_k − c) /
+/// (4π |s_k − c|³)` with `A_k = π r_k²` (Barill et al. 2018), brute force: about 1
+/// inside a closed surface, 0 outside; inside when above 0.6. A static plane is an open
+/// surface: a centre below its top within its patch is inside. A torus's centre lies
+/// in its hole, not its material: it is not asked.
+fn centre_inside(a: &phyxel::Object, b: &phyxel::Object) -> bool {
+    let c = a.phyxels.centre_of_mass();
+    let c = glam::DVec3::new(c[0], c[1], c[2]);
+    let s = &b.surfels;
+    let (mut lo, mut hi) = (
+        glam::DVec3::splat(f64::INFINITY),
+        glam::DVec3::splat(f64::NEG_INFINITY),
+    );
+    for k in 0..s.pos.len() {
+        let p = s.pos.get(k).as_dvec3();
+        (lo, hi) = (lo.min(p), hi.max(p));
+    }
+    if b.is_static() {
+        // The soak's static body is the ground plane: surfels on its top face.
+        return c.x > lo.x && c.x < hi.x && c.z > lo.z && c.z < hi.z && c.y < hi.y;
+    }
+    if c.cmplt(lo).any() || c.cmpgt(hi).any() {
+        return false;
+    }
+    let mut w = 0.0f64;
+    for k in 0..s.pos.len() {
+        let d = s.pos.get(k).as_dvec3() - c;
+        let r2 = d.length_squared().max(1e-24);
+        let area = std::f64::consts::PI * (s.radius[k] as f64).powi(2);
+        w += area * s.normal.get(k).as_dvec3().dot(d) / (r2 * r2.sqrt());
+    }
+    w / (4.0 * std::f64::consts::PI) > 0.6
 }
 
 /// Total momentum (kg m/s) and its scale `Σ m |v|` of the moving objects.
@@ -158,6 +229,12 @@ struct Tally {
     stopped: u32,
     momentum_checked: u32,
     worst_drift: f64,
+    /// Scenes with a kinematic tool that ran, and those whose tool touched a body.
+    tools: u32,
+    tools_touching: u32,
+    /// Tool–body pairs whose Hertz indentation stays below half the tool's radius
+    /// (those the pass-through check asks).
+    tools_checked: u32,
 }
 
 fn run_one(seed: u64, tally: &mut Tally) {
@@ -181,10 +258,54 @@ fn run_one(seed: u64, tally: &mut Tally) {
         }
     };
     let (p0, scale) = momentum(&w);
-    for _ in 0..scene.steps {
+    let torus: Vec<bool> = scene
+        .objects
+        .iter()
+        .map(|o| matches!(o.shape, phyxel::body::shape::Shape::Torus { .. }))
+        .collect();
+    // Bodies that start inside another (a refused overlap is caught above) are not asked.
+    let started_inside =
+        |w: &World, i: usize, j: usize| centre_inside(&w.objects[i], &w.objects[j]);
+    let n = w.objects.len();
+    let mut initially: Vec<bool> = (0..n * n)
+        .map(|k| started_inside(&w, k / n, k % n))
+        .collect();
+    // A rigid tool driven into a soft body may bury itself: where Hertz's indentation
+    // of the whole impact reaches past half the tool's radius, the tool's centre inside
+    // the body is physics, not a pass-through, and the pair is not asked.
+    if let Some(t) = w.objects.iter().position(|o| o.name == "tool") {
+        for j in (0..n).filter(|&j| j != t) {
+            if buries(&w.objects[t], &w.objects[j]) {
+                (initially[t * n + j], initially[j * n + t]) = (true, true);
+            } else if !w.objects[j].is_static() {
+                tally.tools_checked += 1;
+            }
+        }
+    }
+    for s in 1..=scene.steps {
         w.step();
         if w.non_finite.is_some() {
             break;
+        }
+        if w.objects.len() != n {
+            continue; // a fracture renumbers the bodies (the soak's materials do not break)
+        }
+        for (i, a) in w.objects.iter().enumerate() {
+            if a.is_static() || torus[i] {
+                continue;
+            }
+            for (j, b) in w.objects.iter().enumerate() {
+                assert!(
+                    i == j || initially[i * n + j] || !centre_inside(a, b),
+                    "seed {seed}: step {s}: the centre of '{}' ({}) is inside '{}' ({}): \
+                     the bodies passed into each other; warnings: {:?}",
+                    a.name,
+                    a.dynamics.name(),
+                    b.name,
+                    b.dynamics.name(),
+                    w.record.warnings
+                );
+            }
         }
     }
     match &w.non_finite {
@@ -198,6 +319,15 @@ fn run_one(seed: u64, tally: &mut Tally) {
             tally.stopped += 1;
         }
         None => {
+            if let Some(t) = w.objects.iter().find(|o| o.name == "tool") {
+                tally.tools += 1;
+                tally.tools_touching +=
+                    w.record
+                        .contacts
+                        .pairs()
+                        .iter()
+                        .any(|p| p.a == t.id || p.b == t.id) as u32;
+            }
             let finite = w.objects.iter().all(|o| o.phyxels.pos.all_finite());
             assert!(finite, "seed {seed}: non-finite positions without a report");
             tally.finite += 1;
@@ -213,6 +343,35 @@ fn run_one(seed: u64, tally: &mut Tally) {
             }
         }
     }
+}
+
+/// The pass-through check sees a pass-through: two spheres closing at 2 m/s stepped at
+/// dt = 0.05 s by `mls-implicit` pass through each other (each step moves them 0.1 m,
+/// half a sphere), and at some step one centre is inside the other sphere.
+#[test]
+fn the_pass_through_check_sees_two_spheres_crossing() {
+    let scene = Scene::builtin("two-spheres").unwrap();
+    let opts = BuildOptions {
+        dt: Some(0.05),
+        backend: Some("mls-implicit".into()),
+        ..Default::default()
+    };
+    let mut w = scene.build(&opts).unwrap();
+    assert!(!centre_inside(&w.objects[0], &w.objects[1]));
+    let mut seen = false;
+    for _ in 0..6 {
+        w.step();
+        seen |= centre_inside(&w.objects[0], &w.objects[1]);
+        let c = |k: usize| w.objects[k].phyxels.centre_of_mass()[0];
+        println!("step {}: centres x {:.4} {:.4}", w.steps, c(0), c(1));
+    }
+    assert!(seen, "the spheres' centres never entered each other");
+    // The world warned of it.
+    assert!(
+        w.record.warnings.iter().any(|m| m.contains("closed by")),
+        "{:?}",
+        w.record.warnings
+    );
 }
 
 #[test]
@@ -239,5 +398,13 @@ fn random_scenes_end_finite_or_named_and_keep_momentum() {
             "most scenes must build and run: {tally:?}"
         );
         assert!(tally.momentum_checked > 20, "{tally:?}");
+        assert!(
+            tally.tools_touching > 5,
+            "tools must reach the bodies: {tally:?}"
+        );
+        assert!(
+            tally.tools_checked > 20,
+            "the check must ask tool pairs: {tally:?}"
+        );
     }
 }

@@ -281,8 +281,8 @@ impl PyWorld {
     }
 
     /// Setting it checks what `Scene.build(dt=...)` checks: a finite number within
-    /// f32's normal range, at most the stable bound (else `UnstableError`; see
-    /// `set_dt` to go past it).
+    /// f32's normal range, at most the stable bound (else `UnstableError`) unless the
+    /// world was built with `allow_unstable=True`; see `set_dt` to go past it.
     #[setter]
     fn set_dt(&self, py: Python<'_>, dt: f64) -> PyResult<()> {
         self.set_dt_checked(py, dt, false)
@@ -309,7 +309,8 @@ impl PyWorld {
             let mut s = self.lock()?;
             let w = s.world_mut()?;
             let (stable, limiter) = w.stable_dt();
-            if dt > stable && !allow_unstable {
+            // A world built with `allow_unstable=True` keeps that choice.
+            if dt > stable && !allow_unstable && w.keep_stable {
                 let limiter = limiter.map_or("?", |o| o.name.as_str());
                 let suggest = crate::world::DT_FRACTION * stable;
                 let e = crate::scene::SceneError(format!(
