@@ -294,10 +294,8 @@ fn main() -> ExitCode {
                 eprintln!("error: --seconds {s}: must be finite and > 0");
                 return ExitCode::FAILURE;
             }
-            if !(speed.is_finite() && speed >= 0.0) {
-                eprintln!(
-                    "error: --speed {speed}: must be finite and ≥ 0 (0: as fast as it steps)"
-                );
+            if let Err(e) = cli::view::script::check_speed(speed) {
+                eprintln!("error: --speed {speed}: {e}");
                 return ExitCode::FAILURE;
             }
             let file =

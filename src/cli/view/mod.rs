@@ -11,7 +11,7 @@
 
 mod bodies;
 mod replay;
-mod script;
+pub(crate) mod script;
 mod sim;
 mod window;
 

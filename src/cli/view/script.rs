@@ -32,6 +32,23 @@ use std::path::Path;
 /// differences of coordinates stay finite in f32.
 const MAX_COORDINATE: f32 = 1e6;
 
+/// Slowest pace (simulated seconds per wall second) `--speed` and a script's `speed`
+/// take: slower, a step waits hours (a speed of 1e-39 never reached its next step, so a
+/// screenshot run never ended). Pausing is the way to stop time.
+pub(crate) const MIN_SPEED: f64 = 1e-3;
+
+/// Checks a pace: 0 (as fast as it steps) or finite and at least [`MIN_SPEED`]. The
+/// message names no option; the caller prefixes it.
+pub(crate) fn check_speed(s: f64) -> Result<(), String> {
+    if s == 0.0 || (s.is_finite() && s >= MIN_SPEED) {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be 0 (as fast as it steps) or finite and ≥ {MIN_SPEED:e} (to stop time, pause)"
+        ))
+    }
+}
+
 /// A ray as a script writes it: from `eye` through `at`.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -138,9 +155,7 @@ impl Event {
             found.push(Command::Gravity(g));
         }
         if let Some(s) = self.speed {
-            if !(s.is_finite() && s >= 0.0) {
-                return Err(format!("speed = {s}: must be finite and ≥ 0 (0: unpaced)"));
-            }
+            check_speed(s).map_err(|m| format!("speed = {s}: {m}"))?;
             found.push(Command::Speed(s));
         }
         if self.pause == Some(true) {
@@ -192,11 +207,6 @@ impl Script {
     /// Starts the script again (the scene was rebuilt).
     pub(crate) fn rewind(&mut self) {
         self.next = 0;
-    }
-
-    /// True when every event has been applied.
-    pub(crate) fn finished(&self) -> bool {
-        self.next >= self.events.len()
     }
 
     /// The commands due before step `step` that have not been applied yet.

@@ -256,9 +256,10 @@ impl Sim {
                 for c in sim.script.due(world.steps) {
                     sim.apply(c, &mut world);
                 }
-                // Paused by the script with nothing left to resume it: a screenshot run
-                // ends here rather than waiting for ever.
-                let stuck = sim.paused && shared.stop_at != u64::MAX && sim.script.finished();
+                // Paused by the script: a screenshot run ends here rather than waiting
+                // for ever. The events left are due at later steps, which a pause never
+                // reaches (a resume scheduled for step 3 after a pause at step 0 hung).
+                let stuck = sim.paused && shared.stop_at != u64::MAX;
                 let done = world.steps >= shared.stop_at || world.non_finite.is_some() || stuck;
                 if (sim.paused && !single) || done {
                     sim.pace_from = None;
@@ -492,7 +493,7 @@ impl Sim {
             error: None,
             done: world.steps >= shared.stop_at
                 || world.non_finite.is_some()
-                || (self.paused && shared.stop_at != u64::MAX && self.script.finished()),
+                || (self.paused && shared.stop_at != u64::MAX),
             non_finite: world.non_finite.as_ref().map(|e| e.to_string()),
             notice: self.notice.take(),
             input: self.input_stepped,
@@ -552,5 +553,213 @@ fn pressure_levels(world: &World, frame: &mut Frame) {
             })
             .map_or(0.0, |c| c.1);
         frame.contact[i] = 1 + (254.0 * (nearest / top).clamp(0.0, 1.0)) as u8;
+    }
+}
+
+#[cfg(test)]
+mod fuzz {
+    //! The viewer's event scripts fuzzed, headless: seed scripts mutated (a number
+    //! replaced by an extreme, a line deleted, duplicated or swapped, the text cut
+    //! short), each parsed and, when accepted, played on a small scene for a few steps.
+    //! Every script must be refused with a message or run without a panic of the
+    //! simulation thread; a non-finite state must be named. `PHYXEL_FUZZ_CASES` sets
+    //! how many mutations (default [`CASES`]).
+
+    use super::*;
+
+    /// Mutations in a default run (about 10 s on two cores).
+    const CASES: u64 = 100;
+    /// Steps each accepted script is played for.
+    const STEPS: u64 = 12;
+
+    const SEEDS: &[&str] = &[
+        "[[event]]\nstep = 0\ntool = [0.3, 0.0, 0.0]\n[[event]]\nstep = 3\ntool = [0.12, 0.0, 0.0]\n\
+         [[event]]\nstep = 8\nremove_tool = true\n",
+        "[[event]]\nstep = 1\ndrop = [0.0, 0.4, 0.0]\n[[event]]\nstep = 2\ndrop = [0.0, -0.4, 0.0]\n\
+         [[event]]\nstep = 4\ngravity = false\n",
+        "[[event]]\nstep = 0\ngrab = { eye = [-0.15, 0.0, 1.0], at = [-0.15, 0.0, 0.0] }\n\
+         [[event]]\nstep = 2\ndrag = { eye = [-0.15, 0.0, 1.0], at = [-0.3, 0.2, 0.0] }\n\
+         [[event]]\nstep = 6\nrelease = true\n",
+        "[[event]]\nstep = 0\nspeed = 0.0\n[[event]]\nstep = 2\npause = true\n[[event]]\nstep = 3\n\
+         pause = true\n[[event]]\nstep = 4\nphyxels = true\n[[event]]\nstep = 5\npressure = true\n\
+         [[event]]\nstep = 6\narrows = true\n",
+    ];
+
+    const EXTREMES: &[&str] = &[
+        "0",
+        "-1",
+        "1e38",
+        "3.4e38",
+        "1e-39",
+        "nan",
+        "inf",
+        "-inf",
+        "4294967296",
+        "-0.0",
+        "999999.0",
+        "0.1",
+        "1e6",
+        "-1e6",
+    ];
+
+    /// SplitMix64 (a seed reproduces a mutation).
+    struct Rng(u64);
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+            z ^ (z >> 31)
+        }
+        fn below(&mut self, n: usize) -> usize {
+            (self.next() % n.max(1) as u64) as usize
+        }
+    }
+
+    /// The byte ranges of the numbers in `text`.
+    fn numbers(text: &str) -> Vec<(usize, usize)> {
+        let b = text.as_bytes();
+        let mut out = Vec::new();
+        let mut i = 0;
+        while i < b.len() {
+            if b[i].is_ascii_digit()
+                || (b[i] == b'-' && b.get(i + 1).is_some_and(u8::is_ascii_digit))
+            {
+                let start = i;
+                i += 1;
+                while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'.' || b[i] == b'-')
+                {
+                    i += 1;
+                }
+                out.push((start, i));
+            } else {
+                i += 1;
+            }
+        }
+        out
+    }
+
+    fn mutate(seed: &str, r: &mut Rng) -> String {
+        let mut text = seed.to_string();
+        for _ in 0..1 + r.below(2) {
+            match r.below(10) {
+                0..=6 => {
+                    let nums = numbers(&text);
+                    if !nums.is_empty() {
+                        let (a, b) = nums[r.below(nums.len())];
+                        text.replace_range(a..b, EXTREMES[r.below(EXTREMES.len())]);
+                    }
+                }
+                7 => {
+                    let mut lines: Vec<&str> = text.lines().collect();
+                    let (i, j) = (r.below(lines.len()), r.below(lines.len()));
+                    lines.swap(i, j);
+                    text = lines.join("\n");
+                }
+                8 => {
+                    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+                    let i = r.below(lines.len());
+                    if r.below(2) == 0 {
+                        lines.remove(i);
+                    } else {
+                        let l = lines[i].clone();
+                        lines.insert(i, l);
+                    }
+                    text = lines.join("\n");
+                }
+                _ => {
+                    let cut = r.below(text.len());
+                    let cut = (0..=cut)
+                        .rev()
+                        .find(|&c| text.is_char_boundary(c))
+                        .unwrap_or(0);
+                    text.truncate(cut);
+                }
+            }
+        }
+        text
+    }
+
+    /// Plays `script` on `two-spheres` for [`STEPS`] steps; the final snapshot.
+    fn play(script: Script) -> Snapshot {
+        let scene = Scene::builtin("two-spheres").expect("built-in");
+        let shared = Arc::new(Shared {
+            snapshot: Mutex::new(Snapshot::default()),
+            quit: std::sync::atomic::AtomicBool::new(false),
+            stop_at: STEPS,
+        });
+        let (_send, receive) = std::sync::mpsc::channel();
+        let thread = {
+            let shared = shared.clone();
+            std::thread::spawn(move || {
+                simulate(
+                    scene,
+                    BuildOptions::default(),
+                    0.0,
+                    script,
+                    receive,
+                    shared,
+                    1,
+                )
+            })
+        };
+        let t0 = Instant::now();
+        loop {
+            {
+                let s = shared.snapshot.lock().expect("snapshot lock");
+                if s.done || s.error.is_some() || t0.elapsed() > Duration::from_secs(60) {
+                    break;
+                }
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        shared
+            .quit
+            .store(true, std::sync::atomic::Ordering::Relaxed);
+        thread.join().expect("the simulation thread returns");
+        shared.snapshot.lock().expect("snapshot lock").clone()
+    }
+
+    #[test]
+    fn mutated_event_scripts_are_refused_or_played_without_a_panic() {
+        let cases: u64 = std::env::var("PHYXEL_FUZZ_CASES")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(CASES);
+        let (mut refused, mut played) = (0, 0);
+        for k in 0..cases {
+            let mut r = Rng(0x7669_6577 + k);
+            let seed = SEEDS[r.below(SEEDS.len())];
+            let text = if k < SEEDS.len() as u64 {
+                seed.to_string()
+            } else {
+                mutate(seed, &mut r)
+            };
+            match Script::parse(&text) {
+                Err(m) => {
+                    assert!(!m.trim().is_empty(), "case {k}: empty message for:\n{text}");
+                    refused += 1;
+                }
+                Ok(script) => {
+                    let s = play(script);
+                    assert!(
+                        s.error.is_none(),
+                        "case {k}: the simulation stopped: {:?}\nscript:\n{text}",
+                        s.error
+                    );
+                    assert!(s.done, "case {k}: did not reach step {STEPS}:\n{text}");
+                    if let Some(nf) = &s.non_finite {
+                        assert!(nf.contains("step"), "case {k}: unnamed non-finite: {nf}");
+                    }
+                    played += 1;
+                }
+            }
+        }
+        println!("{cases} scripts: {refused} refused, {played} played");
+        assert!(
+            played >= cases / 4 && refused >= cases / 10,
+            "{refused} refused, {played} played"
+        );
     }
 }
