@@ -189,7 +189,12 @@ impl PyScene {
                         format!("{table}{}: ", text[start..end].trim())
                     })
                     .unwrap_or_default();
-                return Err(fail(format!("{line}{}", e.message().trim())));
+                // A control character in the value is echoed by the parser: not raw.
+                let shown: String = format!("{line}{}", e.message().trim())
+                    .chars()
+                    .map(|c| if c.is_control() { '\u{fffd}' } else { c })
+                    .collect();
+                return Err(fail(shown));
             }
             Self::from_toml(py, &text, origin)
         })
