@@ -201,3 +201,46 @@ fn a_kinematic_body_refuses_settings_that_do_nothing() {
         refused(dir, &["run", "bad.toml"], &["bad.toml", key, "kinematic"]);
     }
 }
+
+/// Silent loss: the step whose state goes non-finite ends the contacts stream with a
+/// line that says where (it had none), and the stream has one line per step run.
+/// (`two-spheres` at dt = 3e-3 s, four times its stable bound, blows up by step 30.)
+#[test]
+fn the_contacts_stream_ends_with_the_non_finite_step() {
+    let d = common::TempDir::new("issue51", "nonfinite");
+    let dir = d.0.as_path();
+    let out = phyxel(
+        dir,
+        &[
+            "run",
+            "two-spheres",
+            "--steps",
+            "60",
+            "--dt",
+            "0.003",
+            "--allow-unstable",
+            "--contacts",
+            "c.jsonl",
+            "--json",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let steps = summary["steps"].as_u64().unwrap();
+    assert!(steps < 60, "the run blew up: {steps}");
+    let text = std::fs::read_to_string(dir.join("c.jsonl")).unwrap();
+    let lines: Vec<serde_json::Value> = text
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len() as u64, steps);
+    let last = lines.last().unwrap();
+    assert_eq!(last["step"].as_u64(), Some(steps));
+    let why = last["non_finite"].as_str().expect("the last line says why");
+    assert!(why.contains(&format!("step {steps}")), "{why}");
+    assert!(
+        lines[..lines.len() - 1]
+            .iter()
+            .all(|l| l.get("non_finite").is_none())
+    );
+}

@@ -53,6 +53,10 @@ pub struct ContactLine<'a> {
     /// Simulated time at the end of the step (s).
     pub time: f64,
     pub pairs: Vec<ContactPair<'a>>,
+    /// On the step whose state went non-finite (the stream's last line): where
+    /// ([`crate::world::NonFinite`]); values that are not numbers are `null`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub non_finite: Option<String>,
 }
 
 /// A pair of [`ContactLine`]: the objects' names and the patch's totals
@@ -89,6 +93,7 @@ fn write_contacts(out: &mut impl std::io::Write, world: &World, step: u64) -> st
         step,
         time: world.time,
         pairs: contact_pairs(world),
+        non_finite: world.non_finite.as_ref().map(|e| e.to_string()),
     };
     serde_json::to_writer(&mut *out, &line)?;
     out.write_all(b"\n")
@@ -286,6 +291,11 @@ pub fn run(
                 // changes it little), and release it as kinetic energy.
                 energy_initial.contact = world.contact_energy();
             }
+            // The contacts of every step, the one that went non-finite included: the
+            // stream then ends where the run did.
+            if let Some((out, path)) = &mut contacts {
+                write_contacts(out, &world, s).map_err(|e| contacts_err(path, e))?;
+            }
             if world.non_finite.is_some() {
                 // Nothing after a blow-up is a result: stop, and say where it began.
                 break;
@@ -293,9 +303,6 @@ pub fn run(
             if s % every == 0 && write_frames.is_some() {
                 frame(&world, s / every)?;
                 frames += 1;
-            }
-            if let Some((out, path)) = &mut contacts {
-                write_contacts(out, &world, s).map_err(|e| contacts_err(path, e))?;
             }
             progress(s);
             if s < steps

@@ -66,8 +66,10 @@ pub struct PatchTotals {
     pub torque: [f64; 3],
     /// Area of Φ (m²).
     pub area: f64,
-    /// Area-weighted centroid of Φ (m).
-    pub centroid: [f64; 3],
+    /// Area-weighted centroid of Φ (m); `None` (JSON `null`) for a patch with no area
+    /// (no contact surfel carries force): there is no point to give, and the origin
+    /// would read as one.
+    pub centroid: Option<[f64; 3]>,
     /// Largest normal pressure over the contact surfels (Pa).
     pub peak_pressure: f64,
     /// Largest overlap (m, [`ContactPoint::penetration`]).
@@ -96,11 +98,7 @@ impl PatchTotals {
             }
             deepest = deepest.max(p.penetration as f64);
         }
-        let centroid = if area > 0.0 {
-            moment / area
-        } else {
-            DVec3::ZERO
-        };
+        let centroid = (area > 0.0).then(|| (moment / area).to_array());
         Self {
             a: patch.a,
             b: patch.b,
@@ -111,7 +109,7 @@ impl PatchTotals {
             centre: centre.to_array(),
             torque: torque.to_array(),
             area,
-            centroid: centroid.to_array(),
+            centroid,
             peak_pressure: peak,
             max_penetration: deepest,
         }
