@@ -88,26 +88,25 @@ pub fn check_side_output(
     others: &[&Path],
 ) -> Result<(), String> {
     crate::io::atomic::check_output(path)?;
-    let same = |a: &Path, b: &Path| same_file(a, b);
-    if let Some(input) = inputs.iter().find(|i| same(path, i)) {
+    if let Some(input) = inputs.iter().find(|i| same_file(path, i)) {
         return Err(format!(
             "is the input {}: give another path for the output",
             input.display()
         ));
     }
-    if let Some(other) = others.iter().find(|o| same(path, o)) {
+    if let Some(other) = others.iter().find(|o| same_file(path, o)) {
         return Err(format!(
             "is also the output {}: give each output its own path",
             other.display()
         ));
     }
     if let Some(out) = out {
-        if same(path, out) {
+        if same_file(path, out) {
             return Err("is the --out folder: give a file path".to_string());
         }
         let parent = path.parent().filter(|p| !p.as_os_str().is_empty());
         let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        if same(parent.unwrap_or(Path::new(".")), out) && is_run_file(name) {
+        if same_file(parent.unwrap_or(Path::new(".")), out) && is_run_file(name) {
             return Err(format!(
                 "is a frame or manifest name inside the --out folder {} (the run writes \
                  or removes it): give a path outside it or another name",

@@ -191,8 +191,8 @@ pub(crate) fn note_run(prefix: &str, s: &RunSummary) {
         if let Some(v) = b.solver.filter(|v| v.at_floor > 0) {
             eprintln!(
                 "note: {prefix}object '{}': {} of {} implicit steps were accepted at the f32 \
-                 floor of the forces, above the tolerance {:e} (largest relative residual \
-                 {:.3e})",
+                 floor of the forces, above the tolerance {:e} (largest relative residual of \
+                 any step {:.3e})",
                 b.name, v.at_floor, v.steps, v.tolerance, v.max_residual
             );
         }
@@ -264,9 +264,6 @@ pub(crate) fn print_table(s: &RunSummary) {
     }
 }
 
-/// The scene `arg` names (built-in or file) and the prefix for errors from building it:
-/// errors from a scene file name the scene, so the file is prefixed to name it too.
-/// `None` after printing the error.
 /// Refuses `--contacts` and `--flamegraph` paths that would overwrite an input, each
 /// other, or the frames' folder and its files ([`out_dir::check_side_output`]).
 fn check_side_outputs(
@@ -300,6 +297,9 @@ fn check_side_outputs(
     Ok(())
 }
 
+/// The scene `arg` names (built-in or file) and the prefix for errors from building it:
+/// errors from a scene file name the scene, so the file is prefixed to name it too.
+/// `None` after printing the error.
 pub(crate) fn resolve_scene(arg: &str) -> Option<(Scene, String)> {
     let file_prefix = if Scene::builtin(arg).is_some() {
         String::new()
