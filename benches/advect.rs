@@ -7,10 +7,10 @@
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat3, Quat, Vec3};
 use phyxel::body::advect::SurfelBinding;
-use phyxel::body::phyxels::Phyxels;
 use phyxel::body::shape::Shape;
-use phyxel::body::surfels::Surfels;
 use phyxel::dynamics::mls::MlsStencil;
+use phyxel::points::phyxels::Phyxels;
+use phyxel::points::surfels::Surfels;
 use std::hint::black_box;
 
 /// A sphere of radius 0.1 m with about `phyxels` phyxels and `surfels` surfels, rotated,

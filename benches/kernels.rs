@@ -151,8 +151,8 @@ fn distribution(c: &mut Criterion) {
 /// 20k phyxels).
 fn mls_forces(c: &mut Criterion) {
     use phyxel::backends::mls::MlsDynamics;
-    use phyxel::body::material::Material;
-    use phyxel::body::phyxels::Phyxels;
+    use phyxel::material::Material;
+    use phyxel::points::phyxels::Phyxels;
     let mat = Material::default();
     // The kernel runs rayon tasks: one thread, as the other kernels here.
     let pool = rayon::ThreadPoolBuilder::new()

@@ -22,10 +22,10 @@
 //!
 //! | step (Keiser et al. 2004 unless noted) | module |
 //! |---|---|
-//! | object `Γ = (S, P)`: surfels, phyxels, SoA columns (§3) | [`body::object`], [`body::surfels`], [`body::phyxels`], [`columns`] |
+//! | object `Γ = (S, P)`: surfels, phyxels, SoA columns (§3) | [`body::object`], [`points::surfels`], [`points::phyxels`], [`columns`] |
 //! | sampling shapes and meshes | [`body::shape`], [`body::mesh`], [`scene`] |
 //! | dynamics of the phyxels (Müller et al. 2004; pluggable) | [`dynamics`] ([`Dynamics`]), `backends/` ([`backends`]) |
-//! | MLS displacement gradient (Müller et al. 2004, §4.2) | [`dynamics::mls`], [`dynamics::kernel`] |
+//! | MLS displacement gradient (Müller et al. 2004, §4.2) | [`dynamics::mls`], [`math::kernel`] |
 //! | surfels follow the phyxels (Müller et al. 2004, §5) | [`body::advect`] |
 //! | the step, `animate` (§8), its phases and guards | [`world`], [`world::phase`] |
 //! | broad phase: object boxes and pairs (§5) | [`spatial::broad_phase`] |
@@ -50,6 +50,9 @@ pub mod columns;
 pub mod contact;
 pub mod dynamics;
 pub mod io;
+pub mod material;
+pub mod math;
+pub mod points;
 pub mod scene;
 pub mod spatial;
 pub mod world;
@@ -73,10 +76,12 @@ pub mod topology {
 /// code written against them compiles; new code uses the folders.
 #[doc(hidden)]
 pub use {
-    body::{advect, connectivity, material, mesh, object, phyxels, shape, surfels},
-    contact::{brent, detect, implicit},
-    dynamics::{kernel, mls},
+    body::{advect, connectivity, mesh, object, shape},
+    contact::{detect, implicit},
+    dynamics::mls,
     io::{frame, import},
+    math::{brent, kernel},
+    points::{phyxels, surfels},
     spatial::{broad_phase, gather, grid, morton},
     world::{output, phase as timing},
 };
@@ -100,10 +105,10 @@ pub mod backends {
     pub use super::mls_backend as mls;
     pub use super::sph_backend as sph;
 
-    use crate::body::material::Material;
-    use crate::body::phyxels::Phyxels;
     use crate::dynamics::kinematic::Kinematic;
     use crate::dynamics::{Dynamics, StaticDynamics};
+    use crate::material::Material;
+    use crate::points::phyxels::Phyxels;
 
     /// The prescribed-motion backend (`backend = "kinematic"`): a rigid body the caller
     /// moves, such as a tool ([`crate::dynamics::kinematic`]). Not in [`NAMES`]: it is no
@@ -147,9 +152,9 @@ pub struct ReadmeDoctests;
 /// The vector types of the API (`Vec3`, `Mat3`, `Quat`), at the version phyxel uses.
 pub use glam;
 
-pub use body::material::Material;
 pub use body::object::Object;
-pub use body::phyxels::Phyxels;
-pub use body::surfels::Surfels;
 pub use dynamics::{Dynamics, StepContext};
+pub use material::Material;
+pub use points::phyxels::Phyxels;
+pub use points::surfels::Surfels;
 pub use world::World;

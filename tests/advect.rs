@@ -3,11 +3,11 @@
 
 use glam::{Mat3, Quat, Vec3};
 use phyxel::body::advect::SurfelBinding;
-use phyxel::body::material::Material;
-use phyxel::body::phyxels::Phyxels;
 use phyxel::body::shape::Shape;
-use phyxel::body::surfels::Surfels;
 use phyxel::dynamics::mls::MlsStencil;
+use phyxel::material::Material;
+use phyxel::points::phyxels::Phyxels;
+use phyxel::points::surfels::Surfels;
 
 /// A 0.1 m sphere centred 2.5 m from the origin, its phyxels rotated, stretched and bent
 /// (non-uniform gradients) and given a swirling velocity; gradients by MLS. Surfels

@@ -586,9 +586,9 @@ backend = "sph"
 /// tolerance 1e-5 relative) and the stable bound is positive.
 #[test]
 fn backends_handle_tiny_fragments() {
-    use phyxel::body::material::Material;
-    use phyxel::body::phyxels::Phyxels;
     use phyxel::dynamics::StepContext;
+    use phyxel::material::Material;
+    use phyxel::points::phyxels::Phyxels;
     let m = Material::default();
     let g = Vec3::new(0.0, -9.81, 0.0);
     let sets: [&[Vec3]; 3] = [

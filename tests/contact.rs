@@ -455,7 +455,7 @@ fn simd_distribution_matches_scalar_reference() {
     let run = |f: fn(
         &[ContactSurfel],
         f32,
-        &mut phyxel::body::phyxels::Phyxels,
+        &mut phyxel::points::phyxels::Phyxels,
         &Grid,
         f32,
         &mut DistributeScratch,
@@ -1088,7 +1088,7 @@ fn pressed_spheres_release_the_contact_energy() {
 /// of mass, in f64 with the position sums' carries.
 fn angular_momentum(w: &World) -> DVec3 {
     let moving = || w.objects.iter().filter(|o| !o.is_static());
-    let at = |p: &phyxel::body::phyxels::Phyxels, i: usize| {
+    let at = |p: &phyxel::points::phyxels::Phyxels, i: usize| {
         p.pos.get(i).as_dvec3() + p.pos_carry.get(i).as_dvec3()
     };
     let (mut m, mut mx) = (0.0, DVec3::ZERO);

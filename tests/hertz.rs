@@ -213,7 +213,7 @@ fn hertz_sources() {
             c.poisson,
             c.per_radius,
             c.contact_stiffness
-                .unwrap_or(phyxel::body::material::Material::default().contact_stiffness),
+                .unwrap_or(phyxel::material::Material::default().contact_stiffness),
             100.0 * (r.contact_force / r.load - 1.0),
             100.0 * (r.radius / r.hertz_radius - 1.0),
             100.0 * (r.pressure / r.hertz_pressure - 1.0),

@@ -3,9 +3,9 @@
 
 use glam::{DMat3, DVec3, Mat3, Quat, Vec3};
 use phyxel::backends::mls::MlsDynamics;
-use phyxel::body::material::Material;
-use phyxel::body::phyxels::Phyxels;
 use phyxel::body::shape::Shape;
+use phyxel::material::Material;
+use phyxel::points::phyxels::Phyxels;
 
 /// A deterministic pseudo-random generator (xorshift), so failures reproduce.
 struct Rng(u64);
@@ -278,7 +278,7 @@ fn coplanar_neighbourhoods_are_detected_and_handled() {
 #[test]
 fn surfels_follow_affine_motion_exactly() {
     use phyxel::Object;
-    use phyxel::body::surfels::Surfels;
+    use phyxel::points::surfels::Surfels;
     let mat = Material::default();
     let shape = Shape::Sphere { radius: 0.1 };
     let vol = shape.sample_volume(0.02);
@@ -315,8 +315,8 @@ fn surfels_follow_affine_motion_exactly() {
 /// plastic strains to 1e-6 (dimensionless); the strain norms to 1e-6 relative.
 #[test]
 fn lane_kernel_matches_scalar_reference() {
-    use phyxel::body::material::StrainForm;
     use phyxel::dynamics::Dynamics;
+    use phyxel::material::StrainForm;
     let base = Material::default();
     let materials = [
         ("calibrated", base.clone()),
@@ -550,7 +550,7 @@ fn linear_basis_is_exact_only_for_affine_fields() {
 ///   strain. Tolerance 1e-4 relative to the largest entry (measured 6e-6).
 #[test]
 fn paper_strain_form_gives_its_hooke_law() {
-    use phyxel::body::material::StrainForm;
+    use phyxel::material::StrainForm;
     let mat = Material {
         young: 2.0e6,
         poisson: 0.35,

@@ -228,9 +228,9 @@ fn plastic_flow_that_stiffens_lowers_dt() {
 fn plastic_strain_follows_the_creep_law() {
     use glam::{DMat3, Mat3};
     use phyxel::backends::mls::MlsDynamics;
-    use phyxel::body::material::Material;
-    use phyxel::body::phyxels::Phyxels;
     use phyxel::body::shape::Shape;
+    use phyxel::material::Material;
+    use phyxel::points::phyxels::Phyxels;
     let f = Mat3::from_cols_array(&[1.03, 0.01, -0.005, 0.0, 0.98, 0.012, 0.008, 0.0, 1.015]);
     let fd = f.as_dmat3();
     let eps = (fd.transpose() * fd - DMat3::IDENTITY) * 0.5;

@@ -383,9 +383,9 @@ fn self_collision_keeps_arcs_apart() {
 ///   the per-phyxel sums round), and push B away from A.
 #[test]
 fn self_collision_is_equal_and_opposite() {
-    use phyxel::body::material::Material;
-    use phyxel::body::phyxels::Phyxels;
     use phyxel::body::self_collision::SelfCollision;
+    use phyxel::material::Material;
+    use phyxel::points::phyxels::Phyxels;
     let h = 0.01;
     let block = |o: Vec3| {
         (0..27).map(move |k| o + h * Vec3::new((k % 3) as f32, (k / 3 % 3) as f32, (k / 9) as f32))

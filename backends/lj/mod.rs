@@ -30,12 +30,12 @@
 //! material's damping time (default: damping ratio 0.1 on the fastest mode).
 
 use glam::Vec3;
-use phyxel::body::material::Material;
-use phyxel::body::phyxels::Phyxels;
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
+use phyxel::material::Material;
+use phyxel::points::phyxels::Phyxels;
 use phyxel::spatial::grid::Grid;
 use rayon::prelude::*;
 use std::sync::atomic::AtomicU8;

@@ -294,7 +294,7 @@ impl M3 {
         [self.c[3 * col], self.c[3 * col + 1], self.c[3 * col + 2]]
     }
 
-    /// Cofactor matrix, columns `[J₂×J₃, J₃×J₁, J₁×J₂]` (as [`phyxel::dynamics::mls::cofactor`]).
+    /// Cofactor matrix, columns `[J₂×J₃, J₃×J₁, J₁×J₂]` (as [`phyxel::math::linalg::cofactor`]).
     #[inline(always)]
     fn cofactor(&self) -> Self {
         let cross = |a: [f32x8; 3], b: [f32x8; 3]| {

@@ -14,14 +14,15 @@
 mod tests;
 
 use glam::{Mat3, Vec3};
-use phyxel::body::material::{Material, StrainForm};
-use phyxel::body::phyxels::Phyxels;
 use phyxel::columns::Vec3s;
-use phyxel::dynamics::kernel::poly6_shape;
-use phyxel::dynamics::mls::{MlsStencil, cofactor};
+use phyxel::dynamics::mls::MlsStencil;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
+use phyxel::material::{Material, StrainForm};
+use phyxel::math::kernel::poly6_shape;
+use phyxel::math::linalg::cofactor;
+use phyxel::points::phyxels::Phyxels;
 use phyxel::spatial::gather::RowBuffer;
 use rayon::prelude::*;
 

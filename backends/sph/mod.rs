@@ -33,12 +33,12 @@ pub use kernel::CubicSpline;
 use pairs::{Fluid, density_sum, pair_forces_x8};
 
 use glam::{Mat3, Quat, Vec3};
-use phyxel::body::material::Material;
-use phyxel::body::phyxels::Phyxels;
 use phyxel::columns::{LANES, Vec3s};
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
+use phyxel::material::Material;
+use phyxel::points::phyxels::Phyxels;
 use phyxel::spatial::grid::Grid;
 use rayon::prelude::*;
 use wide::f32x8;

@@ -10,11 +10,11 @@
 //! point `o` is the phyxels' rest centroid, so `c_i` stays small (no f32 cancellation) for
 //! objects far from the origin.
 
-use crate::body::phyxels::Phyxels;
-use crate::body::surfels::Surfels;
 use crate::columns::{LANES, load8, store8};
-use crate::dynamics::kernel::poly6_shape;
-use crate::dynamics::mls::cofactor;
+use crate::math::kernel::poly6_shape;
+use crate::math::linalg::cofactor;
+use crate::points::phyxels::Phyxels;
+use crate::points::surfels::Surfels;
 use crate::spatial::broad_phase::{Aabb, BLOCK};
 use crate::spatial::gather::{RowBuffer, Rows};
 use crate::spatial::grid::Grid;

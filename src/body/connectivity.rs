@@ -23,7 +23,7 @@ pub struct Components {
 }
 
 /// Components of the graph joining points `i`, `j` with `|x_i − x_j| < max(h_i, h_j)`
-/// (`pos` and `radius` = `h`, as in [`crate::body::phyxels::Phyxels`]): one full count.
+/// (`pos` and `radius` = `h`, as in [`crate::points::phyxels::Phyxels`]): one full count.
 pub fn components(pos: &Vec3s, radius: &[f32]) -> Components {
     let mut c = Connectivity::default();
     c.count_components(pos, radius);

@@ -14,10 +14,10 @@
 
 pub use crate::body::connectivity::{Components, components};
 use crate::body::object::Object;
-use crate::body::phyxels::Phyxels;
 use crate::body::self_collision::SelfCollision;
-use crate::body::surfels::Surfels;
 use crate::dynamics::Dynamics;
+use crate::points::phyxels::Phyxels;
+use crate::points::surfels::Surfels;
 use crate::spatial::grid::Grid;
 use glam::Vec3;
 use rayon::prelude::*;

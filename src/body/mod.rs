@@ -5,10 +5,27 @@
 pub mod advect;
 pub mod connectivity;
 pub mod fracture;
-pub mod material;
 pub mod mesh;
 pub mod object;
-pub mod phyxels;
 pub mod self_collision;
 pub mod shape;
-pub mod surfels;
+
+/// Moved to [`crate::material`].
+pub mod material {
+    #[deprecated(note = "use phyxel::material::Material")]
+    pub type Material = crate::material::Material;
+    #[deprecated(note = "use phyxel::material::StrainForm")]
+    pub type StrainForm = crate::material::StrainForm;
+}
+
+/// Moved to [`crate::points::phyxels`].
+pub mod phyxels {
+    #[deprecated(note = "use phyxel::points::phyxels::Phyxels")]
+    pub type Phyxels = crate::points::phyxels::Phyxels;
+}
+
+/// Moved to [`crate::points::surfels`].
+pub mod surfels {
+    #[deprecated(note = "use phyxel::points::surfels::Surfels")]
+    pub type Surfels = crate::points::surfels::Surfels;
+}

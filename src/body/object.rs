@@ -2,13 +2,20 @@
 
 use crate::body::advect::SurfelBinding;
 use crate::body::connectivity::Connectivity;
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
 use crate::body::self_collision::SelfCollision;
-use crate::body::surfels::Surfels;
 use crate::dynamics::Dynamics;
 use crate::dynamics::mls::MlsStencil;
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
+use crate::points::surfels::Surfels;
 use glam::Mat3;
+
+/// Support of the contact-force distribution kernel in influence radii. The paper uses
+/// two of Müller's radii (3 r each, so 6 phyxel spacings); that spreads a contact force
+/// over most of a small body, which then decelerates almost rigidly while the surfaces
+/// overlap. One of our radii (2 r) keeps the force at the surface, where the elastic
+/// response should start, and still reaches about 30 phyxels (docs/ARCHITECTURE.md).
+pub const DISTRIBUTION_SUPPORT: f32 = 1.0;
 
 /// One simulated object.
 pub struct Object {
@@ -35,7 +42,7 @@ pub struct Object {
     /// Largest phyxel influence radius (m).
     pub max_influence: f32,
     /// Support of the contact-force distribution in influence radii (default
-    /// [`crate::contact::params::DISTRIBUTION_SUPPORT`]; the paper 2).
+    /// [`DISTRIBUTION_SUPPORT`]; the paper 2).
     pub distribution_support: f32,
     /// External load (N) spread over the free phyxels by mass; see [`Object::apply_load`].
     pub load: glam::Vec3,
@@ -215,7 +222,7 @@ impl Object {
             force_carrier,
             carrier_spacing,
             max_influence,
-            distribution_support: crate::contact::params::DISTRIBUTION_SUPPORT,
+            distribution_support: DISTRIBUTION_SUPPORT,
             load: glam::Vec3::ZERO,
             load_ramp: 0.0,
             parent: None,

@@ -3,9 +3,9 @@
 //! being rest neighbours are pushed apart by an equal and opposite penalty force
 //! ([`SelfCollision`]).
 
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
 use crate::columns::Vec3s;
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
 use crate::spatial::grid::Grid;
 use glam::Vec3;
 use rayon::prelude::*;

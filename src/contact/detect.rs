@@ -1,8 +1,8 @@
 //! Colliding surfels (Keiser et al. 2004, §5, eq. 2): the surfels of one object that lie
 //! in the pair's intersection box and inside the other object's implicit surface.
 
-use crate::body::surfels::Surfels;
 use crate::contact::implicit::{FarHint, ImplicitSurface, SurfaceSample};
+use crate::points::surfels::Surfels;
 use crate::spatial::broad_phase::{Aabb, Pair, points_in_blocks};
 use crate::spatial::grid::Grid;
 use glam::Vec3;

@@ -4,7 +4,20 @@
 //! and their distribution to the phyxels (§7). This module holds the types the phases
 //! share: contact surfels, patches, the pair's surfaces and scratch.
 
-pub mod brent;
+/// Moved to [`crate::math::brent`].
+pub mod brent {
+    /// Moved to [`crate::math::brent::brent`].
+    #[deprecated(note = "use phyxel::math::brent::brent")]
+    pub fn brent(
+        f: impl FnMut(f32) -> Option<f32>,
+        a: f32,
+        b: f32,
+        tol: f32,
+        max_iter: u32,
+    ) -> Option<f32> {
+        crate::math::brent::brent(f, a, b, tol, max_iter)
+    }
+}
 pub mod detect;
 mod distribute;
 mod forces;
@@ -25,14 +38,14 @@ pub use resample::{anchor, resample};
 pub use springs::{keep_parted, springs, springs_apply};
 pub use surface::contact_surface;
 
-use crate::body::phyxels::Phyxels;
-use crate::body::surfels::Surfels;
 use crate::columns::{LANES, lane_mask, load8, store8};
-use crate::contact::brent::brent;
 use crate::contact::detect::{Colliding, PairDetection};
 use crate::contact::implicit::{ImplicitSurface, NearHits, SurfaceSample};
-use crate::dynamics::kernel::poly6_shape;
-use crate::dynamics::mls::sym_eigen;
+use crate::math::brent::brent;
+use crate::math::kernel::poly6_shape;
+use crate::math::linalg::sym_eigen;
+use crate::points::phyxels::Phyxels;
+use crate::points::surfels::Surfels;
 use crate::spatial::grid::Grid;
 use glam::{DMat3, Vec3};
 use rayon::prelude::*;

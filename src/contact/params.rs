@@ -2,9 +2,9 @@
 //! penalty spring, dashpot and friction of [`ContactParams`], the support of the force
 //! distribution, and the stable step the penalty spring allows.
 
-use crate::body::material::Material;
 use crate::body::object::Object;
 use crate::dynamics::damped_euler_limit;
+use crate::material::Material;
 
 /// Contact-response constants of one pair, from the two materials.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,12 +25,7 @@ pub struct ContactParams {
     pub force_spacing: f32,
 }
 
-/// Support of the contact-force distribution kernel in influence radii. The paper uses
-/// two of Müller's radii (3 r each, so 6 phyxel spacings); that spreads a contact force
-/// over most of a small body, which then decelerates almost rigidly while the surfaces
-/// overlap. One of our radii (2 r) keeps the force at the surface, where the elastic
-/// response should start, and still reaches about 30 phyxels (docs/ARCHITECTURE.md).
-pub const DISTRIBUTION_SUPPORT: f32 = 1.0;
+pub use crate::body::object::DISTRIBUTION_SUPPORT;
 
 /// Hertz compliance `(1 − ν²)/E` of a material: a pair's `E* = 1/(c_a + c_b)`.
 pub(crate) fn compliance(m: &Material) -> f32 {

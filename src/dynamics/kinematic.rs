@@ -8,9 +8,9 @@
 //! whose `target` (where the body's centre should go, reached at `max_speed` at most)
 //! or `velocity` (when no target is set) the caller changes between steps.
 
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
 use crate::dynamics::{Dynamics, StepContext};
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
 use glam::{Mat3, Vec3};
 
 /// Name of the kinematic backend in scenes (`backend = "kinematic"`).

@@ -5,13 +5,27 @@
 //! (contact, user loads) arrive in `phyxels.force` and act during the next step.
 
 pub mod implicit;
-pub mod kernel;
 pub mod kinematic;
 pub mod mls;
 
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
+/// Moved to [`crate::math::kernel`].
+pub mod kernel {
+    /// Moved to [`crate::math::kernel::poly6`].
+    #[deprecated(note = "use phyxel::math::kernel::poly6")]
+    pub fn poly6(r2: f32, h: f32) -> f32 {
+        crate::math::kernel::poly6(r2, h)
+    }
+
+    /// Moved to [`crate::math::kernel::poly6_shape`].
+    #[deprecated(note = "use phyxel::math::kernel::poly6_shape")]
+    pub fn poly6_shape(r2: f32, h: f32) -> f32 {
+        crate::math::kernel::poly6_shape(r2, h)
+    }
+}
+
 use crate::columns::{LANES, Vec3s, load8, store8};
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
 use glam::{Mat3, Vec3};
 use wide::f32x8;
 

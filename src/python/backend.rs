@@ -12,9 +12,9 @@
 
 use super::scene::json_to_py;
 use super::world::{finite_rows, real_rows, rows_writable};
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
 use crate::dynamics::{Dynamics, StepContext};
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
 use numpy::PyArray1;
 use pyo3::prelude::*;
 

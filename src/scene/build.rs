@@ -70,7 +70,7 @@ impl Scene {
                 spec.phyxels = opts.phyxels.or(spec.phyxels);
             }
             if preset == Preset::Paper {
-                spec.material.strain = crate::body::material::StrainForm::Paper;
+                spec.material.strain = crate::material::StrainForm::Paper;
                 spec.influence = spec.influence.or(Some(PAPER_INFLUENCE));
             }
             let backend = match (&opts.backend, spec.is_static) {
@@ -619,7 +619,7 @@ fn check_memory(
         }
         let influence = spec
             .influence
-            .unwrap_or(crate::body::phyxels::SUPPORT_FACTOR);
+            .unwrap_or(crate::points::phyxels::SUPPORT_FACTOR);
         let bytes = memory::object_bytes(phyxels, surfels, backend, influence);
         if bytes.is_finite() {
             total += bytes;

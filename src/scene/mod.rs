@@ -9,6 +9,7 @@ mod tests;
 mod warnings;
 
 use crate::io::arrays::exact_array;
+pub use crate::world::Preset;
 
 use check::f32_range;
 
@@ -22,12 +23,12 @@ pub use warnings::{
 };
 
 use crate::backends;
-use crate::body::material::Material;
 use crate::body::object::Object;
-use crate::body::phyxels::Phyxels;
 use crate::body::self_collision::SelfCollision;
 use crate::body::shape::Shape;
-use crate::body::surfels::Surfels;
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
+use crate::points::surfels::Surfels;
 use crate::scene::camera::Camera;
 use crate::spatial::morton;
 use crate::world::World;
@@ -110,51 +111,6 @@ pub const PAPER_INFLUENCE: f32 = 3.0;
 /// (Keiser et al. 2004, §7: the phyxels within twice the influence radius).
 pub const PAPER_DISTRIBUTION_SUPPORT: f32 = 2.0;
 
-/// The method's configuration: this engine's defaults, or the choices of the papers
-/// (docs/ACCURACY.md, "The paper's configuration").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Preset {
-    /// Green strain, influence radius 2 r, contact forces on the contact surfels placed
-    /// from the colliding ones, spread over one influence radius.
-    #[default]
-    Default,
-    /// Müller et al. 2004 and Keiser et al. 2004 as written: the strain `JᵀJ − I`
-    /// (`strain = "paper"`), influence radius 3 r, contact forces on the resampled
-    /// contact surface, spread over two influence radii, pairs handled in order.
-    Paper,
-}
-
-impl Preset {
-    /// Parses `default` or `paper`.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        match s {
-            "default" => Ok(Preset::Default),
-            "paper" => Ok(Preset::Paper),
-            _ => Err(format!("unknown preset '{s}' (available: default, paper)")),
-        }
-    }
-
-    /// The name as written in scenes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Preset::Default => "default",
-            Preset::Paper => "paper",
-        }
-    }
-
-    /// The label of a run of `backend` in the preset named `preset`: the backend, with
-    /// the preset after a slash where it is not the default (`mls/paper`), as `compare`
-    /// and `validate` show runs side by side.
-    pub fn series(backend: &str, preset: &str) -> String {
-        if preset == Preset::Default.name() {
-            backend.to_string()
-        } else {
-            format!("{backend}/{preset}")
-        }
-    }
-}
-
 fn default_steps() -> u64 {
     1000
 }
@@ -199,7 +155,7 @@ pub struct ObjectSpec {
     /// Target surfel count: sets the surfel spacing to `(area / surfels)^(1/2)`.
     pub surfels: Option<u32>,
     /// Influence radius of each phyxel in units of its spacing `r_i` (omitted:
-    /// [`crate::body::phyxels::SUPPORT_FACTOR`], 2; Müller et al. 2004 and
+    /// [`crate::points::phyxels::SUPPORT_FACTOR`], 2; Müller et al. 2004 and
     /// `preset = "paper"`: 3).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub influence: Option<f32>,

@@ -486,8 +486,8 @@ fn surfels_are_the_sample_in_spatial_order() {
 /// refused, naming the key.
 #[test]
 fn the_paper_preset_builds_the_papers_choices() {
-    use crate::body::material::StrainForm;
-    use crate::body::phyxels::SUPPORT_FACTOR;
+    use crate::material::StrainForm;
+    use crate::points::phyxels::SUPPORT_FACTOR;
     let mut scene = Scene::builtin("two-spheres").expect("builtin");
     let check = |w: &World, strain: StrainForm, factor: f32, support: f32| {
         for o in &w.objects {

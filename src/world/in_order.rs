@@ -10,10 +10,10 @@
 use super::World;
 use super::cache::SurfaceView;
 use crate::body::object::Object;
-use crate::body::surfels::Surfels;
 use crate::contact::detect::{Candidates, DetectScratch, PairDetection, Volume, colliding_surfels};
 use crate::contact::implicit::{ImplicitSurface, grid_cell, radius_range};
 use crate::contact::{self, ContactPatch, ContactSurfel, PairSurfaces};
+use crate::points::surfels::Surfels;
 use crate::spatial::grid::Grid;
 use glam::Vec3;
 

@@ -11,11 +11,13 @@ mod guard;
 mod in_order;
 pub mod output;
 pub mod phase;
+mod preset;
 mod record;
 mod step;
 
 pub use guard::{NonFinite, RANGE_RESOLUTION};
 pub use phase::{Phase, PhaseTimes};
+pub use preset::Preset;
 pub use record::{
     ContactHistory, DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT,
     PairHistory, RunRecord,
@@ -79,7 +81,7 @@ pub struct World {
     pub pairs_in_order: bool,
     /// The configuration the scene was built in (`Scene::build`; reported by
     /// `run --json`, it changes nothing in the step).
-    pub preset: crate::scene::Preset,
+    pub preset: Preset,
     /// Steps taken so far.
     pub steps: u64,
     /// Simulated time (s): the sum of the steps' `dt` (which may change between steps);
@@ -162,7 +164,7 @@ impl World {
             render_contacts: false,
             resampled_forces: false,
             pairs_in_order: false,
-            preset: crate::scene::Preset::Default,
+            preset: Preset::Default,
             steps: 0,
             time: 0.0,
             non_finite: None,

@@ -442,7 +442,7 @@ pub fn stretch_energy(backend: &str, p: &Phyxels, m: &Material, stretch: DVec3) 
         "mls" | "mls-implicit" => {
             let (lambda, mu) = (m.lame().0 as f64, m.lame().1 as f64);
             let c = f.transpose() * f - DMat3::IDENTITY;
-            let eps = if m.strain == crate::body::material::StrainForm::Paper {
+            let eps = if m.strain == crate::material::StrainForm::Paper {
                 c
             } else {
                 c * 0.5

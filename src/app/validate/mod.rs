@@ -8,9 +8,9 @@
 
 use crate::World;
 use crate::backends;
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
 use crate::body::shape::Shape;
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
 use crate::scene::{BuildOptions, Preset, Scene};
 use glam::{DMat3, DVec3, Mat3, Vec3};
 use serde::{Deserialize, Serialize};

@@ -17,8 +17,8 @@ mod contact;
 pub use contact::{ContactSpring, ContactSprings, SpringSide};
 
 use super::{SolverStats, StepContext};
-use crate::body::material::Material;
-use crate::body::phyxels::Phyxels;
+use crate::material::Material;
+use crate::points::phyxels::Phyxels;
 use contact::{Active, Side, spread};
 use glam::Vec3;
 
