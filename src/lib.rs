@@ -54,6 +54,7 @@ pub mod material;
 pub mod math;
 pub mod points;
 pub mod scene;
+pub mod solver;
 pub mod spatial;
 pub mod world;
 

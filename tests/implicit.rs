@@ -243,7 +243,7 @@ fn friction_at_a_frame_rate_step_sticks_and_slides() {
 
 /// The frictional `pile` (μ = 0.5, four soft bodies dropped onto a plane) with every
 /// body `mls-implicit` and no dt given: the default is the frame-rate step
-/// (`IMPLICIT_DEFAULT_DT`, 1/120 s). Over 1 s the mechanical energy (kinetic, elastic,
+/// (`solver::DEFAULT_DT`, 1/120 s). Over 1 s the mechanical energy (kinetic, elastic,
 /// gravitational) never rises above the start's total (with the contact energy of the
 /// bodies' initial overlaps) by more than 1% of the gravitational energy released:
 /// friction and damping only take energy out. (The contact term is left out along the
@@ -261,7 +261,7 @@ fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
             ..BuildOptions::default()
         })
         .unwrap();
-    assert_eq!(world.dt, phyxel::world::IMPLICIT_DEFAULT_DT);
+    assert_eq!(world.dt, phyxel::solver::DEFAULT_DT);
     let start = world.energy().total();
     let mut lowest = start;
     for _ in 0..120 {

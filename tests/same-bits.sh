@@ -39,7 +39,7 @@ for scene in $scenes; do
         status=1
     fi
 done
-for run in "two-spheres --backend sph" "two-spheres --backend lj" "pile --backend sph --steps 300" "plastic-fracture --backend lj --steps 600"; do
+for run in "two-spheres --backend sph" "two-spheres --backend lj" "two-spheres --backend mls-implicit" "pile --backend mls-implicit --steps 60" "pile --backend sph --steps 300" "plastic-fracture --backend lj --steps 600"; do
     name=${run// /_}
     for side in old new; do
         bin=$old; [ "$side" = new ] && bin=$new

@@ -16,19 +16,18 @@
 //! `k_v (det J − 1) ∂cof J`, and the geometric part of the viscous term. They slow
 //! Newton's convergence slightly but do not change the solution.
 //!
-//! The Newton–CG loop is the library's ([`phyxel::dynamics::implicit::solve`]): this
+//! The Newton–CG loop is the library's ([`phyxel::solver::solve`]): this
 //! backend gives its operators ([`Implicit`]). In a world, bodies of this backend that
 //! touch are solved together, with their contact springs (and those against static
 //! objects) in the system, so stiff contact does not limit dt; against an explicit body
 //! the contact force is explicit (held over the step).
 
-use super::skyline::{Skyline, rcm_order};
 use super::*;
 use phyxel::dynamics::SolverStats;
-use phyxel::dynamics::implicit::{
-    self, Implicit, Member, SolveReport, SolveScratch, SolveSettings,
-};
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
+use phyxel::dynamics::implicit::{Implicit, SolveReport, SolveSettings};
+use phyxel::solver::skyline::{Skyline, rcm_order};
+use phyxel::solver::{self, Member, SolveScratch};
 
 /// The backend's name in scenes and on the command line.
 pub const NAME: &str = "mls-implicit";
@@ -423,7 +422,7 @@ impl Dynamics for MlsImplicit {
     }
 
     /// One backward-Euler step of this body alone (the world steps it with
-    /// [`implicit::solve`] and the bodies it touches).
+    /// [`phyxel::solver`] and the bodies it touches).
     fn step(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>) {
         let mut scratch = std::mem::take(&mut self.scratch);
         let mut members = [Member {
@@ -432,17 +431,13 @@ impl Dynamics for MlsImplicit {
             phyxels,
             material: ctx.material,
         }];
-        let none = implicit::ContactSprings::default();
-        implicit::solve(&mut members, &none, ctx.dt, ctx.gravity, &mut scratch);
+        let none = solver::ContactSprings::default();
+        solver::solve(&mut members, &none, ctx.dt, ctx.gravity, &mut scratch);
         self.scratch = scratch;
     }
 
     fn implicit(&mut self) -> Option<&mut dyn Implicit> {
         Some(self)
-    }
-
-    fn is_implicit(&self) -> bool {
-        true
     }
 
     /// Backward Euler has no stability bound: dt is chosen for accuracy.

@@ -29,7 +29,6 @@ use rayon::prelude::*;
 pub mod implicit;
 mod lanes;
 mod law;
-mod skyline;
 pub use implicit::MlsImplicit;
 use lanes::{LaneInputs, LaneOutputs, LaneStencil};
 use law::{Law, frobenius};

@@ -25,7 +25,11 @@ pub struct Object {
     pub surfels: Surfels,
     pub phyxels: Phyxels,
     pub material: Material,
+    /// The backend. Replace it with [`Object::set_dynamics`], which also reads whether
+    /// it joins the implicit solve ([`Object::is_implicit`]; the step reads that anew).
     pub dynamics: Box<dyn Dynamics>,
+    /// The backend gives the operators of the implicit solve ([`Dynamics::implicit`]).
+    implicit: bool,
     pub(crate) binding: SurfelBinding,
     /// Core MLS gradient estimate for backends that provide none (built on first use).
     pub(crate) estimate: Option<(MlsStencil, Vec<Mat3>)>,
@@ -208,12 +212,13 @@ impl Object {
         let max_influence = phyxels.radius.iter().fold(0.0f32, |a, &b| a.max(b));
         let carrier_spacing = (FORCE_CARRIER_SPACING * phyxel_spacing).max(surfel_spacing);
         let force_carrier = force_carriers(&surfels, surfel_spacing, carrier_spacing);
-        Self {
+        let mut object = Self {
             id,
             name,
             surfels,
             phyxels,
             material,
+            implicit: false,
             dynamics,
             binding,
             estimate: None,
@@ -229,7 +234,9 @@ impl Object {
             self_collision: None,
             connectivity: Connectivity::default(),
             serial: NEXT_SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
-        }
+        };
+        object.refresh_implicit();
+        object
     }
 
     /// Unique per [`Object::new`] call in the process (see the field).
@@ -339,6 +346,31 @@ impl Object {
     /// True for objects whose backend never moves them.
     pub fn is_static(&self) -> bool {
         self.dynamics.is_static()
+    }
+
+    /// True when the backend joins the implicit solve ([`Dynamics::implicit`] gives its
+    /// operators), as read at [`Object::new`], [`Object::set_dynamics`] and the start of
+    /// each step.
+    pub fn is_implicit(&self) -> bool {
+        self.implicit
+    }
+
+    /// Reads anew whether the backend joins the implicit solve.
+    pub fn refresh_implicit(&mut self) {
+        self.implicit = self.dynamics.implicit().is_some();
+    }
+
+    /// Replaces the backend.
+    pub fn set_dynamics(&mut self, dynamics: Box<dyn Dynamics>) {
+        self.dynamics = dynamics;
+        self.refresh_implicit();
+    }
+
+    /// True if the contact between this object and `other` joins an implicit solve as
+    /// springs: every side that moves is implicit, and one does.
+    pub fn contact_in_solve(&self, other: &Object) -> bool {
+        let joins = |o: &Object| o.is_static() || o.is_implicit();
+        joins(self) && joins(other) && !(self.is_static() && other.is_static())
     }
 
     /// Moves the surfels with the phyxels (uses the backend's gradient, or the core's

@@ -184,7 +184,7 @@ pub(super) fn distribute_one<const SCALAR_QUERY: bool>(
 
 /// The weights' sum, first moments `Σ wᵢ yᵢ` and second moments `Σ wᵢ yᵢ yᵢᵀ` (xx, yy,
 /// zz, xy, xz, yz) about `at` (`yᵢ = xᵢ − at`), for [`Couple`].
-pub(super) fn moments(
+pub(crate) fn moments(
     near: &[(usize, f32)],
     phyxels: &Phyxels,
     at: Vec3,
@@ -213,7 +213,7 @@ pub(super) fn moments(
 /// (not normalised), in `near`: those within `h`, or the
 /// [`MIN_DISTRIBUTION_PHYXELS`] nearest where fewer lie within it (then the support is
 /// the farthest of them, and the result is `true`). The grid's order is deterministic.
-pub(super) fn spread_weights<const SCALAR_QUERY: bool>(
+pub(crate) fn spread_weights<const SCALAR_QUERY: bool>(
     at: Vec3,
     grid: &Grid,
     h: f32,
@@ -257,7 +257,7 @@ pub(super) fn spread_weights<const SCALAR_QUERY: bool>(
 /// fewer than [`MIN_DISTRIBUTION_PHYXELS`] phyxels within reach (the widened k-nearest
 /// spread: a body sampled by a few phyxels, a surfel far outside) keeps eq. 8's spread.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub(super) struct Couple {
+pub(crate) struct Couple {
     /// The weighted phyxel centroid `s_c + d` (m).
     centroid: Vec3,
     /// `ω` (N/m).
@@ -282,7 +282,7 @@ impl Couple {
 
     /// The centroid `s_c + d` and the linear map `f ↦ ω = −I⁻¹ (d × f)` of
     /// [`Couple::at_surfel`] (zero where it is not finite).
-    pub(super) fn map(at: Vec3, total: f32, m1: [f32; 3], m2: [f32; 6]) -> (Vec3, DMat3) {
+    pub(crate) fn map(at: Vec3, total: f32, m1: [f32; 3], m2: [f32; 6]) -> (Vec3, DMat3) {
         let (centroid, d, inverse) = Self::inertia(at, total, m1, m2);
         // `−d × f = −[d]ₓ f`.
         let cross = -DMat3::from_cols(

@@ -19,13 +19,12 @@ pub mod brent {
     }
 }
 pub mod detect;
-mod distribute;
+pub(crate) mod distribute;
 mod forces;
 pub mod implicit;
 pub mod params;
 pub mod report;
 mod resample;
-mod springs;
 mod surface;
 
 pub use distribute::{
@@ -35,7 +34,12 @@ pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
 pub use params::ContactParams;
 pub use report::{ContactPoint, PatchTotals};
 pub use resample::{anchor, resample};
-pub use springs::{keep_parted, springs, springs_apply};
+
+/// Moved to [`Object::contact_in_solve`](crate::body::object::Object::contact_in_solve).
+#[deprecated(note = "use Object::contact_in_solve")]
+pub fn springs_apply(a: &crate::body::object::Object, b: &crate::body::object::Object) -> bool {
+    a.contact_in_solve(b)
+}
 pub use surface::contact_surface;
 
 use crate::columns::{LANES, lane_mask, load8, store8};

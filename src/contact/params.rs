@@ -58,7 +58,7 @@ pub fn contact_params(a: &Object, b: &Object, dt: f32) -> ContactParams {
         // (mass ρh per area) that takes the force: cap at 1.6 ρh/dt. A pair whose
         // dashpot is in an implicit solve (backward Euler: stable for any c) is not
         // capped.
-        damping: if super::springs_apply(a, b) {
+        damping: if a.contact_in_solve(b) {
             2.0 * zeta * (stiffness * rho * h).sqrt()
         } else {
             (2.0 * zeta * (stiffness * rho * h).sqrt()).min(1.6 * rho * h / dt)

@@ -2,7 +2,7 @@
 //! the last contact phase ([`crate::World::patches`]), as plain serialisable values.
 //!
 //! The forces are the pipeline's (paper eqs. 3–7) at the positions of the step's end,
-//! which act over the next step. A pair in an implicit solve (`contact::springs_apply`)
+//! which act over the next step. A pair in an implicit solve (`Object::contact_in_solve`)
 //! applies them as the start of its springs: its solve changes them over the step.
 
 use super::{ContactPatch, ContactSurfel};

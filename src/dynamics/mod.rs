@@ -159,17 +159,19 @@ pub trait Dynamics: std::any::Any + Send + Sync {
         false
     }
 
-    /// The operators of a backward-Euler step, for a backend that steps implicitly. The
-    /// world then steps it with [`implicit::solve`] instead of [`Dynamics::step`],
-    /// together with the implicit bodies it touches, and the contact springs between
-    /// them (and against static objects) join the solve: no contact stability bound
-    /// applies to it. Default: `None` (explicit contact forces). Must agree with
-    /// [`Dynamics::is_implicit`].
+    /// The operators of a backward-Euler step, for a backend that joins the implicit
+    /// solve ([`crate::solver`]): the world then steps it there instead of by
+    /// [`Dynamics::step`], together with the implicit bodies it touches, and the contact
+    /// springs between them (and against static objects) join the solve, so no contact
+    /// stability bound applies to it. `None` (the default): explicit contact forces. The
+    /// one place a backend says whether it joins ([`crate::Object::is_implicit`] reads
+    /// it).
     fn implicit(&mut self) -> Option<&mut dyn implicit::Implicit> {
         None
     }
 
-    /// True when [`Dynamics::implicit`] returns `Some`.
+    /// Whether [`Dynamics::implicit`] returns `Some`; the engine no longer reads it.
+    #[deprecated(note = "Dynamics::implicit is the one method: Object::is_implicit reads it")]
     fn is_implicit(&self) -> bool {
         false
     }

@@ -156,7 +156,12 @@ pub fn install(
     factory: &Bound<'_, PyAny>,
 ) -> PyResult<()> {
     for o in world.objects.iter_mut().filter(|o| !o.is_static()) {
-        o.dynamics = Box::new(PyDynamics::create(py, factory, &o.phyxels, &o.material)?);
+        o.set_dynamics(Box::new(PyDynamics::create(
+            py,
+            factory,
+            &o.phyxels,
+            &o.material,
+        )?));
     }
     Ok(())
 }

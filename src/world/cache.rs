@@ -10,7 +10,6 @@ use crate::contact::detect::DetectScratch;
 use crate::contact::implicit::{ImplicitSurface, SurfelRows};
 use crate::contact::params::contact_params;
 use crate::contact::{ContactParams, DistributeScratch, PairSurfaces, PatchScratch};
-use crate::dynamics::implicit::SolveScratch;
 use crate::spatial::broad_phase::Aabb;
 use crate::spatial::grid::{Grid, LazyGrid};
 use bumpalo::Bump;
@@ -40,15 +39,8 @@ pub(super) struct StepCache {
     pub patch: Vec<PatchScratch>,
     /// Per-object distribution scratch.
     pub distribute: Vec<DistributeScratch>,
-    /// Per object, the implicit solve's buffers (used by the island it leads).
-    pub solve: Vec<SolveScratch>,
-    /// Per object, its implicit island's root (union–find), `u32::MAX` if explicit.
-    pub island: Vec<u32>,
-    /// Phyxel queries of the contact springs.
-    pub spring_near: Vec<(usize, f32)>,
-    pub spring_knn: Vec<(usize, f32)>,
-    /// The springs of the step before, kept for their buffers.
-    pub last_springs: crate::dynamics::implicit::ContactSprings,
+    /// The implicit solve's islands and buffers.
+    pub solver: crate::solver::Solver,
     /// The surfaces and scratch of pairs handled in order (`World::pairs_in_order`).
     pub in_order: super::in_order::InOrderScratch,
 }

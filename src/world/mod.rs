@@ -18,6 +18,7 @@ mod step;
 pub use guard::{NonFinite, RANGE_RESOLUTION};
 pub use phase::{Phase, PhaseTimes};
 pub use preset::Preset;
+#[allow(deprecated)]
 pub use record::{
     ContactHistory, DT_FRACTION, DtChange, Energy, IMPLICIT_DEFAULT_DT, MAX_DEFAULT_DT,
     PairHistory, RunRecord,
@@ -34,7 +35,7 @@ use crate::body::object::Object;
 use crate::contact::detect::PairDetection;
 use crate::contact::params::compliance;
 use crate::contact::{ContactPatch, ContactSurfel};
-use crate::dynamics::implicit::ContactSprings;
+use crate::solver::ContactSprings;
 use crate::spatial::broad_phase::Pair;
 use cache::StepCache;
 use glam::Vec3;
@@ -101,7 +102,7 @@ pub struct World {
     pub patches: Vec<ContactPatch>,
     /// The contact springs of the last step's patches between implicit bodies (and
     /// between one and a static object): written by `distribute`, they join the next
-    /// step's implicit solves ([`crate::dynamics::implicit`]).
+    /// step's implicit solves ([`crate::solver`]).
     pub springs: ContactSprings,
     /// Statistics of the run so far: phase times, deepest penetration, splits, dt
     /// changes, warnings.
@@ -207,11 +208,11 @@ impl World {
                 })
         });
         // Where every moving object is implicit, every contact joins an implicit solve
-        // as springs ([`crate::contact::springs_apply`]): no contact bound.
+        // as springs ([`Object::contact_in_solve`]): no contact bound.
         let all_implicit = self
             .objects
             .iter()
-            .all(|o| o.is_static() || o.dynamics.is_implicit());
+            .all(|o| o.is_static() || o.is_implicit());
         self.objects
             .iter()
             .map(|o| {
@@ -243,15 +244,15 @@ impl World {
 
     /// The default time step (s) given the stable bound `stable` of
     /// [`World::stable_dt`]: [`DT_FRACTION`] of the bound, at most [`MAX_DEFAULT_DT`];
-    /// a frame-rate step ([`IMPLICIT_DEFAULT_DT`]) where an implicit body moves and
+    /// a frame-rate step ([`crate::solver::DEFAULT_DT`]) where an implicit body moves and
     /// nothing bounds dt (every moving object implicit, contacts in the solves).
     pub fn default_dt(&self, stable: f32) -> f32 {
         let implicit = self
             .objects
             .iter()
-            .any(|o| !o.is_static() && o.dynamics.is_implicit());
+            .any(|o| !o.is_static() && o.is_implicit());
         if stable == f32::INFINITY && implicit {
-            IMPLICIT_DEFAULT_DT
+            crate::solver::DEFAULT_DT
         } else {
             (DT_FRACTION * stable).min(MAX_DEFAULT_DT)
         }

@@ -164,8 +164,6 @@ pub const DT_FRACTION: f32 = 0.9;
 /// scene's bound reaches it (the softest, `soft-on-plane`, runs at 0.95 ms).
 pub const MAX_DEFAULT_DT: f32 = 1e-3;
 
-/// Default `dt` (s) of a scene whose moving objects are all implicit (no stable bound,
-/// contacts in the solve): a frame-rate step, two per frame at 60 Hz. Backward Euler
-/// keeps it stable; what it costs is accuracy (damping and stretched periods of fast
-/// modes, and impacts shorter than a step, docs/BACKENDS.md), which `--dt` trades back.
-pub const IMPLICIT_DEFAULT_DT: f32 = 1.0 / 120.0;
+/// Moved to [`crate::solver::DEFAULT_DT`].
+#[deprecated(note = "use phyxel::solver::DEFAULT_DT")]
+pub const IMPLICIT_DEFAULT_DT: f32 = crate::solver::DEFAULT_DT;

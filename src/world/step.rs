@@ -17,8 +17,6 @@ use crate::body::object::Object;
 use crate::contact;
 use crate::contact::detect::{Candidates, Volume, colliding_surfels};
 use crate::contact::implicit::{grid_cell, radius_range};
-use crate::dynamics::StepContext;
-use crate::dynamics::implicit::{self, Member};
 use crate::spatial::broad_phase::{Aabb, overlapping_pairs, points_in_blocks};
 use bumpalo::collections::Vec as BumpVec;
 use rayon::prelude::*;
@@ -50,134 +48,19 @@ fn moving_phyxels(w: &World) -> u64 {
 }
 
 /// Each non-static object's backend advances its phyxels (under gravity, the
-/// contact forces of the previous step and the object's external load). Implicit
-/// bodies are solved by islands: those joined by the last step's contact springs
-/// together, with the springs in the system ([`implicit::solve`]).
+/// contact forces of the previous step and the object's external load); implicit
+/// bodies by islands joined by the last step's contact springs ([`crate::solver`]).
 #[inline(never)] // a named frame in flamegraphs
 fn dynamics(w: &mut World) -> u64 {
-    let (dt, gravity) = (w.dt, w.gravity);
-    let t = w.time as f32;
     // The springs name objects by index: only for the object list they were built on.
     if !w.objects_unchanged() {
         w.springs.clear();
     }
-    let n = w.objects.len();
-    let island = &mut w.cache.island;
-    island.clear();
-    island.extend(w.objects.iter().enumerate().map(|(k, o)| {
-        if !o.is_static() && o.dynamics.is_implicit() {
-            k as u32
-        } else {
-            u32::MAX
-        }
-    }));
-    for sp in &w.springs.springs {
-        if let Some(b) = sp.b {
-            let (ra, rb) = (root(island, sp.a.object), root(island, b.object));
-            if ra != rb && ra != u32::MAX && rb != u32::MAX {
-                island[ra.max(rb) as usize] = ra.min(rb);
-            }
-        }
-    }
-    for k in 0..n {
-        if island[k] != u32::MAX {
-            island[k] = root(island, k as u32);
-        }
-    }
-    w.cache.solve.resize_with(n, Default::default);
-    let (island, springs) = (&w.cache.island, &w.springs);
-    let mut size = BumpVec::from_iter_in(std::iter::repeat_n(0u32, n), &w.cache.arena);
-    for &r in island.iter().filter(|&&r| r != u32::MAX) {
-        size[r as usize] += 1;
-    }
-    let size = &size[..];
-    let coupled = size.iter().any(|&s| s > 1);
-    let alone = |k: usize| island[k] != u32::MAX && size[island[k] as usize] == 1;
-    // Explicit bodies, and implicit ones alone in their island, in parallel.
-    w.objects
-        .par_iter_mut()
-        .zip(w.cache.solve.par_iter_mut())
-        .enumerate()
-        .filter(|(k, (o, _))| !o.is_static() && (island[*k] == u32::MAX || alone(*k)))
-        .for_each(|(k, (o, scratch))| {
-            o.apply_load(t);
-            if island[k] == u32::MAX {
-                let ctx = StepContext::new(dt, gravity, &o.material);
-                o.dynamics.step(&mut o.phyxels, &ctx);
-            } else {
-                let Object {
-                    dynamics,
-                    phyxels,
-                    material,
-                    ..
-                } = o;
-                let dynamics = dynamics
-                    .implicit()
-                    .expect("is_implicit agrees with implicit");
-                let mut members = [Member {
-                    object: k,
-                    dynamics,
-                    phyxels,
-                    material,
-                }];
-                implicit::solve(&mut members, springs, dt, gravity, scratch);
-            }
-            check_counts(o);
-        });
-    if coupled {
-        // Islands of several bodies, one after the other (each solve is parallel inside).
-        let mut members: Vec<Vec<Member<'_>>> = Vec::new();
-        let mut leader: Vec<usize> = Vec::new();
-        for (k, o) in w.objects.iter_mut().enumerate() {
-            let r = island[k];
-            if r == u32::MAX || alone(k) {
-                continue;
-            }
-            o.apply_load(t);
-            let at = match leader.iter().position(|&l| l == r as usize) {
-                Some(at) => at,
-                None => {
-                    leader.push(r as usize);
-                    members.push(Vec::new());
-                    members.len() - 1
-                }
-            };
-            let Object {
-                dynamics,
-                phyxels,
-                material,
-                ..
-            } = o;
-            members[at].push(Member {
-                object: k,
-                dynamics: dynamics
-                    .implicit()
-                    .expect("is_implicit agrees with implicit"),
-                phyxels,
-                material,
-            });
-        }
-        for (group, &l) in members.iter_mut().zip(&leader) {
-            implicit::solve(group, springs, dt, gravity, &mut w.cache.solve[l]);
-        }
-        drop(members);
-        // (The others were checked above.)
-        for (k, o) in w.objects.iter().enumerate() {
-            if island[k] != u32::MAX && !alone(k) {
-                check_counts(o);
-            }
-        }
-    }
+    let t = w.time as f32;
+    w.cache
+        .solver
+        .step(&mut w.objects, &w.springs, w.dt, w.gravity, t, check_counts);
     moving_phyxels(w)
-}
-
-/// The root of `k`'s island (union–find without path compression: islands are small).
-fn root(island: &[u32], k: u32) -> u32 {
-    let mut k = k;
-    while k != u32::MAX && island[k as usize] != k {
-        k = island[k as usize];
-    }
-    k
 }
 
 /// A backend may write the phyxels' columns: one that changed their count would fail
@@ -525,7 +408,7 @@ fn forces(w: &mut World) -> u64 {
 /// this step with the surfel grids); they act at the next step. Parallel over
 /// objects: each object takes its patches in patch order, so the sums do not depend
 /// on the thread count. The patches of pairs in an implicit solve become its contact
-/// springs instead (`contact::springs`), which apply their force in the solve.
+/// springs instead ([`crate::solver::springs`]), which apply their force in the solve.
 #[inline(never)] // a named frame in flamegraphs
 fn distribute(w: &mut World) -> u64 {
     let n = w.objects.len();
@@ -535,7 +418,7 @@ fn distribute(w: &mut World) -> u64 {
         let in_solve = BumpVec::from_iter_in(
             w.patches
                 .iter()
-                .map(|p| contact::springs_apply(&w.objects[p.a], &w.objects[p.b])),
+                .map(|p| w.objects[p.a].contact_in_solve(&w.objects[p.b])),
             &c.arena,
         );
         let in_solve = &in_solve[..];
@@ -558,34 +441,14 @@ fn distribute(w: &mut World) -> u64 {
                 }
             });
     }
-    let last = std::mem::take(&mut w.springs);
-    w.springs = std::mem::take(&mut w.cache.last_springs);
-    w.springs.clear();
-    if w.objects
-        .iter()
-        .any(|o| !o.is_static() && o.dynamics.is_implicit())
-    {
-        let c = &mut w.cache;
-        let max_gap = w
-            .objects
-            .iter()
-            .filter(|o| !o.is_static())
-            .map(|o| o.phyxel_spacing)
-            .fold(0.0f32, f32::max);
-        // (`last` is empty unless it was built on this object list: the dynamics phase
-        // dropped it otherwise.)
-        contact::keep_parted(&last, &w.patches, &w.objects, w.dt, max_gap, &mut w.springs);
-        contact::springs(
-            &w.patches,
-            &w.objects,
-            &c.grids.phyxel,
-            w.dt,
-            &mut w.springs,
-            &mut c.spring_near,
-            &mut c.spring_knn,
-        );
-    }
-    w.cache.last_springs = last;
+    let c = &mut w.cache;
+    c.solver.renew_springs(
+        &mut w.springs,
+        &w.patches,
+        &w.objects,
+        &c.grids.phyxel,
+        w.dt,
+    );
     0
 }
 

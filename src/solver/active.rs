@@ -17,94 +17,9 @@
 //! reading is the transpose of the spreading: the weighted mean velocity plus the
 //! weights' best-fit rotation at the surfel, so the tangent stays symmetric.
 
-use super::Member;
-use glam::{Mat3, Vec3};
-
-/// One side of a [`ContactSpring`]: an object and the phyxels the contact surfel's
-/// motion is read from and its force spread to.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SpringSide {
-    /// The object (index into `World::objects`).
-    pub object: u32,
-    /// Its phyxels, their normalised weights and offsets from the weights' centroid:
-    /// `ContactSprings::weights[start..end]`, `offsets[start..end]`.
-    pub start: u32,
-    pub end: u32,
-    /// The couple's map `f ↦ ω` (1/m): phyxel `j` takes `ŵⱼ (f + ω × rⱼ)`, which acts
-    /// at the surfel (zero: at the weights' centroid).
-    pub couple: Mat3,
-}
-
-/// The linearised penalty spring and dashpot of one contact surfel, with its friction
-/// (Keiser et al. 2004, eqs. 3–7).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ContactSpring {
-    /// Unit normal along which the force on side a pushes it out of side b.
-    pub normal: Vec3,
-    /// dF/dδ, `½ k A` (N/m): the force on a grows by this per metre of approach.
-    pub stiffness: f32,
-    /// dF/dv, `c A` (N·s/m), per m/s of approach speed.
-    pub damping: f32,
-    /// The normal force on a at the start of the step (N): the spring adds
-    /// `max(0, force + change)`. Negative for a gap (a spring of a pair that has just
-    /// parted): its side is `−force / stiffness` metres away.
-    pub force: f32,
-    /// Coulomb coefficient μ of the pair (0: frictionless).
-    pub friction: f32,
-    /// Slip speed below which friction is viscous, `μ N v_t / slip_speed` (m/s, > 0).
-    pub slip_speed: f32,
-    pub a: SpringSide,
-    /// `None` when the other side is a static object (it does not move).
-    pub b: Option<SpringSide>,
-}
-
-/// The contact springs of the last step, over the whole world.
-#[derive(Clone, Debug, Default)]
-pub struct ContactSprings {
-    pub springs: Vec<ContactSpring>,
-    /// (phyxel, normalised weight) lists of the springs' sides.
-    pub weights: Vec<(u32, f32)>,
-    /// Each weight's phyxel offset from its side's weighted centroid (m), at the step's
-    /// start.
-    pub offsets: Vec<Vec3>,
-}
-
-impl ContactSprings {
-    pub fn clear(&mut self) {
-        self.springs.clear();
-        self.weights.clear();
-        self.offsets.clear();
-    }
-
-    /// A side's (phyxel, normalised weight) list and the phyxels' offsets.
-    pub fn weights_of(&self, side: &SpringSide) -> (&[(u32, f32)], &[Vec3]) {
-        let r = side.start as usize..side.end as usize;
-        (&self.weights[r.clone()], &self.offsets[r])
-    }
-
-    /// Velocity of a side's contact surfel from its phyxels' `velocity(phyxel)`: the
-    /// weighted mean plus the weights' fitted rotation at the surfel (the transpose of
-    /// [`ContactSprings::spread`]).
-    pub fn velocity(&self, side: &SpringSide, velocity: impl Fn(usize) -> Vec3) -> Vec3 {
-        let (weights, offsets) = self.weights_of(side);
-        let (mut mean, mut moment) = (Vec3::ZERO, Vec3::ZERO);
-        for (&(j, w), &r) in weights.iter().zip(offsets) {
-            let v = velocity(j as usize) * w;
-            mean += v;
-            moment += r.cross(v);
-        }
-        mean + side.couple.transpose() * moment
-    }
-
-    /// Spreads `f` over a side's phyxels: `add(phyxel, ŵⱼ (f + ω × rⱼ))`.
-    pub fn spread(&self, side: &SpringSide, f: Vec3, mut add: impl FnMut(usize, Vec3)) {
-        let (weights, offsets) = self.weights_of(side);
-        let omega = side.couple * f;
-        for (&(j, w), &r) in weights.iter().zip(offsets) {
-            add(j as usize, (f + omega.cross(r)) * w);
-        }
-    }
-}
+use super::newton::Member;
+use super::springs::{ContactSpring, ContactSprings, SpringSide};
+use glam::Vec3;
 
 /// Newton iterations over which friction follows the iterates' normal force.
 pub const FRICTION_UPDATES: u32 = 3;

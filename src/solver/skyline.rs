@@ -12,7 +12,7 @@
 /// node placed at position k. Each connected part starts from a pseudo-peripheral node
 /// (the far end of a breadth-first search from a node of least degree), neighbours
 /// are visited by increasing degree.
-pub(super) fn rcm_order(adjacency: &[Vec<u32>]) -> Vec<u32> {
+pub fn rcm_order(adjacency: &[Vec<u32>]) -> Vec<u32> {
     let n = adjacency.len();
     let mut placed = vec![false; n];
     let mut order = Vec::with_capacity(n);
@@ -73,7 +73,7 @@ fn last_reached(adjacency: &[Vec<u32>], seed: usize, level: &mut [u32], placed: 
 
 /// A symmetric matrix stored by rows from each row's first nonzero column to the
 /// diagonal, and after [`Skyline::factor`] its Cholesky factor `L` in the same place.
-pub(super) struct Skyline {
+pub struct Skyline {
     /// First column of each row.
     first: Vec<usize>,
     /// Start of each row in `values` (row r holds columns first[r]..=r).
@@ -83,7 +83,7 @@ pub(super) struct Skyline {
 
 impl Skyline {
     /// An all-zero matrix of `n` rows whose row r may hold columns `first[r]..=r`.
-    pub(super) fn new(first: Vec<usize>) -> Self {
+    pub fn new(first: Vec<usize>) -> Self {
         let mut start = Vec::with_capacity(first.len() + 1);
         let mut len = 0;
         for (r, &f) in first.iter().enumerate() {
@@ -98,20 +98,26 @@ impl Skyline {
         }
     }
 
-    pub(super) fn len(&self) -> usize {
+    /// The matrix's order (rows).
+    pub fn len(&self) -> usize {
         self.first.len()
+    }
+
+    /// A matrix of no rows.
+    pub fn is_empty(&self) -> bool {
+        self.first.is_empty()
     }
 
     /// Adds `v` at (r, c) of the lower triangle (`c ≤ r`, inside the envelope).
     #[inline]
-    pub(super) fn add(&mut self, r: usize, c: usize, v: f64) {
+    pub fn add(&mut self, r: usize, c: usize, v: f64) {
         debug_assert!(c <= r && c >= self.first[r]);
         self.values[self.start[r] + c - self.first[r]] += v;
     }
 
     /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`); `Err` with the row
     /// whose pivot is not positive (the matrix is not positive definite).
-    pub(super) fn factor(&mut self) -> Result<(), usize> {
+    pub fn factor(&mut self) -> Result<(), usize> {
         for r in 0..self.len() {
             let (fr, sr) = (self.first[r], self.start[r]);
             for c in fr..r {
@@ -134,7 +140,7 @@ impl Skyline {
     }
 
     /// Solves `L Lᵀ x = b` in place (after [`Skyline::factor`]).
-    pub(super) fn solve(&self, b: &mut [f64]) {
+    pub fn solve(&self, b: &mut [f64]) {
         let n = self.len();
         for r in 0..n {
             let (fr, sr) = (self.first[r], self.start[r]);

@@ -1,22 +1,102 @@
-//! The contact springs that implicit bodies take into their solve
-//! ([`crate::dynamics::implicit`]): each contact surfel's penalty force (paper eqs. 3–7)
-//! differentiated along the contact normal.
+//! The contact springs that implicit bodies take into their solve: each contact
+//! surfel's penalty force (paper eqs. 3–7) differentiated along the contact normal,
+//! built from the contact patches after the forces phase and read by the next step's
+//! solve ([`super::solve`]).
 
-use super::distribute::{Couple, moments, spread_weights};
-use super::params::contact_params;
-use super::*;
 use crate::body::object::Object;
-use crate::dynamics::implicit::{ContactSpring, ContactSprings, SpringSide};
-use glam::Mat3;
+use crate::contact::distribute::{Couple, moments, spread_weights};
+use crate::contact::params::contact_params;
+use crate::contact::{ContactPatch, FRICTION_SLIP_SPEED};
+use crate::spatial::grid::Grid;
+use glam::{Mat3, Vec3};
 
-/// True if the contact between `a` and `b` joins an implicit solve: every side that
-/// moves is implicit, and one does.
-pub fn springs_apply(a: &Object, b: &Object) -> bool {
-    let joins = |o: &Object| o.is_static() || o.dynamics.is_implicit();
-    joins(a) && joins(b) && !(a.is_static() && b.is_static())
+/// One side of a [`ContactSpring`]: an object and the phyxels the contact surfel's
+/// motion is read from and its force spread to.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpringSide {
+    /// The object (index into `World::objects`).
+    pub object: u32,
+    /// Its phyxels, their normalised weights and offsets from the weights' centroid:
+    /// `ContactSprings::weights[start..end]`, `offsets[start..end]`.
+    pub start: u32,
+    pub end: u32,
+    /// The couple's map `f ↦ ω` (1/m): phyxel `j` takes `ŵⱼ (f + ω × rⱼ)`, which acts
+    /// at the surfel (zero: at the weights' centroid).
+    pub couple: Mat3,
 }
 
-/// Appends to `out` the springs of the patches whose pair [`springs_apply`] (the
+/// The linearised penalty spring and dashpot of one contact surfel, with its friction
+/// (Keiser et al. 2004, eqs. 3–7).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ContactSpring {
+    /// Unit normal along which the force on side a pushes it out of side b.
+    pub normal: Vec3,
+    /// dF/dδ, `½ k A` (N/m): the force on a grows by this per metre of approach.
+    pub stiffness: f32,
+    /// dF/dv, `c A` (N·s/m), per m/s of approach speed.
+    pub damping: f32,
+    /// The normal force on a at the start of the step (N): the spring adds
+    /// `max(0, force + change)`. Negative for a gap (a spring of a pair that has just
+    /// parted): its side is `−force / stiffness` metres away.
+    pub force: f32,
+    /// Coulomb coefficient μ of the pair (0: frictionless).
+    pub friction: f32,
+    /// Slip speed below which friction is viscous, `μ N v_t / slip_speed` (m/s, > 0).
+    pub slip_speed: f32,
+    pub a: SpringSide,
+    /// `None` when the other side is a static object (it does not move).
+    pub b: Option<SpringSide>,
+}
+
+/// The contact springs of the last step, over the whole world.
+#[derive(Clone, Debug, Default)]
+pub struct ContactSprings {
+    pub springs: Vec<ContactSpring>,
+    /// (phyxel, normalised weight) lists of the springs' sides.
+    pub weights: Vec<(u32, f32)>,
+    /// Each weight's phyxel offset from its side's weighted centroid (m), at the step's
+    /// start.
+    pub offsets: Vec<Vec3>,
+}
+
+impl ContactSprings {
+    pub fn clear(&mut self) {
+        self.springs.clear();
+        self.weights.clear();
+        self.offsets.clear();
+    }
+
+    /// A side's (phyxel, normalised weight) list and the phyxels' offsets.
+    pub fn weights_of(&self, side: &SpringSide) -> (&[(u32, f32)], &[Vec3]) {
+        let r = side.start as usize..side.end as usize;
+        (&self.weights[r.clone()], &self.offsets[r])
+    }
+
+    /// Velocity of a side's contact surfel from its phyxels' `velocity(phyxel)`: the
+    /// weighted mean plus the weights' fitted rotation at the surfel (the transpose of
+    /// [`ContactSprings::spread`]).
+    pub fn velocity(&self, side: &SpringSide, velocity: impl Fn(usize) -> Vec3) -> Vec3 {
+        let (weights, offsets) = self.weights_of(side);
+        let (mut mean, mut moment) = (Vec3::ZERO, Vec3::ZERO);
+        for (&(j, w), &r) in weights.iter().zip(offsets) {
+            let v = velocity(j as usize) * w;
+            mean += v;
+            moment += r.cross(v);
+        }
+        mean + side.couple.transpose() * moment
+    }
+
+    /// Spreads `f` over a side's phyxels: `add(phyxel, ŵⱼ (f + ω × rⱼ))`.
+    pub fn spread(&self, side: &SpringSide, f: Vec3, mut add: impl FnMut(usize, Vec3)) {
+        let (weights, offsets) = self.weights_of(side);
+        let omega = side.couple * f;
+        for (&(j, w), &r) in weights.iter().zip(offsets) {
+            add(j as usize, (f + omega.cross(r)) * w);
+        }
+    }
+}
+
+/// Appends to `out` the springs of the patches whose pair joins a solve ([`Object::contact_in_solve`]) (the
 /// pipeline spreads none of their force: the solve applies it). A spring's side a is
 /// the patch's side a unless that one is static. The force `f = ½ k δ A` of a contact
 /// surfel ([`forces`]) changes by `½ k A` per metre of approach `δ` and by `c A` per
@@ -25,7 +105,7 @@ pub fn springs_apply(a: &Object, b: &Object) -> bool {
 /// its force in [`distribute`], with the same normalised weights and couple.
 ///
 /// `grids[k]`: the phyxel grid of object k, built this step for its pairs.
-pub fn springs(
+pub fn build(
     patches: &[ContactPatch],
     objects: &[Object],
     grids: &[Option<Grid>],
@@ -36,7 +116,7 @@ pub fn springs(
 ) {
     for patch in patches {
         let (oa, ob) = (&objects[patch.a], &objects[patch.b]);
-        if !springs_apply(oa, ob) {
+        if !oa.contact_in_solve(ob) {
             continue;
         }
         let p = contact_params(oa, ob, dt);

@@ -1,0 +1,191 @@
+//! The implicit solve: backward Euler over islands of implicit bodies, with the contact
+//! springs between them in the system.
+//!
+//! A backend joins it by giving the operators of its step
+//! ([`crate::dynamics::Dynamics::implicit`], [`crate::dynamics::implicit::Implicit`]).
+//! After each step's contact forces the patches between implicit bodies (or between one
+//! and a static object) become [`ContactSprings`] ([`springs`]); the next step finds the
+//! [`Islands`] they join and runs Newton's method with preconditioned conjugate gradients
+//! over each island at once ([`solve`]), the springs' linearised penalty, dashpot and
+//! friction rows beside the members' tangents ([`active`]). A stiff contact then no
+//! longer limits dt, and the springs' forces on the two sides are equal and opposite at
+//! every iterate, so an island's momentum changes only by the external impulse and the
+//! solver's final residual. [`skyline`] is the factor backends precondition with, and
+//! [`DEFAULT_DT`] the step a scene of implicit bodies runs at.
+//!
+//! [`Solver`] is the world's entry: its two calls are the whole of what the step does
+//! with the solve.
+
+pub mod active;
+mod islands;
+mod newton;
+pub mod skyline;
+pub mod springs;
+
+pub use islands::Islands;
+pub use newton::{Member, SolveScratch, solve};
+pub use springs::{ContactSpring, ContactSprings, SpringSide};
+
+use crate::body::object::Object;
+use crate::contact::ContactPatch;
+use crate::dynamics::StepContext;
+use crate::spatial::grid::Grid;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Default `dt` (s) of a scene whose moving objects are all implicit (no stable bound,
+/// contacts in the solve): a frame-rate step, two per frame at 60 Hz. Backward Euler
+/// keeps it stable; what it costs is accuracy (damping and stretched periods of fast
+/// modes, and impacts shorter than a step, docs/BACKENDS.md), which `--dt` trades back.
+pub const DEFAULT_DT: f32 = 1.0 / 120.0;
+
+/// The solve's state between steps: the islands and each island's buffers (no
+/// allocation in the steady step). Nothing in it is a result: dropped, it is rebuilt.
+#[derive(Default)]
+pub struct Solver {
+    islands: Islands,
+    /// Per object, the buffers of the island it leads.
+    scratch: Vec<SolveScratch>,
+    /// Phyxel queries of the springs.
+    near: Vec<(usize, f32)>,
+    knn: Vec<(usize, f32)>,
+    /// The springs of the step before, kept for their buffers.
+    last_springs: ContactSprings,
+}
+
+impl Solver {
+    /// Steps every moving object of `objects` by `dt` under `gravity`, its load at time
+    /// `time` (s) and `phyxels.force`: explicit bodies by their backend's step, implicit
+    /// ones by islands joined by `springs` (the last step's), each island in one solve.
+    /// Bodies alone in their island and explicit ones run in parallel; islands of
+    /// several bodies one after another (each solve is parallel inside). `after` runs
+    /// on each object once it has stepped.
+    pub fn step(
+        &mut self,
+        objects: &mut [Object],
+        springs: &ContactSprings,
+        dt: f32,
+        gravity: Vec3,
+        time: f32,
+        after: impl Fn(&Object) + Sync,
+    ) {
+        for o in objects.iter_mut() {
+            o.refresh_implicit();
+        }
+        let n = objects.len();
+        self.islands.find(objects, springs);
+        self.scratch.resize_with(n, Default::default);
+        let islands = &self.islands;
+        objects
+            .par_iter_mut()
+            .zip(self.scratch.par_iter_mut())
+            .enumerate()
+            .filter(|(k, (o, _))| !o.is_static() && !islands.shared(*k))
+            .for_each(|(k, (o, scratch))| {
+                o.apply_load(time);
+                let Object {
+                    dynamics,
+                    phyxels,
+                    material,
+                    ..
+                } = o;
+                match dynamics.implicit().filter(|_| islands.alone(k)) {
+                    Some(dynamics) => {
+                        let mut members = [Member {
+                            object: k,
+                            dynamics,
+                            phyxels,
+                            material,
+                        }];
+                        solve(&mut members, springs, dt, gravity, scratch);
+                    }
+                    None => {
+                        let ctx = StepContext::new(dt, gravity, material);
+                        dynamics.step(phyxels, &ctx);
+                    }
+                }
+                after(o);
+            });
+        if !islands.any_shared() {
+            return;
+        }
+        let mut members: Vec<Vec<Member<'_>>> = Vec::new();
+        let mut leader: Vec<usize> = Vec::new();
+        for (k, o) in objects.iter_mut().enumerate() {
+            if !islands.shared(k) {
+                continue;
+            }
+            let r = islands.root(k).expect("a shared body is in an island");
+            o.apply_load(time);
+            let at = match leader.iter().position(|&l| l == r) {
+                Some(at) => at,
+                None => {
+                    leader.push(r);
+                    members.push(Vec::new());
+                    members.len() - 1
+                }
+            };
+            let Object {
+                dynamics,
+                phyxels,
+                material,
+                ..
+            } = o;
+            let dynamics = dynamics
+                .implicit()
+                .expect("Solver::step: a backend's implicit() changed within the step");
+            members[at].push(Member {
+                object: k,
+                dynamics,
+                phyxels,
+                material,
+            });
+        }
+        for (group, &l) in members.iter_mut().zip(&leader) {
+            solve(group, springs, dt, gravity, &mut self.scratch[l]);
+        }
+        drop(members);
+        for (k, o) in objects.iter().enumerate() {
+            if islands.shared(k) {
+                after(o);
+            }
+        }
+    }
+
+    /// Renews `springs` from this step's `patches`: those of pairs whose contact joins a
+    /// solve ([`Object::contact_in_solve`]), and the springs of the last step whose pair
+    /// has just parted ([`springs::keep_parted`]). `grids[k]`: object k's phyxel grid,
+    /// built this step for its pairs.
+    pub fn renew_springs(
+        &mut self,
+        springs: &mut ContactSprings,
+        patches: &[ContactPatch],
+        objects: &[Object],
+        grids: &[Option<Grid>],
+        dt: f32,
+    ) {
+        let last = std::mem::take(springs);
+        *springs = std::mem::take(&mut self.last_springs);
+        springs.clear();
+        if objects.iter().any(|o| !o.is_static() && o.is_implicit()) {
+            let max_gap = objects
+                .iter()
+                .filter(|o| !o.is_static())
+                .map(|o| o.phyxel_spacing)
+                .fold(0.0f32, f32::max);
+            // (`last` is empty unless it was built on this object list: the world drops
+            // it otherwise.)
+            springs::keep_parted(&last, patches, objects, dt, max_gap, springs);
+            springs::build(
+                patches,
+                objects,
+                grids,
+                dt,
+                springs,
+                &mut self.near,
+                &mut self.knn,
+            );
+        }
+        self.last_springs = last;
+    }
+}
