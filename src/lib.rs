@@ -47,6 +47,7 @@ extern crate self as phyxel;
 
 pub mod body;
 pub mod columns;
+pub mod conformance;
 pub mod contact;
 pub mod dynamics;
 pub mod io;

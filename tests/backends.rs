@@ -1,16 +1,18 @@
-//! Conformance of the built-in backends (`mls`, `sph`, `lj`) on the same contact
-//! pipeline: resting contact, momentum conservation, SPH weak compressibility, LJ
-//! equilibrium, a mixed-backend collision. Scenes are the built-in ones with coarser
-//! surfels (the contact pipeline's cost), so the whole file runs in about a minute.
+//! The built-in backends on the same contact pipeline: the conformance suite over the
+//! whole registry (`phyxel::conformance`), then resting contact, SPH weak
+//! compressibility, LJ equilibrium, a mixed-backend collision. Scenes are the built-in ones with coarser
+//! surfels (the contact pipeline's cost), so the whole file runs in about three minutes.
 
 use glam::Vec3;
 use phyxel::World;
 use phyxel::backends::lj::LjDynamics;
 use phyxel::backends::sph::SphDynamics;
+use phyxel::conformance::{Backend, Case, Tolerances, run};
 use phyxel::dynamics::Dynamics;
 use phyxel::scene::{BuildOptions, Scene};
 
-const BACKENDS: [&str; 3] = ["mls", "sph", "lj"];
+/// The backends with explicit contact forces (the implicit one settles at another dt).
+const EXPLICIT: [&str; 3] = ["mls", "sph", "lj"];
 
 /// A built-in scene with every surfel spacing at least `surfel` (m).
 fn coarse(name: &str, surfel: f32) -> Scene {
@@ -56,13 +58,13 @@ fn current_penetration(w: &World) -> f32 {
 /// penetration over the run (impact) is
 /// printed; it is discretisation-limited and reported by `phyxel compare`.
 #[test]
-fn sphere_on_plane_settles_with_every_backend() {
+fn sphere_on_plane_settles_with_each_explicit_backend() {
     let scene = coarse("sphere-on-plane", 0.01);
     let ball = &scene.objects[1];
     let radius = 0.1f32;
     let m = &ball.material;
     let e_star = m.young / (1.0 - m.poisson * m.poisson);
-    for b in BACKENDS {
+    for b in EXPLICIT {
         let mut w = build(&scene, b);
         let steps = (1.5 / w.dt).ceil() as usize;
         for _ in 0..steps {
@@ -99,36 +101,6 @@ fn sphere_on_plane_settles_with_every_backend() {
             (height - (radius - delta)).abs() < tolerance,
             "{b}: resting centre {height} m above the plane, Hertz {} m",
             radius - delta
-        );
-    }
-}
-
-/// `two-spheres` (no gravity) with each backend: the total momentum stays at its initial
-/// value (zero) to 1e-4 of one sphere's momentum `m v` (kg·m/s) at every step (pairwise
-/// antisymmetric internal forces, Newton's third law in the contact forces); the spheres
-/// do touch and then move apart (x velocities reversed).
-#[test]
-fn two_spheres_conserve_momentum_with_every_backend() {
-    let scene = coarse("two-spheres", 0.01);
-    for b in BACKENDS {
-        let mut w = build(&scene, b);
-        let scale = w.objects[0].phyxels.total_mass() * 1.0;
-        let steps = (0.2 / w.dt).ceil() as usize;
-        let (mut contact, mut worst) = (0, 0.0f64);
-        for _ in 0..steps {
-            w.step();
-            contact += !w.patches.is_empty() as usize;
-            let p = w.momentum();
-            worst = worst.max((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() / scale);
-        }
-        let (va, vb) = (com_velocity(&w, 0), com_velocity(&w, 1));
-        println!("{b}: {contact} contact steps, drift {worst:.2e}, velocities {va} {vb}");
-        assert!(w.all_finite(), "{b}: state became non-finite");
-        assert!(worst < 1e-4, "{b}: momentum drift {worst:e} of m v");
-        assert!(contact > 5, "{b}: the spheres never touched");
-        assert!(
-            va.x < 0.0 && vb.x > 0.0,
-            "{b}: the spheres did not bounce apart: {va} {vb}"
         );
     }
 }
@@ -579,48 +551,6 @@ backend = "sph"
     );
 }
 
-/// Fragments can be tiny: every backend is built by `phyxel::backends::create` on an
-/// empty set, one phyxel and two phyxels (as the topology phase would for the pieces of a
-/// broken object) and steps 10 times under gravity without panicking; one free phyxel
-/// falls exactly as `v = g t` (symplectic Euler, no internal force on a lone phyxel;
-/// tolerance 1e-5 relative) and the stable bound is positive.
-#[test]
-fn backends_handle_tiny_fragments() {
-    use phyxel::dynamics::StepContext;
-    use phyxel::material::Material;
-    use phyxel::points::phyxels::Phyxels;
-    let m = Material::default();
-    let g = Vec3::new(0.0, -9.81, 0.0);
-    let sets: [&[Vec3]; 3] = [
-        &[],
-        &[Vec3::ZERO],
-        &[Vec3::ZERO, Vec3::new(0.025, 0.0, 0.0)],
-    ];
-    for b in phyxel::backends::NAMES {
-        for pts in sets {
-            let mut p = Phyxels::at_rest(pts, 0.025f32.powi(3), m.density);
-            let mut d = phyxel::backends::create(b, &p, &m).unwrap();
-            let bound = d.stable_dt(&p, &m);
-            assert!(
-                bound > 0.0,
-                "{b} on {} phyxels: stable dt {bound}",
-                pts.len()
-            );
-            let dt = bound.min(1e-3);
-            let ctx = StepContext::new(dt, g, &m);
-            for _ in 0..10 {
-                d.step(&mut p, &ctx);
-            }
-            assert!(p.all_finite(), "{b} on {} phyxels: non-finite", pts.len());
-            if pts.len() == 1 {
-                let v = p.vel.get(0).y;
-                let want = -9.81 * 10.0 * dt;
-                assert!((v / want - 1.0).abs() < 1e-5, "{b}: v {v}, g t {want}");
-            }
-        }
-    }
-}
-
 /// A coarse Lennard-Jones ball (4 cm spacing) dropped at 5 m/s onto a plane at the
 /// default dt: its energy (kinetic + gravitational, J) never rises above the initial
 /// one by more than 1% (elastic energy ≥ 0 and damping only dissipate). With the true
@@ -701,136 +631,40 @@ fn lj_bond_force_is_minus_the_energy_gradient() {
     assert!((kb - ka).abs() <= 5e-3 * ka, "stiffness jumps: {kb} {ka}");
 }
 
-/// A stiff ball (E = 10 TPa, r = 0.1 m, 25 mm phyxels) 1 m from the origin translating
-/// at 1 m/s without gravity for 2,000 steps stays unstrained: kinetic plus elastic
-/// energy (J) equals ½ m v² within 1e-5 (`sph`: 1e-3, measured 5.2e-4), and the centre
-/// of mass moves v·t within 1e-3 of the distance. Reference: a free rigid translation.
-/// The backends read the displacement (`mls`), the bond vectors (`lj`) or the relative
-/// positions of their density, pressure and stress sums (`sph`) with the position sums'
-/// carries (`Phyxels::pos_carry`); from the rounded positions alone the energy rose 6.5%
-/// (`mls`), 6.2% (`lj`) and 2.9% (`sph`), and by 24% and 21% (`mls`, `lj`) before
-/// positions were summed with compensation.
+/// Every backend of the registry (`backends::NAMES` and `kinematic`) passes the
+/// conformance suite (`phyxel::conformance`: momentum, rest, far from the origin,
+/// scaling, fragments, thread determinism; references and tolerances in that module's
+/// docs). `sph` translates far from the origin within 1e-3 of ½ m v² (measured 5.2e-4:
+/// its density and stress sums round relative positions), the others within 1e-5.
 #[test]
-fn a_stiff_body_far_from_the_origin_translates_unstrained() {
-    let text = r#"
-        name = "far"
-        gravity = [0.0, 0.0, 0.0]
-        [[objects]]
-        shape = { type = "sphere", radius = 0.1 }
-        spacing = 0.025
-        position = [1.0, 0.0, 0.0]
-        velocity = [1.0, 0.0, 0.0]
-        material = { young = 1e13 }
-    "#;
-    let scene = Scene::parse(text, "far").unwrap();
-    for (backend, tolerance) in [("mls", 1e-5), ("lj", 1e-5), ("sph", 1e-3)] {
-        let mut w = build(&scene, backend);
-        let x0 = w.objects[0].phyxels.centre_of_mass()[0];
-        let e0 = 0.5 * w.objects[0].phyxels.total_mass();
-        for _ in 0..2000 {
-            w.step();
-        }
-        let o = &w.objects[0];
-        let d = o.dynamics.diagnostics(&o.phyxels, &o.material);
-        let e = o.phyxels.kinetic_energy() + d.elastic_energy.unwrap_or(0.0);
-        assert!(
-            (e - e0).abs() < tolerance * e0,
-            "{backend}: energy {e} J against {e0} J"
-        );
-        let moved = o.phyxels.centre_of_mass()[0] - x0;
-        assert!(
-            (moved - w.time).abs() < 1e-3 * w.time,
-            "{backend}: moved {moved} m in {} s",
-            w.time
-        );
-    }
-}
-
-/// A 5 µm ball sampled at 1 µm is the 5 mm ball sampled at 1 mm, scaled by 1e-3: with
-/// the same material, lengths and times scale alike (dimensional analysis, t ∝ L/c), so
-/// each backend's stable bound (s) must scale by 1e-3 within 1e-3 relative. Both balls
-/// translate at 1 m/s without gravity for 100 steps: finite, and kinetic plus elastic
-/// energy equals ½ m v² within 1e-4 (J). Before the MLS stencil weighed its neighbours
-/// with the unnormalised kernel, the normalised kernel's 1/h⁹ overflowed f32 below
-/// about 15 µm spacing: `mls` went NaN at its first step (reporting no stable bound),
-/// `lj` in the surfel advection.
-#[test]
-fn a_micrometre_body_is_the_millimetre_body_scaled() {
-    let scene = |s: f32| {
-        let text = format!(
-            r#"
-            name = "small"
-            gravity = [0.0, 0.0, 0.0]
-            [[objects]]
-            shape = {{ type = "sphere", radius = {r:e} }}
-            spacing = {s:e}
-            surfel_spacing = {t:e}
-            velocity = [1.0, 0.0, 0.0]
-            "#,
-            r = 5.0 * s,
-            t = 0.5 * s
-        );
-        Scene::parse(&text, "small").unwrap()
-    };
-    for backend in ["mls", "sph", "lj"] {
-        let bound = |s: f32| {
-            let w = build(&scene(s), backend);
-            let o = &w.objects[0];
-            o.dynamics.stable_dt(&o.phyxels, &o.material)
+fn every_backend_in_the_registry_conforms() {
+    let mut failures = Vec::new();
+    for name in phyxel::backends::NAMES
+        .iter()
+        .copied()
+        .chain([phyxel::backends::KINEMATIC])
+    {
+        let tolerances = match name {
+            "sph" => Tolerances {
+                translation: 1e-3,
+                ..Default::default()
+            },
+            _ => Tolerances::default(),
         };
-        let (big, small) = (bound(1e-3), bound(1e-6));
-        assert!(
-            small.is_finite() && (small / big / 1e-3 - 1.0).abs() < 1e-3,
-            "{backend}: stable bounds {big:e} s at 1 mm, {small:e} s at 1 µm"
-        );
-        let mut w = build(&scene(1e-6), backend);
-        let e0 = 0.5 * w.objects[0].phyxels.total_mass();
-        for _ in 0..100 {
-            w.step();
-        }
-        let o = &w.objects[0];
-        let d = o.dynamics.diagnostics(&o.phyxels, &o.material);
-        let e = o.phyxels.kinetic_energy() + d.elastic_energy.unwrap_or(0.0);
-        assert!(
-            (e - e0).abs() <= 1e-4 * e0,
-            "{backend}: energy {e:e} J against {e0:e} J"
-        );
+        failures.extend(run(Backend::Named(name), &tolerances));
     }
+    let failed: Vec<(&str, Case)> = failures
+        .iter()
+        .map(|(case, e)| (e.split(',').next().unwrap_or(""), *case))
+        .collect();
+    assert_eq!(failed, KNOWN_FAILURES, "{failures:#?}");
 }
 
-/// A body at rest feels no internal force: at `x = x⁰` the continuum has no strain and
-/// no compression, so each backend's forces must be exactly 0 (N) — for SPH even with
-/// E = 10¹⁵ Pa, where the Tait law and the shear modulus turn any round-off in the
-/// density ratio or in `F` into large forces. A ball of 0.1 m (spacing 0.025 m) away
-/// from the origin, then 100 steps of a `World` without gravity: the kinetic energy
-/// stays exactly 0 (J). Before the rest density and the rest stencil sum were computed
-/// in the step's order, SPH pushed this ball with up to 7.6·10⁴ N at E = 10¹⁵ Pa (half
-/// a million times its phyxels' weight) and a run warned of an energy gain.
-#[test]
-fn a_body_at_rest_feels_no_internal_force() {
-    for young in [1.0e5, 1.0e15] {
-        let text = format!(
-            r#"
-            name = "rest"
-            gravity = [0.0, 0.0, 0.0]
-            [[objects]]
-            shape = {{ type = "sphere", radius = 0.1 }}
-            spacing = 0.025
-            position = [3.7, -1.2, 0.4]
-            material = {{ young = {young:e}, poisson = 0.45 }}
-            "#
-        );
-        let scene = Scene::parse(&text, "rest").unwrap();
-        for backend in ["mls", "sph", "lj"] {
-            let mut w = build(&scene, backend);
-            for _ in 0..100 {
-                w.step();
-            }
-            let k = w.objects[0].phyxels.kinetic_energy();
-            assert!(
-                k == 0.0,
-                "{backend}, E = {young:e} Pa: kinetic energy {k:e} J at rest"
-            );
-        }
-    }
-}
+/// Cases a backend is known to fail (docs/ACCURACY.md, "Known limits"): `mls-implicit`
+/// gains energy in a free translation at its default dt of 1/120 s — a 10 TPa ball 1 m
+/// from the origin ends 2,000 steps with 20 times ½ m v², the 5 µm ball with 6% more.
+/// Listed so that the suite runs every backend and a fix shows here.
+const KNOWN_FAILURES: [(&str, Case); 2] = [
+    ("mls-implicit", Case::FarFromOrigin),
+    ("mls-implicit", Case::Scaling),
+];

@@ -827,3 +827,30 @@ fn a_contact_phase_after_removing_an_object_is_refused() {
     world.objects.remove(0);
     world.run_phase(phyxel::timing::Phase::Detect);
 }
+
+/// A user's backend runs the library's conformance suite (`phyxel::conformance`) as the
+/// built-in ones do: momentum in a collision, a body at rest, a rigid translation far
+/// from the origin and thread determinism (references and tolerances in that module).
+/// The springs' stable bound does not scale with the body (their stiffness is a fixed
+/// 2,000 N/m), and their constructor reads `spacing[0]` (no empty fragments), so the
+/// scaling and fragment cases are not asked.
+#[test]
+fn a_user_backend_runs_the_conformance_suite() {
+    use phyxel::conformance::{Backend, Case, Tolerances, check};
+    let factory = |p: &Phyxels, _m: &Material| -> Box<dyn Dynamics> {
+        Box::new(Springs::new(p, 2000.0, 0.5))
+    };
+    let backend = Backend::Custom {
+        name: "springs",
+        factory: &factory,
+        prescribed: false,
+    };
+    for case in [
+        Case::Momentum,
+        Case::Rest,
+        Case::FarFromOrigin,
+        Case::Threads,
+    ] {
+        check(case, backend, &Tolerances::default()).unwrap();
+    }
+}
