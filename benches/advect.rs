@@ -8,7 +8,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::{Mat3, Quat, Vec3};
 use phyxel::body::advect::SurfelBinding;
 use phyxel::body::shape::Shape;
-use phyxel::dynamics::mls::MlsStencil;
+use phyxel::dynamics::gradient::MlsStencil;
 use phyxel::points::phyxels::Phyxels;
 use phyxel::points::surfels::Surfels;
 use std::hint::black_box;

@@ -35,7 +35,7 @@ use criterion::{
     BenchmarkGroup, Criterion, Throughput, criterion_group, criterion_main, measurement::WallTime,
 };
 use glam::Vec3;
-use phyxel::contact::implicit::{FAR_NEIGHBOURS, ImplicitSurface, grid_cell};
+use phyxel::contact::field::{FAR_NEIGHBOURS, SurfaceField, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::spatial::broad_phase::{Aabb, points_in_box};
 use phyxel::spatial::grid::Grid;
@@ -204,7 +204,7 @@ impl Bench {
         let (sa, sb) = (&self.start[0].1, &self.start[1].1);
         let r_max = sb.radius[..sb.len()].iter().fold(0.0f32, |a, &b| a.max(b));
         let grid = Grid::build(sb.pos.iter(), grid_cell(r_max));
-        let surface = ImplicitSurface::new(&sb.pos, &sb.normal, &sb.radius, &grid);
+        let surface = SurfaceField::new(&sb.pos, &sb.normal, &sb.radius, &grid);
         let bounds = Aabb::of(&sa.pos)
             .intersection(&Aabb::of(&sb.pos))
             .expect("the spheres overlap");

@@ -24,7 +24,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use phyxel::columns::Vec3s;
-use phyxel::contact::implicit::FAR_GRID_FACTOR;
+use phyxel::contact::field::FAR_GRID_FACTOR;
 use phyxel::scene::SURFEL_ORDER_CELL;
 use phyxel::spatial::grid::Grid;
 use phyxel::spatial::morton;

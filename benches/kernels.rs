@@ -8,7 +8,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use glam::Vec3;
 use phyxel::body::shape::Shape;
 use phyxel::columns::Vec3s;
-use phyxel::contact::implicit::{ImplicitSurface, SurfelRows, grid_cell};
+use phyxel::contact::field::{SurfaceField, SurfelRows, grid_cell};
 use phyxel::spatial::grid::Grid;
 use std::hint::black_box;
 
@@ -28,7 +28,7 @@ fn implicit_sums(c: &mut Criterion) {
     let grid = Grid::build(pos.iter(), grid_cell(r_max));
     let mut rows = SurfelRows::default();
     rows.rebuild(&grid, &pos, &normal, &s.radii);
-    let reference = ImplicitSurface::new(&pos, &normal, &s.radii, &grid);
+    let reference = SurfaceField::new(&pos, &normal, &s.radii, &grid);
     let surface = reference.with_rows(&rows);
     let golden = 0.618_034f32;
     let points: Vec<Vec3> = (0..4096)

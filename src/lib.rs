@@ -25,12 +25,12 @@
 //! | object `Γ = (S, P)`: surfels, phyxels, SoA columns (§3) | [`body::object`], [`points::surfels`], [`points::phyxels`], [`columns`] |
 //! | sampling shapes and meshes | [`body::shape`], [`body::mesh`], [`scene`] |
 //! | dynamics of the phyxels (Müller et al. 2004; pluggable) | [`dynamics`] ([`Dynamics`]), `backends/` ([`backends`]) |
-//! | MLS displacement gradient (Müller et al. 2004, §4.2) | [`dynamics::mls`], [`math::kernel`] |
+//! | MLS displacement gradient (Müller et al. 2004, §4.2) | [`dynamics::gradient`], [`math::kernel`] |
 //! | surfels follow the phyxels (Müller et al. 2004, §5) | [`body::advect`] |
 //! | the step, `animate` (§8), its phases and guards | [`world`], [`world::phase`] |
 //! | broad phase: object boxes and pairs (§5) | [`spatial::broad_phase`] |
 //! | spatial hashing (Teschner et al. 2003) | [`spatial::grid`], [`spatial::morton`] |
-//! | implicit surface of a surfel set (§5, eq. 1) | [`contact::implicit`] |
+//! | implicit surface of a surfel set (§5, eq. 1) | [`contact::field`] |
 //! | colliding surfels (§5, eq. 2) | [`contact::detect`] |
 //! | contact surface Φ (§6) and its resampling | [`contact::contact_surface`], [`contact::resample`] |
 //! | penalty and friction forces (§7) | [`contact::forces`], [`contact::params`] |
@@ -79,8 +79,8 @@ pub mod topology {
 #[doc(hidden)]
 pub use {
     body::{advect, connectivity, mesh, object, shape},
-    contact::{detect, implicit},
-    dynamics::mls,
+    contact::{detect, field as implicit},
+    dynamics::gradient,
     io::{frame, import},
     math::{brent, kernel},
     points::{phyxels, surfels},
@@ -88,62 +88,10 @@ pub use {
     world::{output, phase as timing},
 };
 
-#[doc(hidden)]
-#[path = "../backends/mls/mod.rs"]
-pub mod mls_backend;
-
-#[doc(hidden)]
-#[path = "../backends/sph/mod.rs"]
-pub mod sph_backend;
-
-#[doc(hidden)]
-#[path = "../backends/lj/mod.rs"]
-pub mod lj_backend;
-
-/// The built-in dynamics backends, each stored under `backends/` and written only
-/// against the public API above.
-pub mod backends {
-    pub use super::lj_backend as lj;
-    pub use super::mls_backend as mls;
-    pub use super::sph_backend as sph;
-
-    use crate::dynamics::kinematic::Kinematic;
-    use crate::dynamics::{Dynamics, StaticDynamics};
-    use crate::material::Material;
-    use crate::points::phyxels::Phyxels;
-
-    /// The prescribed-motion backend (`backend = "kinematic"`): a rigid body the caller
-    /// moves, such as a tool ([`crate::dynamics::kinematic`]). Not in [`NAMES`]: it is no
-    /// dynamics to compare, and `--backend` leaves such objects as they are.
-    pub const KINEMATIC: &str = crate::dynamics::kinematic::NAME;
-
-    /// Names accepted by `backend = "..."` in scenes and `--backend`.
-    pub const NAMES: &[&str] = &[mls::NAME, mls::implicit::NAME, sph::NAME, lj::NAME];
-
-    /// The backends that model plastic flow (`plastic_yield`, `plastic_creep`,
-    /// `plastic_max`); the others treat a plastic material as elastic.
-    pub const PLASTIC: &[&str] = &[mls::NAME, mls::implicit::NAME];
-
-    /// Creates backend `name` for `phyxels`, or explains which names exist.
-    pub fn create(
-        name: &str,
-        phyxels: &Phyxels,
-        material: &Material,
-    ) -> Result<Box<dyn Dynamics>, String> {
-        match name {
-            mls::NAME => Ok(Box::new(mls::MlsDynamics::new(phyxels, material))),
-            mls::implicit::NAME => Ok(Box::new(mls::MlsImplicit::new(phyxels, material))),
-            sph::NAME => Ok(Box::new(sph::SphDynamics::new(phyxels, material))),
-            lj::NAME => Ok(Box::new(lj::LjDynamics::new(phyxels, material))),
-            "static" => Ok(Box::new(StaticDynamics)),
-            KINEMATIC => Ok(Box::new(Kinematic::new(phyxels))),
-            other => Err(format!(
-                "unknown backend '{other}' (available: {})",
-                NAMES.join(", ")
-            )),
-        }
-    }
-}
+/// The built-in dynamics backends and their registry, stored under `backends/` and
+/// written only against the public API.
+#[path = "../backends/mod.rs"]
+pub mod backends;
 
 /// The README's code blocks as doctests (its library example is compiled and run), so
 /// that the README stays true.

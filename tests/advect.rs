@@ -4,7 +4,7 @@
 use glam::{Mat3, Quat, Vec3};
 use phyxel::body::advect::SurfelBinding;
 use phyxel::body::shape::Shape;
-use phyxel::dynamics::mls::MlsStencil;
+use phyxel::dynamics::gradient::MlsStencil;
 use phyxel::material::Material;
 use phyxel::points::phyxels::Phyxels;
 use phyxel::points::surfels::Surfels;

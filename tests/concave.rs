@@ -4,7 +4,7 @@
 //! Besides the outcome, the detection's shortcuts (the early "clearly outside" on `f`,
 //! the far candidates classified by the other body's phyxels, `f` extended linearly in
 //! deep overlap) are checked during the runs against the paper's full test (eq. 2,
-//! `ImplicitSurface::inside`: project onto the other surface, compare with its normal)
+//! `SurfaceField::inside`: project onto the other surface, compare with its normal)
 //! on every force carrier near the other body. The margin, 0.2 mm (5% of the surfel
 //! spacing), covers the full test's projection tolerance and f32 rounding; an early
 //! "outside" for `f` above −4 times its threshold fails the ring, plate and cup tests.
@@ -16,7 +16,7 @@
 
 use glam::Vec3;
 use phyxel::World;
-use phyxel::contact::implicit::{ImplicitSurface, grid_cell};
+use phyxel::contact::field::{SurfaceField, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::spatial::grid::Grid;
 use std::collections::HashSet;
@@ -62,7 +62,7 @@ fn shortcuts_agree(w: &World, a: usize, b: usize, margin: f32, exact: Exact<'_>)
         let n = s.len();
         let r_max = s.radius[..n].iter().fold(0.0f32, |m, &r| m.max(r));
         let grid = Grid::build(s.pos.iter().take(n), grid_cell(r_max));
-        let surf = ImplicitSurface::new(&s.pos, &s.normal, &s.radius[..n], &grid);
+        let surf = SurfaceField::new(&s.pos, &s.normal, &s.radius[..n], &grid);
         let o = &w.objects[obj];
         for i in (0..o.surfels.len()).filter(|&i| o.force_carrier[i]) {
             let x: Vec3 = o.surfels.pos.get(i);

@@ -5,7 +5,7 @@
 use glam::Vec3;
 use phyxel::body::shape::Shape;
 use phyxel::columns::Vec3s;
-use phyxel::contact::implicit::{FarHint, ImplicitSurface, SurfelRows, exp_neg, grid_cell};
+use phyxel::contact::field::{FarHint, SurfaceField, SurfelRows, exp_neg, grid_cell};
 use phyxel::scene::{BuildOptions, Scene};
 use phyxel::spatial::grid::Grid;
 use phyxel::world::phase::Phase;
@@ -33,8 +33,8 @@ impl Sampled {
         }
     }
 
-    fn surface(&self) -> ImplicitSurface<'_> {
-        ImplicitSurface::new(&self.pos, &self.normal, &self.radius, &self.grid)
+    fn surface(&self) -> SurfaceField<'_> {
+        SurfaceField::new(&self.pos, &self.normal, &self.radius, &self.grid)
     }
 
     /// The grid's surfel columns, for the SIMD kernel (`with_rows`).
@@ -153,7 +153,7 @@ fn projection_converges_far_from_the_origin() {
         let normal = Vec3s::from_points(&s.normals);
         let r_max = s.radii.iter().fold(0.0f32, |a, &b| a.max(b));
         let grid = Grid::build(pos.iter(), grid_cell(r_max));
-        let surf = ImplicitSurface::new(&pos, &normal, &s.radii, &grid);
+        let surf = SurfaceField::new(&pos, &normal, &s.radii, &grid);
         let mut rng = Rng(5);
         let (mut converged, mut steps) = (0, 0);
         let n = 500;
@@ -219,10 +219,10 @@ fn inside_test_matches_analytic_shapes() {
 }
 
 /// The plain fixed-point projection `x ← x − f(x) n(x)` (the paper's; the reference for
-/// the secant steps of [`ImplicitSurface::project`]): the point, whether `|f|` fell
+/// the secant steps of [`SurfaceField::project`]): the point, whether `|f|` fell
 /// below `tol` within the projection's step limit, and the steps taken.
-fn plain_projection(surf: &ImplicitSurface<'_>, x: Vec3, tol: f32) -> (Vec3, bool, u32) {
-    let limit = phyxel::contact::implicit::MAX_PROJECTION_ITERATIONS;
+fn plain_projection(surf: &SurfaceField<'_>, x: Vec3, tol: f32) -> (Vec3, bool, u32) {
+    let limit = phyxel::contact::field::MAX_PROJECTION_ITERATIONS;
     let mut p = x;
     for k in 0..limit {
         let s = surf.sample(p).unwrap();
@@ -254,8 +254,8 @@ fn secant_projection_beats_the_plain_fixed_point() {
     for (shape, spacing) in shapes {
         let sampled = Sampled::new(&shape, spacing);
         let surf = sampled.surface();
-        let (r_min, _) = phyxel::contact::implicit::radius_range(&sampled.radius);
-        let tol = phyxel::contact::implicit::PROJECTION_TOLERANCE * r_min;
+        let (r_min, _) = phyxel::contact::field::radius_range(&sampled.radius);
+        let tol = phyxel::contact::field::PROJECTION_TOLERANCE * r_min;
         let mut rng = Rng(17);
         let half = shape.half_extents();
         let (mut n, mut conv, mut conv_plain, mut steps, mut steps_plain) = (0, 0, 0, 0, 0);
@@ -374,7 +374,7 @@ fn early_outside_agrees_with_the_inside_test() {
 }
 
 /// A kernel grid (with its rows, as the step uses it) and a far-field grid over only
-/// the surfels in a box (`Grid::rebuild_subset`, `ImplicitSurface::with_region`) give the results of grids
+/// the surfels in a box (`Grid::rebuild_subset`, `SurfaceField::with_region`) give the results of grids
 /// over every surfel: samples (far-field ones included), projections and nearest
 /// surfels at points in the box, on its boundary and far outside it (where the queries
 /// fall back to the grids of all surfels). Reference:
@@ -398,7 +398,7 @@ fn region_grid_matches_the_whole_surface() {
     // As the step builds it: the lane-group kernel over the region grid's columns.
     let mut rows = SurfelRows::default();
     rows.rebuild(&grid, &sphere.pos, &sphere.normal, &sphere.radius);
-    let part = ImplicitSurface::new(&sphere.pos, &sphere.normal, &sphere.radius, &grid)
+    let part = SurfaceField::new(&sphere.pos, &sphere.normal, &sphere.radius, &grid)
         .with_region(region, &members, &all, &far)
         .with_rows(&rows);
     let mut rng = Rng(5);
@@ -556,7 +556,7 @@ fn simd_kernel_sums_match_scalar_reference() {
     assert!(compared > 1500, "too few points within reach: {compared}");
 }
 
-/// Samples from kept hits (`ImplicitSurface::sample_near_kept`, as Brent's evaluations
+/// Samples from kept hits (`SurfaceField::sample_near_kept`, as Brent's evaluations
 /// take them) against fresh `sample_near` queries, on the sphere of the test above: at
 /// 2000 random points, each followed by points 0.2, 1 and 1.9% of a kernel reach away
 /// (within `NEAR_HITS_SLACK` = 2%: read from the kept hits) and one 5% away (a fresh
@@ -564,7 +564,7 @@ fn simd_kernel_sums_match_scalar_reference() {
 /// and `None` exactly where `sample_near` gives `None`.
 #[test]
 fn kept_hits_sample_like_fresh_queries() {
-    use phyxel::contact::implicit::NearHits;
+    use phyxel::contact::field::NearHits;
     let r = 0.1;
     let spacing = 0.0035;
     let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);

@@ -455,11 +455,11 @@ fn quadratic_field() -> (impl Fn(DVec3) -> DVec3, impl Fn(DVec3) -> DMat3) {
 /// relative to the largest analytic gradient, per phyxel.
 fn gradient_errors(
     p: &Phyxels,
-    basis: phyxel::dynamics::mls::GradientBasis,
+    basis: phyxel::dynamics::gradient::GradientBasis,
     u: &impl Fn(DVec3) -> DVec3,
     grad: &impl Fn(DVec3) -> DMat3,
 ) -> Vec<f64> {
-    let st = phyxel::dynamics::mls::MlsStencil::build_with(p, basis);
+    let st = phyxel::dynamics::gradient::MlsStencil::build_with(p, basis);
     let field: Vec<Vec3> = p.rest.iter().map(|x| u(x.as_dvec3()).as_vec3()).collect();
     let mut g = vec![Mat3::ZERO; p.len()];
     st.gradients(&field, &mut g);
@@ -484,7 +484,7 @@ fn gradient_errors(
 /// weights; measured 4e-7).
 #[test]
 fn quadratic_basis_is_exact_for_quadratic_fields() {
-    use phyxel::dynamics::mls::{GradientBasis, MlsStencil};
+    use phyxel::dynamics::gradient::{GradientBasis, MlsStencil};
     let mat = Material::default();
     let (u, grad) = quadratic_field();
     for (name, (p, _)) in [("box", block(&mat)), ("ball", ball(&mat))] {
@@ -513,7 +513,7 @@ fn quadratic_basis_is_exact_for_quadratic_fields() {
 /// a thousand times the quadratic basis's tolerance, so the two bases differ.
 #[test]
 fn linear_basis_is_exact_only_for_affine_fields() {
-    use phyxel::dynamics::mls::GradientBasis;
+    use phyxel::dynamics::gradient::GradientBasis;
     let mat = Material::default();
     let (u, grad) = quadratic_field();
     let mut rng = Rng(0xD1B5_4A32_D192_ED03);

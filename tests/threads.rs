@@ -66,8 +66,8 @@ fn deep_contact_agrees_bitwise_on_one_and_two_threads() {
     let steps = 150;
     let one = run_with(1, "scale", &options, steps);
     let two = run_with(2, "scale", &options, steps);
-    let (_, r_max) = phyxel::contact::implicit::radius_range(&one.objects[0].surfels.radius);
-    let reach = phyxel::contact::implicit::grid_cell(r_max);
+    let (_, r_max) = phyxel::contact::field::radius_range(&one.objects[0].surfels.radius);
+    let reach = phyxel::contact::field::grid_cell(r_max);
     assert!(
         one.record.max_penetration > 2.0 * reach,
         "penetration {} m must exceed two kernel reaches ({reach} m)",

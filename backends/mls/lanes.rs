@@ -18,7 +18,7 @@
 use super::Law;
 use glam::Mat3;
 use phyxel::columns::{LANES, Vec3s, load8, store8};
-use phyxel::dynamics::mls::MlsStencil;
+use phyxel::dynamics::gradient::MlsStencil;
 use phyxel::spatial::gather::Rows;
 use wide::f32x8;
 

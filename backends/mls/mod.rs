@@ -15,7 +15,7 @@ mod tests;
 
 use glam::{Mat3, Vec3};
 use phyxel::columns::Vec3s;
-use phyxel::dynamics::mls::MlsStencil;
+use phyxel::dynamics::gradient::MlsStencil;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };

@@ -59,7 +59,7 @@ fn fixed_rows_read_what_checked_rows_read() {
             .set(i, x + glam::Vec3::new(0.02 * x.y, -0.01 * x.x, 0.03 * x.z));
         p.vel.set(i, glam::Vec3::new(x.z, 0.5 * x.x, -x.y));
     }
-    let stencil = phyxel::dynamics::mls::MlsStencil::build(&p);
+    let stencil = phyxel::dynamics::gradient::MlsStencil::build(&p);
     let (in_off, incoming) = incoming_of(&stencil);
     let st = LaneStencil::new(&stencil, &in_off, &incoming);
     let padded = st.padded();

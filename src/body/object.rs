@@ -4,7 +4,7 @@ use crate::body::advect::SurfelBinding;
 use crate::body::connectivity::Connectivity;
 use crate::body::self_collision::SelfCollision;
 use crate::dynamics::Dynamics;
-use crate::dynamics::mls::MlsStencil;
+use crate::dynamics::gradient::MlsStencil;
 use crate::material::Material;
 use crate::points::phyxels::Phyxels;
 use crate::points::surfels::Surfels;

@@ -1,7 +1,7 @@
 //! Colliding surfels (Keiser et al. 2004, §5, eq. 2): the surfels of one object that lie
 //! in the pair's intersection box and inside the other object's implicit surface.
 
-use crate::contact::implicit::{FarHint, ImplicitSurface, SurfaceSample};
+use crate::contact::field::{FarHint, SurfaceField, SurfaceSample};
 use crate::points::surfels::Surfels;
 use crate::spatial::broad_phase::{Aabb, Pair, points_in_blocks};
 use crate::spatial::grid::Grid;
@@ -114,7 +114,7 @@ pub struct Candidates<'a> {
 /// ([`OUTSIDE_FRACTION`]) are outside without a projection.
 pub fn colliding_surfels(
     side: Candidates<'_>,
-    other: &ImplicitSurface<'_>,
+    other: &SurfaceField<'_>,
     volume: &Volume<'_>,
     pair: &Pair,
     scratch: &mut DetectScratch,

@@ -1,5 +1,5 @@
-//! Contact handling (Keiser et al. 2004, §5–7): colliding surfels found against implicit
-//! surfaces (§5: `implicit`, `detect`), the contact surface Φ between two intersecting
+//! Contact handling (Keiser et al. 2004, §5–7): colliding surfels found against the
+//! surface field of each object (§5, the paper's implicit surface: `field`, `detect`), the contact surface Φ between two intersecting
 //! objects and its resampling (§6), penalty and friction forces on the contact surfels
 //! and their distribution to the phyxels (§7). This module holds the types the phases
 //! share: contact surfels, patches, the pair's surfaces and scratch.
@@ -20,8 +20,21 @@ pub mod brent {
 }
 pub mod detect;
 pub(crate) mod distribute;
+pub mod field;
 mod forces;
-pub mod implicit;
+
+/// Moved to [`field`] (the paper's implicit surface is the surface field `f`).
+pub mod implicit {
+    pub use super::field::{
+        CUTOFF_SIGMAS, FAR_GRID_FACTOR, FAR_NEIGHBOURS, FarHint, MAX_PROJECTION_ITERATIONS,
+        MAX_STEP_HALVINGS, NEAR_HITS, NEAR_HITS_SLACK, NearHits, PROJECTION_ROUNDOFF_EPS,
+        PROJECTION_SLOPE_COS, PROJECTION_SLOPE_RANGE, PROJECTION_TOLERANCE, Projection,
+        SIGMA_PER_RADIUS, SurfaceSample, SurfelRows, exp_neg, grid_cell, radius_range,
+    };
+    /// Renamed [`super::field::SurfaceField`].
+    #[deprecated(note = "use phyxel::contact::field::SurfaceField")]
+    pub type ImplicitSurface<'a> = super::field::SurfaceField<'a>;
+}
 pub mod params;
 pub mod report;
 mod resample;
@@ -44,7 +57,7 @@ pub use surface::contact_surface;
 
 use crate::columns::{LANES, lane_mask, load8, store8};
 use crate::contact::detect::{Colliding, PairDetection};
-use crate::contact::implicit::{ImplicitSurface, NearHits, SurfaceSample};
+use crate::contact::field::{NearHits, SurfaceField, SurfaceSample};
 use crate::math::brent::brent;
 use crate::math::kernel::poly6_shape;
 use crate::math::linalg::sym_eigen;
@@ -94,11 +107,11 @@ pub struct ContactPatch {
     pub not_carriers: usize,
 }
 
-/// The two implicit surfaces and the surfels of a pair.
+/// The two surface fields and the surfels of a pair.
 #[derive(Clone, Copy)]
 pub struct PairSurfaces<'a> {
-    pub a: ImplicitSurface<'a>,
-    pub b: ImplicitSurface<'a>,
+    pub a: SurfaceField<'a>,
+    pub b: SurfaceField<'a>,
     pub surfels_a: &'a Surfels,
     pub surfels_b: &'a Surfels,
     /// Which surfels of a and b carry contact forces.

@@ -47,7 +47,7 @@ pub fn anchor(
     let placed_grid = grid_of(placed, h);
     // The anchor on `surface` along `dir`: `x` itself where x is outside it (no
     // overlap on that side), `None` where the search fails.
-    let along = |surface: &ImplicitSurface<'_>, x: Vec3, dir: Vec3| -> Option<Vec3> {
+    let along = |surface: &SurfaceField<'_>, x: Vec3, dir: Vec3| -> Option<Vec3> {
         let f = |t: f32| surface.sample(x + t * dir).map(|q| q.f);
         if f(0.0)? > 0.0 {
             return Some(x);
@@ -71,7 +71,7 @@ pub fn anchor(
         };
         c.anchor_a = a.unwrap_or_else(|| copied(|q| q.anchor_a));
         c.anchor_b = b.unwrap_or_else(|| copied(|q| q.anchor_b));
-        let vel = |surface: &ImplicitSurface<'_>, surfels: &Surfels, at: Vec3| {
+        let vel = |surface: &SurfaceField<'_>, surfels: &Surfels, at: Vec3| {
             surface
                 .nearest(at)
                 .map_or(Vec3::ZERO, |(k, _)| surfels.vel.get(k))

@@ -4,9 +4,36 @@
 //! plastic strain, ...) and moves the phyxels one step at a time. External forces
 //! (contact, user loads) arrive in `phyxels.force` and act during the next step.
 
+pub mod gradient;
 pub mod implicit;
 pub mod kinematic;
-pub mod mls;
+
+/// Renamed [`gradient`] (the MLS estimate of the displacement gradient); `mls` is the
+/// backend ([`crate::backends::mls`]).
+pub mod mls {
+    pub use super::gradient::{GradientBasis, MAX_CONDITION};
+    /// Moved to [`super::gradient::MlsStencil`].
+    #[deprecated(note = "use phyxel::dynamics::gradient::MlsStencil")]
+    pub type MlsStencil = super::gradient::MlsStencil;
+
+    /// Moved to [`crate::math::linalg::cofactor`].
+    #[deprecated(note = "use phyxel::math::linalg::cofactor")]
+    pub fn cofactor(j: glam::Mat3) -> glam::Mat3 {
+        crate::math::linalg::cofactor(j)
+    }
+
+    /// Moved to [`crate::math::linalg::pseudo_inverse`].
+    #[deprecated(note = "use phyxel::math::linalg::pseudo_inverse")]
+    pub fn pseudo_inverse(a: glam::DMat3) -> (glam::DMat3, bool) {
+        crate::math::linalg::pseudo_inverse(a)
+    }
+
+    /// Moved to [`crate::math::linalg::sym_eigen`].
+    #[deprecated(note = "use phyxel::math::linalg::sym_eigen")]
+    pub fn sym_eigen(a: glam::DMat3) -> ([f64; 3], glam::DMat3) {
+        crate::math::linalg::sym_eigen(a)
+    }
+}
 
 /// Moved to [`crate::math::kernel`].
 pub mod kernel {

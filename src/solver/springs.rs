@@ -99,10 +99,10 @@ impl ContactSprings {
 /// Appends to `out` the springs of the patches whose pair joins a solve ([`Object::contact_in_solve`]) (the
 /// pipeline spreads none of their force: the solve applies it). A spring's side a is
 /// the patch's side a unless that one is static. The force `f = ½ k δ A` of a contact
-/// surfel ([`forces`]) changes by `½ k A` per metre of approach `δ` and by `c A` per
+/// surfel ([`crate::contact::forces`]) changes by `½ k A` per metre of approach `δ` and by `c A` per
 /// m/s of approach speed (the dashpot acts on each side's half); its friction is the
 /// pair's μ. Its motion is read from, and its force spread to, the phyxels that take
-/// its force in [`distribute`], with the same normalised weights and couple.
+/// its force in [`crate::contact::distribute()`], with the same normalised weights and couple.
 ///
 /// `grids[k]`: the phyxel grid of object k, built this step for its pairs.
 pub fn build(

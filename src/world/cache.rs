@@ -7,7 +7,7 @@
 
 use crate::body::object::Object;
 use crate::contact::detect::DetectScratch;
-use crate::contact::implicit::{ImplicitSurface, SurfelRows};
+use crate::contact::field::{SurfaceField, SurfelRows};
 use crate::contact::params::contact_params;
 use crate::contact::{ContactParams, DistributeScratch, PairSurfaces, PatchScratch};
 use crate::spatial::broad_phase::Aabb;
@@ -82,13 +82,13 @@ impl<'w> SurfaceView<'w> {
     }
 
     /// The implicit surface of object `k` (its grids built this step).
-    pub fn surface(&self, k: usize) -> ImplicitSurface<'_> {
+    pub fn surface(&self, k: usize) -> SurfaceField<'_> {
         let s = &self.objects[k].surfels;
         let grid = self.grids.surfel[k].as_ref().expect("grid built for pairs");
         let sg = &self.grids.surface[k];
         let (r_min, r_max) = sg.radius_range;
         let surface =
-            ImplicitSurface::with_radius_range(&s.pos, &s.normal, &s.radius, grid, r_min, r_max)
+            SurfaceField::with_radius_range(&s.pos, &s.normal, &s.radius, grid, r_min, r_max)
                 .with_far_grid(&sg.far)
                 .with_rows(&sg.rows);
         match sg.region {

@@ -11,7 +11,7 @@ use super::World;
 use super::cache::SurfaceView;
 use crate::body::object::Object;
 use crate::contact::detect::{Candidates, DetectScratch, PairDetection, Volume, colliding_surfels};
-use crate::contact::implicit::{ImplicitSurface, grid_cell, radius_range};
+use crate::contact::field::{SurfaceField, grid_cell, radius_range};
 use crate::contact::{self, ContactPatch, ContactSurfel, PairSurfaces};
 use crate::points::surfels::Surfels;
 use crate::spatial::grid::Grid;
@@ -27,9 +27,9 @@ struct Working {
 }
 
 impl Working {
-    fn surface(&self) -> ImplicitSurface<'_> {
+    fn surface(&self) -> SurfaceField<'_> {
         let s = &self.surfels;
-        ImplicitSurface::new(&s.pos, &s.normal, &s.radius[..s.len()], &self.grid)
+        SurfaceField::new(&s.pos, &s.normal, &s.radius[..s.len()], &self.grid)
     }
 }
 

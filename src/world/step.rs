@@ -16,7 +16,7 @@ use crate::body::fracture::{self, Components};
 use crate::body::object::Object;
 use crate::contact;
 use crate::contact::detect::{Candidates, Volume, colliding_surfels};
-use crate::contact::implicit::{grid_cell, radius_range};
+use crate::contact::field::{grid_cell, radius_range};
 use crate::spatial::broad_phase::{Aabb, overlapping_pairs, points_in_blocks};
 use bumpalo::collections::Vec as BumpVec;
 use rayon::prelude::*;

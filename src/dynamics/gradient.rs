@@ -204,21 +204,3 @@ fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
             .collect(),
     )
 }
-
-/// Moved to [`crate::math::linalg::cofactor`].
-#[deprecated(note = "use phyxel::math::linalg::cofactor")]
-pub fn cofactor(j: Mat3) -> Mat3 {
-    crate::math::linalg::cofactor(j)
-}
-
-/// Moved to [`crate::math::linalg::pseudo_inverse`].
-#[deprecated(note = "use phyxel::math::linalg::pseudo_inverse")]
-pub fn pseudo_inverse(a: glam::DMat3) -> (glam::DMat3, bool) {
-    crate::math::linalg::pseudo_inverse(a)
-}
-
-/// Moved to [`crate::math::linalg::sym_eigen`].
-#[deprecated(note = "use phyxel::math::linalg::sym_eigen")]
-pub fn sym_eigen(a: glam::DMat3) -> ([f64; 3], glam::DMat3) {
-    crate::math::linalg::sym_eigen(a)
-}

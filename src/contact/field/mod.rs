@@ -1,4 +1,5 @@
-//! Implicit surface of a surfel set (Keiser et al. 2004, eq. 1, after Alexa et al.):
+//! The surface field of a surfel set: the paper's implicit surface (Keiser et al. 2004,
+//! eq. 1, after Alexa et al.):
 //! `a(x) = Σθ_k s_k / Σθ_k`, `n(x) = normalize(Σθ_k n_k)`, `f(x) = n(x)·(x − a(x))`,
 //! with truncated Gaussian weights `θ_k = exp(−|x − s_k|²/σ_k²)` for `|x − s_k| < 2.5 σ_k`,
 //! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
@@ -54,7 +55,7 @@ pub const NEAR_HITS: usize = 48;
 pub const NEAR_HITS_SLACK: f32 = 0.02;
 
 /// The lane groups with hits (sorted grid position and hit mask) of the last query of
-/// [`ImplicitSurface::sample_near_kept`], for samples close to it.
+/// [`SurfaceField::sample_near_kept`], for samples close to it.
 #[derive(Clone, Copy, Debug)]
 pub struct NearHits {
     centre: Vec3,
@@ -107,7 +108,7 @@ pub struct Projection {
     pub signed_distance: f32,
     pub iterations: u32,
     pub converged: bool,
-    /// [`ImplicitSurface::sample_near`] at `point` (the projection's last sample; `None`
+    /// [`SurfaceField::sample_near`] at `point` (the projection's last sample; `None`
     /// when no kernel reaches `point`): callers that sample there again reuse it.
     pub near: Option<SurfaceSample>,
 }
@@ -132,9 +133,10 @@ fn projection_step(s: &SurfaceSample, last: Option<(f32, SurfaceSample)>) -> f32
     }
 }
 
-/// The implicit surface of one object's surfels, backed by its surfel grid.
+/// The surface field `f` of one object's surfels (the paper's implicit surface), backed
+/// by its surfel grid.
 #[derive(Clone, Copy)]
-pub struct ImplicitSurface<'a> {
+pub struct SurfaceField<'a> {
     pos: &'a Vec3s,
     normal: &'a Vec3s,
     radius: &'a [f32],
@@ -152,7 +154,7 @@ pub struct ImplicitSurface<'a> {
     tolerance: f32,
 }
 
-/// The box whose surfels an [`ImplicitSurface`]'s grids index, and the grids of all
+/// The box whose surfels an [`SurfaceField`]'s grids index, and the grids of all
 /// surfels for queries that reach out of it.
 #[derive(Clone, Copy)]
 struct Region<'a> {
@@ -211,7 +213,7 @@ pub fn grid_cell(max_radius: f32) -> f32 {
     CUTOFF_SIGMAS * SIGMA_PER_RADIUS * max_radius
 }
 
-impl<'a> ImplicitSurface<'a> {
+impl<'a> SurfaceField<'a> {
     /// The surface of surfels (`pos`, `normal`, disk `radius`) indexed by `grid`
     /// (built over `pos`).
     pub fn new(pos: &'a Vec3s, normal: &'a Vec3s, radius: &'a [f32], grid: &'a Grid) -> Self {
@@ -219,7 +221,7 @@ impl<'a> ImplicitSurface<'a> {
         Self::with_radius_range(pos, normal, radius, grid, r_min, r_max)
     }
 
-    /// As [`ImplicitSurface::new`] with the smallest and largest disk radius already
+    /// As [`SurfaceField::new`] with the smallest and largest disk radius already
     /// known (a caller that keeps them saves a pass over every surfel).
     pub fn with_radius_range(
         pos: &'a Vec3s,
@@ -246,7 +248,7 @@ impl<'a> ImplicitSurface<'a> {
     /// ([`Grid::rebuild_subset`]), and `far` is the coarse far-field grid
     /// ([`FAR_GRID_FACTOR`] cells) of the same ones, built on first use; queries whose
     /// ball leaves the box use `all`, a kernel grid of every surfel built on first use,
-    /// or the far grid of [`ImplicitSurface::with_far_grid`]. Results are those of grids
+    /// or the far grid of [`SurfaceField::with_far_grid`]. Results are those of grids
     /// of every surfel.
     pub fn with_region(
         mut self,
@@ -291,7 +293,7 @@ impl<'a> ImplicitSurface<'a> {
         }
     }
 
-    /// [`ImplicitSurface::far_neighbours`] with the search starting at radius `r0`.
+    /// [`SurfaceField::far_neighbours`] with the search starting at radius `r0`.
     fn far_neighbours_from(&self, x: Vec3, r0: f32, near: &mut Vec<(usize, f32)>) {
         if let Some(g) = self.region {
             let far = g
@@ -360,7 +362,7 @@ impl<'a> ImplicitSurface<'a> {
     }
 
     /// `(Σθ_k, Σθ_k s_k, Σθ_k n_k)` at `x` over the surfels within reach: the kernel
-    /// sums of eq. 1. With [`ImplicitSurface::with_rows`] (and the query inside the
+    /// sums of eq. 1. With [`SurfaceField::with_rows`] (and the query inside the
     /// grid's region) each lane group of the grid query that holds a hit becomes eight
     /// weights in `f32x8` lanes (`exp_neg`) and adds them, times the eight surfels'
     /// positions and normals, to lane sums. Otherwise each hit adds its weight on its
@@ -381,7 +383,7 @@ impl<'a> ImplicitSurface<'a> {
         sums.totals()
     }
 
-    /// [`ImplicitSurface::sample_near`] that keeps the query's lane groups in `hits`
+    /// [`SurfaceField::sample_near`] that keeps the query's lane groups in `hits`
     /// for the next samples: one within [`NEAR_HITS_SLACK`] reaches of the last query's
     /// centre reads the kept groups instead of the grid (a root search's last
     /// evaluations lie within its tolerance of each other). Same weights and sums as
@@ -420,7 +422,7 @@ impl<'a> ImplicitSurface<'a> {
         finish(x, w_sum, ws, wn)
     }
 
-    /// Scalar reference of [`ImplicitSurface::weighted_sums`] (tests and benches): the
+    /// Scalar reference of [`SurfaceField::weighted_sums`] (tests and benches): the
     /// scalar grid query ([`Grid::for_each_within_scalar`]), libm `exp` and vector
     /// multiply-adds per hit, no lanes anywhere.
     pub fn weighted_sums_scalar(&self, x: Vec3) -> (f32, Vec3, Vec3) {
@@ -454,7 +456,7 @@ impl<'a> ImplicitSurface<'a> {
         self.sample_near(x).or_else(|| self.sample_far(x))
     }
 
-    /// [`ImplicitSurface::sample`] at a point where [`ImplicitSurface::sample_near`] gave
+    /// [`SurfaceField::sample`] at a point where [`SurfaceField::sample_near`] gave
     /// `near` (a caller that already has it saves the grid query).
     pub fn sample_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<SurfaceSample> {
         near.or_else(|| self.sample_far(x))
@@ -465,7 +467,7 @@ impl<'a> ImplicitSurface<'a> {
         self.sample_far_hinted(x, &mut FarHint::default())
     }
 
-    /// [`ImplicitSurface::sample_far`] whose nearest-surfel search starts from `hint`,
+    /// [`SurfaceField::sample_far`] whose nearest-surfel search starts from `hint`,
     /// which learns the radius found.
     fn sample_far_hinted(&self, x: Vec3, hint: &mut FarHint) -> Option<SurfaceSample> {
         let (mut w_sum, mut ws, mut wn) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
@@ -495,13 +497,13 @@ impl<'a> ImplicitSurface<'a> {
         self.project_given(x, self.sample_near(x))
     }
 
-    /// [`ImplicitSurface::project`] where [`ImplicitSurface::sample_near`] at `x` gave
+    /// [`SurfaceField::project`] where [`SurfaceField::sample_near`] at `x` gave
     /// `near`: the same result without sampling `x` again.
     pub fn project_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<Projection> {
         self.project_hinted(x, near, &mut FarHint::default())
     }
 
-    /// [`ImplicitSurface::project_given`] whose far-field sample at `x` (if `x` is far
+    /// [`SurfaceField::project_given`] whose far-field sample at `x` (if `x` is far
     /// from every kernel) starts its search from `hint` and leaves its radius there: the
     /// same result with less work when the hint is close.
     pub fn project_hinted(
@@ -565,13 +567,13 @@ impl<'a> ImplicitSurface<'a> {
         self.inside_given(x, self.sample_near(x))
     }
 
-    /// [`ImplicitSurface::inside`] given [`ImplicitSurface::sample_near`] at `x`.
+    /// [`SurfaceField::inside`] given [`SurfaceField::sample_near`] at `x`.
     pub fn inside_given(&self, x: Vec3, near: Option<SurfaceSample>) -> Option<(bool, Projection)> {
         self.inside_hinted(x, near, &mut FarHint::default())
     }
 
-    /// [`ImplicitSurface::inside_given`] with the far-field search of
-    /// [`ImplicitSurface::project_hinted`].
+    /// [`SurfaceField::inside_given`] with the far-field search of
+    /// [`SurfaceField::project_hinted`].
     pub fn inside_hinted(
         &self,
         x: Vec3,
