@@ -10,7 +10,7 @@
 //!
 //! - `detect_<size>/step`: a whole `world.step()` (dynamics, advection, broad phase,
 //!   surfel grids, detection, contact surface, forces, distribution);
-//! - `detect_<size>/phases`: the detection phases alone, `broad_phase + surfel_grid +
+//! - `detect_<size>/phases`: the detection phases alone, `broad_phase + grids +
 //!   detect`, as timed by the step's own phase timers (`world.record.times`); the World's phase
 //!   functions are private, so each iteration still runs a whole step, but only these
 //!   three phases count. Throughput is in candidate surfels (surfels of either sphere in
@@ -25,8 +25,8 @@
 //! other surface, far inside it, far outside) with the time per candidate of each.
 //!
 //! 1M surfels per sphere runs with criterion's smallest sample count (10): a step takes
-//! tens of milliseconds now (it took seconds when this bench was written), and building
-//! the 1M world about ten seconds. `PHYXEL_BENCH_1M=0` leaves the 1M size out.
+//! tens of milliseconds, and building the 1M world about ten seconds.
+//! `PHYXEL_BENCH_1M=0` leaves the 1M size out.
 //!
 //! Run: `cargo bench --bench detect -- --warm-up-time 1 --measurement-time 5`
 //! (one criterion size: append `detect_100k`). Numbers go to docs/PERFORMANCE.md.
@@ -47,8 +47,8 @@ use std::time::{Duration, Instant};
 /// Sphere radius (m).
 const R: f32 = 0.1;
 /// Overlap of the two surfaces (m): centres are `2R − OVERLAP` apart. At most the 1M
-/// size's phyxel spacing (7 mm), or the scene check refuses bodies that start inside
-/// one another (it refused the 1 cm of the first rounds once that check came).
+/// size's phyxel spacing (7 mm), or the scene check refuses bodies that start inside one
+/// another.
 const OVERLAP: f32 = 0.005;
 /// Phyxels per sphere for `n` surfels per sphere: 390 at 10k (the paper), 20,000 at 1M
 /// (the performance issue), log-linear in between.
@@ -58,7 +58,7 @@ fn phyxels_for(n: usize) -> u32 {
 }
 
 /// The detection phases measured by the `phases` benches.
-const DETECTION: [Phase; 3] = [Phase::BroadPhase, Phase::SurfelGrid, Phase::Detect];
+const DETECTION: [Phase; 3] = [Phase::BroadPhase, Phase::Grids, Phase::Detect];
 
 /// Surfel spacing that samples a sphere of radius `R` with about `n` surfels.
 fn surfel_spacing(n: usize) -> f32 {
@@ -86,7 +86,7 @@ fn scene_toml(n: usize) -> String {
 
 /// One measured step: seconds per phase (in `Phase::ALL` order), candidates tested,
 /// colliding surfels found.
-type Record = ([f64; 10], u64, usize);
+type Record = ([f64; Phase::ALL.len()], u64, usize);
 
 /// A world and the state every measured step starts from.
 struct Bench {
@@ -180,7 +180,7 @@ impl Bench {
         let whole = median(&|r| r.0.iter().sum());
         eprintln!(
             "  whole step (sum) {:>10.3} ms/step\n  detection phases {:>10.3} ms/step \
-             (broad_phase + surfel_grid + detect)",
+             (broad_phase + grids + detect)",
             ms(whole),
             ms(det)
         );

@@ -12,7 +12,7 @@
 //! (`dynamics`, `advect`, `distribute`) are restored from the start state before each
 //! sample batch, outside the timed region. Run alone, the broad phase, the grid regions
 //! and the candidate scans read every surfel position; within a step they use the
-//! advection's block boxes, so `broad_phase`, `surfel_grid` and `detect` cost a step
+//! advection's block boxes, so `broad_phase`, `grids` and `detect` cost a step
 //! less than their groups here. At 2 × 1M surfels, whole steps are criterion groups of
 //! `benches/detect.rs`, and `phyxel run scale --surfels 1000000 --phyxel-count 20000
 //! --json` prints the per-phase times of a run (docs/PERFORMANCE.md).

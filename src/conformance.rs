@@ -187,7 +187,7 @@ fn momentum(backend: Backend<'_>, tol: &Tolerances) -> Result<(), String> {
     let (mut contact, mut worst) = (0, 0.0f64);
     for _ in 0..steps {
         w.step();
-        contact += usize::from(!w.patches.is_empty());
+        contact += usize::from(!w.contact.patches.is_empty());
         let p = w.momentum();
         worst = worst.max((p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() / scale);
     }

@@ -40,7 +40,8 @@ fn com_velocity(w: &World, k: usize) -> Vec3 {
 
 /// Deepest colliding surfel of the current step (m).
 fn current_penetration(w: &World) -> f32 {
-    w.detections
+    w.contact
+        .detections
         .iter()
         .map(|d| d.max_depth())
         .fold(0.0, f32::max)
@@ -48,14 +49,12 @@ fn current_penetration(w: &World) -> f32 {
 
 /// `sphere-on-plane` with each backend: an elastic ball (R = 0.1 m, E = 100 kPa) dropped
 /// 2 cm onto a rigid plane comes to rest within 1.5 s of simulated time: state finite,
-/// centre of mass speed below 2 cm/s, resting penetration of the surfels into the plane below 5%
-/// of the radius (5 mm); the resting centre height lies near Hertz's static indentation
-/// `δ = (9F²/(16E*²R))^(1/3)` (F = mg, 1/E* = (1−ν²)/E, rigid plane: ≈ 9.5 mm) below the
-/// untouched height R: within 1.5 mm on `mls`, 2 mm on `sph` and 2.5 mm on `lj` (measured
-/// 0.7 mm below it, 1.6 and 2.0 mm above since contact forces act at their surfels; 0.8,
-/// 1.4 and 1.8 mm off before, with 2 mm for all: the Lennard-Jones bonds make a ball stiffer than its
-/// nominal E, and its resting contact patch moved up by 0.2 mm). The largest
-/// penetration over the run (impact) is
+/// centre of mass speed below 2 cm/s, resting penetration of the surfels into the plane
+/// below 5% of the radius (5 mm); the resting centre height lies near Hertz's static
+/// indentation `δ = (9F²/(16E*²R))^(1/3)` (F = mg, 1/E* = (1−ν²)/E, rigid plane: ≈ 9.5 mm)
+/// below the untouched height R: within 1.5 mm on `mls`, 2 mm on `sph` and 2.5 mm on `lj`
+/// (measured 0.7 mm below it, 1.6 and 2.0 mm above; the Lennard-Jones bonds make a ball
+/// stiffer than its nominal E). The largest penetration over the run (impact) is
 /// printed; it is discretisation-limited and reported by `phyxel compare`.
 #[test]
 fn sphere_on_plane_settles_with_each_explicit_backend() {
@@ -553,9 +552,8 @@ backend = "sph"
 
 /// A coarse Lennard-Jones ball (4 cm spacing) dropped at 5 m/s onto a plane at the
 /// default dt: its energy (kinetic + gravitational, J) never rises above the initial
-/// one by more than 1% (elastic energy ≥ 0 and damping only dissipate). With the true
-/// r⁻¹² wall the compressed bonds outran the stable step's margin: one-phyxel fragments
-/// flew off at 300 m/s and the kinetic energy went from 65 to 6900 J in 40 steps.
+/// one by more than 1% (elastic energy ≥ 0 and damping only dissipate): the bonds'
+/// linear wall below `WALL_START` keeps compressed bonds within the stable step's margin.
 #[test]
 fn fast_lj_impact_gains_no_energy() {
     let scene = Scene::parse(
@@ -592,7 +590,7 @@ static = true
     let mut touched = false;
     for step in 0..100 {
         w.step();
-        touched |= !w.patches.is_empty();
+        touched |= !w.contact.patches.is_empty();
         let e = energy(&w);
         assert!(
             e <= e0 * 1.01,

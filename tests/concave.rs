@@ -49,7 +49,7 @@ struct Agreement {
 /// it knows the other body's shape) decides: the pipeline must then be right beyond
 /// `margin`, and the case is counted in [`Agreement::full_test_wrong`].
 fn shortcuts_agree(w: &World, a: usize, b: usize, margin: f32, exact: Exact<'_>) -> Agreement {
-    let detection = w.detections.iter().find(|d| (d.a, d.b) == (a, b));
+    let detection = w.contact.detections.iter().find(|d| (d.a, d.b) == (a, b));
     let mut agreement = Agreement::default();
     for (obj, other) in [(a, b), (b, a)] {
         let found: HashSet<u32> = detection
@@ -113,7 +113,7 @@ fn run_checked(w: &mut World, seconds: f64, exact: Exact<'_>) -> (Agreement, u32
             let a = shortcuts_agree(w, 0, 1, 0.0002, exact);
             agreement.compared += a.compared;
             agreement.full_test_wrong += a.full_test_wrong;
-            touching += w.detections.iter().any(|d| (d.a, d.b) == (0, 1)) as u32;
+            touching += w.contact.detections.iter().any(|d| (d.a, d.b) == (0, 1)) as u32;
         }
     }
     (agreement, touching)
@@ -168,7 +168,7 @@ fn a_ring_drops_over_a_peg() {
         assert!(w.non_finite.is_none(), "{:?}", w.non_finite);
         if k % 100 == 0 {
             compared += shortcuts_agree(&w, 1, 2, 0.0002, &unknown).compared;
-            touching += w.detections.iter().any(|d| (d.a, d.b) == (1, 2)) as u32;
+            touching += w.contact.detections.iter().any(|d| (d.a, d.b) == (1, 2)) as u32;
         }
     }
     let c = w.objects[2].phyxels.centre_of_mass();

@@ -38,7 +38,7 @@ fn collision_conserves_momentum() {
     let mut contact_steps = 0;
     for _ in 0..scene.steps {
         w.step();
-        contact_steps += !w.patches.is_empty() as usize;
+        contact_steps += !w.contact.patches.is_empty() as usize;
         let p = w.momentum();
         let err = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt() / scale;
         assert!(
@@ -56,11 +56,10 @@ fn collision_conserves_momentum() {
 }
 
 /// The object list is the caller's (`World::objects` is public): reordering it between
-/// steps must not change the physics. Static objects' boxes and grids are cached per
-/// position in the list; after a swap the ball used the ground's cached grid and fell
-/// through the plane (centre at −0.025 m instead of 0.1006 m). Reference: the same run
-/// without the swap; the ball's centre of mass must agree to 1e-4 m after 300 more steps
-/// (only the order of floating-point sums may differ).
+/// steps must not change the physics (static objects' boxes and grids are cached, and a
+/// cache keyed by position in the list would give the ball the ground's grid).
+/// Reference: the same run without the swap; the ball's centre of mass must agree to
+/// 1e-4 m after 300 more steps (only the order of floating-point sums may differ).
 #[test]
 fn reordering_objects_keeps_the_physics() {
     let scene = Scene::builtin("sphere-on-plane").unwrap();
@@ -90,8 +89,8 @@ fn reordering_objects_keeps_the_physics() {
 /// A contact spring 128 times the default (`contact_stiffness = 512`) in `two-spheres`
 /// (no gravity, no loads) at the default dt: the kinetic energy never rises above its
 /// initial value (conservation: elastic energy ≥ 0 and damping only dissipates), for
-/// every backend, and the spheres do meet. Before the contact spring entered the stable
-/// bound (`contact::params::contact_stable_dt`), `lj` reached 3·10¹⁶ J here without a NaN.
+/// every backend, and the spheres do meet (the contact spring enters the stable bound:
+/// `contact::params::contact_stable_dt`).
 #[test]
 fn stiff_contact_stays_stable_at_the_default_dt() {
     let mut scene = Scene::builtin("two-spheres").unwrap();
@@ -132,7 +131,8 @@ fn resting_sphere() -> (Vec<f64>, f32, f32, Vec<f64>) {
         w.step();
         peak = peak.max(kinetic(&w));
         deepest = deepest.max(
-            w.detections
+            w.contact
+                .detections
                 .iter()
                 .map(|d| d.max_depth())
                 .fold(0.0, f32::max),
@@ -154,10 +154,10 @@ fn resting_sphere() -> (Vec<f64>, f32, f32, Vec<f64>) {
 /// energy, nothing pumps it (the total mechanical energy, `World::energy`, at the end of
 /// each 0.1 s window exceeds the previous window's by less than 0.1% of the drop
 /// energy: 8e-4 J; no sustained oscillation, the paper's claim), and original surfels
-/// penetrate the plane by less than 5% of the radius. (An earlier form required each
-/// window's peak kinetic energy below the last one's; the residual rocking of the ball
-/// trades kinetic for elastic energy on a slow beat, and that form held here by chance:
-/// the same code's peaks rose from 1.6 to 4.4 mJ over 2.1–2.6 s.)
+/// penetrate the plane by less than 5% of the radius. (Falling peaks of kinetic energy
+/// per window are no criterion: the residual rocking of the ball trades kinetic for
+/// elastic energy on a slow beat, and its peaks may rise, e.g. from 1.6 to 4.4 mJ over
+/// 2.1–2.6 s.)
 #[test]
 fn sphere_comes_to_rest_on_plane() {
     let (peaks, deepest, drift, energies) = resting_sphere();
@@ -251,7 +251,7 @@ fn incline_slides_by_coulomb() {
 /// (kg·m/s); elastic spheres keep some in the row. Within 15% (measured 5.7%: 94.3% of
 /// the incoming momentum, the same on an AVX2+FMA and a baseline x86-64 build); the
 /// total momentum is conserved to 1e-4. Mutation check: the contact's penalty damping
-/// multiplied by 8 fails (77.5%; the earlier bound, 50%, passed it); by 4 it passes
+/// multiplied by 8 fails (77.5%, which a 50% bound would pass); by 4 it passes
 /// (86.3%).
 #[test]
 fn newtons_cradle_passes_momentum() {
@@ -298,10 +298,9 @@ fn hertz_at_three_resolutions() {
 /// `pile`: four bodies fall onto each other and a plane. Every object stays finite and
 /// above the ground plane, no surfel ever gets deeper into another object than the
 /// thinnest body part (the torus tube radius, 3 cm: nothing passes through), and the
-/// kinetic energy decays: after 1.5 s it is below 10% of its peak (J). Measured 3.8%
-/// (2.1% in earlier versions, with one-sided contact on the plane and a coarser
-/// capsule): the pile is chaotic and still rocks a little at 1.5 s; a pile that kept
-/// bouncing would stay near its peak.
+/// kinetic energy decays: after 1.5 s it is below 10% of its peak (J). Measured 3.8%:
+/// the pile is chaotic and still rocks a little at 1.5 s; a pile that kept bouncing
+/// would stay near its peak.
 #[test]
 fn pile_comes_to_rest_without_passing_through() {
     let scene = Scene::builtin("pile").unwrap();
@@ -365,7 +364,7 @@ fn force_carriers_match_every_surfel_carrying() {
             .flat_map(|p| p.surfels.iter())
             .map(|c| c.force)
             .sum();
-        let carried: usize = w.patches.iter().map(|p| p.surfels.len()).sum();
+        let carried: usize = w.contact.patches.iter().map(|p| p.surfels.len()).sum();
         (force, com(&w, 0) - start, carried)
     };
     let (f, travel, n) = run(false);
@@ -557,7 +556,7 @@ fn the_first_non_finite_step_is_reported() {
 /// `E* = 1/((1 − ν₁²)/E₁ + (1 − ν₂²)/E₂)` and the finer phyxel spacing
 /// (`Object::phyxel_spacing`), on each sphere's layer of 2.5 of its own spacings `h` of
 /// mass (both are thicker: `n^(1/3)` ≥ 2.5), so `ω² = k/(2.5 ρ h)`. Tolerance 1e-4
-/// relative (f32). Taking each sphere's own spacing for `k` put the coarse sphere's
+/// relative (f32). Taking each sphere's own spacing for `k` puts the coarse sphere's
 /// bound √2 too high.
 #[test]
 fn the_contact_bound_uses_the_pairs_spring() {
@@ -597,8 +596,8 @@ fn the_contact_bound_uses_the_pairs_spring() {
 /// Bodies of one phyxel (`two-spheres` with `phyxels = 1`): the contact bound takes the
 /// body's own thickness, one spacing, as the layer behind its contact surface, so at
 /// the default dt the collision gives back no more than it got: kinetic energy never
-/// above its initial value (J). At the 2.5-spacing layer of larger bodies the spheres
-/// left with twice their energy (8.2 of 4.2 J).
+/// above its initial value (J). With the 2.5-spacing layer of larger bodies the spheres
+/// leave with twice their energy (8.2 of 4.2 J).
 #[test]
 fn one_phyxel_bodies_collide_stably_at_the_default_dt() {
     let scene = Scene::builtin("two-spheres").unwrap();
@@ -619,7 +618,7 @@ fn collide_without_energy_gain(w: &mut World, steps: u64, label: &str) -> f64 {
     let mut touched = false;
     for step in 0..steps {
         w.step();
-        touched |= !w.patches.is_empty();
+        touched |= !w.contact.patches.is_empty();
         let e = kinetic(w);
         assert!(
             e <= e0 * 1.001,
@@ -632,10 +631,9 @@ fn collide_without_energy_gain(w: &mut World, steps: u64, label: &str) -> f64 {
 
 /// A ball smaller than the ground's surfel spacing (r = 2 cm, 5 mm phyxels) dropped from
 /// 12 cm onto a `plane` of 10 cm phyxels (5 cm surfels): it must be caught, not pass
-/// through. The plane's surfels lie flat at y = 0 and its phyxels below, so a box of
-/// its surfels alone was flat and no surfel of the ball ever became a candidate (it fell
-/// to y = −0.74 m in 3,000 steps); a static object's broad-phase box now holds its
-/// phyxels too.
+/// through. The plane's surfels lie flat at y = 0 and its phyxels below: a box of its
+/// surfels alone is flat, so no surfel of a body sinking into it is a candidate, and a
+/// static object's broad-phase box holds its phyxels too.
 /// Reference: the ground's top, y = 0: the ball's centre of mass (m) never goes below
 /// it (it penetrates a few mm), the pair is detected, and after 0.4 s the ball is above
 /// the plane.
@@ -674,8 +672,8 @@ fn a_ball_smaller_than_the_grounds_surfels_is_caught() {
 
 /// A static object replaced by another of the same id (the object list is public) does
 /// not inherit the first one's cached box and grids: a static sphere touching a ball is
-/// replaced by a static sphere 5 m away, and the next step finds no pair. (Keyed by id,
-/// the cache kept the old box: the ball was pushed by a body 5 m away.)
+/// replaced by a static sphere 5 m away, and the next step finds no pair (a cache keyed
+/// by id alone would keep the old box).
 #[test]
 fn a_replaced_static_object_gets_its_own_box() {
     let text = r#"
@@ -696,12 +694,16 @@ fn a_replaced_static_object_gets_its_own_box() {
     let mut w = scene.build(&BuildOptions::default()).unwrap();
     w.step();
     w.step();
-    assert_eq!(w.pairs.len(), 1, "the ball touches the post");
+    assert_eq!(w.contact.pairs.len(), 1, "the ball touches the post");
     let mut far = scene.objects[0].clone();
     far.position = [5.0, 0.0, 0.0];
     w.objects[0] = far.build(w.objects[0].id, "static").unwrap();
     w.step();
-    assert!(w.pairs.is_empty(), "{} pairs", w.pairs.len());
+    assert!(
+        w.contact.pairs.is_empty(),
+        "{} pairs",
+        w.contact.pairs.len()
+    );
 }
 
 /// The `two-spheres` collision scaled by L = 2⁻¹⁰ (a 98 µm ball) and L = 2²⁴ (a 1,700 km
@@ -709,11 +711,10 @@ fn a_replaced_static_object_gets_its_own_box() {
 /// scaled alike (dimensional analysis: t ∝ L/c, the penalty force ∝ κE*/h · depth ·
 /// area ∝ L², the mass ∝ L³) each sphere's velocity after the collision must be the
 /// 0.1 m run's within 1e-4 of the impact speed (m/s), for every backend. Powers of two
-/// keep most of f32's rounding scale-free. Before the contact areas' kernel was
-/// evaluated in normalised form its `h⁸` left f32's range: at the small scale every
-/// area was 0 and the balls passed through each other; at the large scale the forces
-/// were NaN. (`sph` also multiplied two phyxel masses first, which overflows for
-/// planet-sized phyxels.)
+/// keep most of f32's rounding scale-free. Every factor must stay in f32's range at both
+/// scales: the contact areas' kernel in normalised form (its `h⁸` would not), and
+/// `sph`'s mass factors one at a time (the product of two overflows for planet-sized
+/// phyxels).
 #[test]
 fn a_collision_is_the_same_from_micrometres_to_megametres() {
     let run = |l: f32, backend: &str| -> [Vec3; 2] {
@@ -1044,8 +1045,7 @@ fn contact_forces_match_hand_computed_penalty_and_friction() {
 /// |d₂|)²`, J), must reappear as kinetic plus elastic energy once they have separated
 /// (conservation of energy), within 15% (explicit integration of a stiff release;
 /// measured 2.10 J stored, 1.94 J after 1000 steps: 8%). The contact energy is 0 before
-/// the first step and again after separation. (Before it was counted, `run` warned of
-/// a numerical failure for every scene starting pressed together.)
+/// the first step and again after separation.
 #[test]
 fn pressed_spheres_release_the_contact_energy() {
     let scene = Scene::parse(
@@ -1116,10 +1116,11 @@ fn angular_momentum(w: &World) -> DVec3 {
 /// stay at its initial value to 1e-5 of `m v R` (0.41 kg·m²/s) through the whole
 /// collision, on MLS and LJ, whose internal forces conserve it (SPH's corotated
 /// elasticity does not exactly: 2e-4, so it is left out). Measured about 4e-8 on both.
-/// Reference: conservation of angular momentum of an isolated system. Before the
-/// contact force was applied at its contact surfel (`contact::distribute`), eq. 8's
-/// weighted spread applied `f` and `−f` at the two phyxel centroids, a spacing apart:
-/// 4.8e-2 (μ = 0.5, 10% of L lost) and 1.9e-3 (μ = 0) on MLS, 4.7e-2 on LJ.
+/// Reference: conservation of angular momentum of an isolated system. Eq. 8's weighted
+/// spread alone, without the couple that makes a force act at its contact surfel
+/// (`contact::distribute`), applies `f` and `−f` at the two phyxel centroids, a spacing
+/// apart, and fails: 4.8e-2 (μ = 0.5, 10% of L lost) and 1.9e-3 (μ = 0) on MLS, 4.7e-2
+/// on LJ.
 #[test]
 fn off_centre_collision_conserves_angular_momentum() {
     let scene = |mu: f32, backend: &str| {
@@ -1146,7 +1147,7 @@ fn off_centre_collision_conserves_angular_momentum() {
         let (mut worst, mut contact_steps) = (0.0f64, 0);
         for _ in 0..scene.steps {
             w.step();
-            contact_steps += !w.patches.is_empty() as usize;
+            contact_steps += !w.contact.patches.is_empty() as usize;
             worst = worst.max((angular_momentum(&w) - l0).length() / scale);
         }
         println!(
@@ -1218,15 +1219,15 @@ fn distributed_contact_forces_act_at_the_surfel() {
 
 /// Build warning for a body crushed by what is stacked on it. A 10 cm cube (ρ = 1000
 /// kg/m³, E = 5 kPa, 1 kg) on a static plane under a 10 kg cube (ρ = 10⁴ kg/m³, E = 10
-/// MPa): its own weight strains it by ρ|g|H/E = 0.21 (dimensionless; no warning before
-/// the stack was counted), with the stack's `0.21 · (1 + 2 · 10 kg / 1 kg)` = 4.41 (H
+/// MPa): its own weight strains it by ρ|g|H/E = 0.21 (dimensionless; below the bound on
+/// its own), with the stack's `0.21 · (1 + 2 · 10 kg / 1 kg)` = 4.41 (H
 /// is estimated as the phyxels' extent plus a spacing, 0.107 m for this cube, whose
 /// spread layers reach nearer its faces than cell centres would; 0.1 m gives 4.32),
 /// above `scene::WEIGHT_WARNING` (0.8, calibrated on `sphere-on-plane` and this stack:
 /// docs/SCENES.md "Limits"), so the build warns, naming the soft cube and the 10 kg.
-/// Reference: run, the soft cube was squeezed out through the plane (its centre 10 m
-/// below it after 1.5 s, silently). With the heavy cube beside it (footprints apart), or
-/// at ρ = 1000 kg/m³ (0.21 · 3 = 0.62), it does not.
+/// Reference: run, the soft cube is squeezed out through the plane (its centre 10 m
+/// below it after 1.5 s, with no other sign). With the heavy cube beside it (footprints
+/// apart), or at ρ = 1000 kg/m³ (0.21 · 3 = 0.62), it does not.
 #[test]
 fn a_body_under_a_heavy_stack_warns() {
     let scene = |x: f32, density: f32| {

@@ -97,7 +97,7 @@ fn a_resting_box_carries_its_weight() {
     );
     println!("area {} m², centroid {c:?}, box at {com:?}", t.area);
     assert!(t.normal_force > 0.0 && t.peak_pressure > 0.0 && t.max_penetration > 0.0);
-    for c in &world.patches[0].surfels {
+    for c in &world.contact.patches[0].surfels {
         let p = ContactPoint::of(c);
         let sum = glam::Vec3::from(p.penalty_force) + glam::Vec3::from(p.friction_force);
         assert!((sum - c.force).length() <= 1e-5 * c.force.length().max(1e-12));
@@ -115,7 +115,7 @@ fn check_contact_frames(world: &phyxel::World, totals: &phyxel::contact::PatchTo
     let dir = common::TempDir::new("contact-output", "frames");
     phyxel::world::output::write_frame_as(world, &dir.0, 7, false, Format::Ply).unwrap();
     let cols = read_binary_ply(&dir.0.join("contacts_00007.ply"));
-    let n = world.patches[0].surfels.len();
+    let n = world.contact.patches[0].surfels.len();
     assert_eq!(cols["x"].len(), n, "one point per contact surfel");
     let sum = |k: &str| cols[k].iter().map(|&x| x as f64).sum::<f64>();
     let force = |c: &str| sum(&format!("penalty_force_{c}")) + sum(&format!("friction_force_{c}"));

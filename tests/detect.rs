@@ -140,7 +140,7 @@ fn projection_lands_on_sphere() {
 /// Far from the origin the projection still converges, in about as many steps as near
 /// it, and lands within 1% of R of the sphere: its tolerance has a floor at the f32
 /// round-off of the point's coordinates (`implicit::PROJECTION_ROUNDOFF_EPS`). Without
-/// the floor, 102 of these 500 projections ran to the iteration limit 10 m out, 427
+/// the floor, 102 of these 500 projections run to the iteration limit 10 m out, 427
 /// 100 m out (mean 17.7 steps) and 469 1000 m out (the coordinates' f32 spacing there is
 /// 0.95 µm, 7.6 µm and 61 µm, against a tolerance of 10⁻⁴ of the smallest σ).
 #[test]
@@ -463,8 +463,8 @@ fn two_spheres(gap: f32) -> phyxel::World {
 fn overlapping_spheres_give_the_analytic_colliding_set() {
     let mut world = two_spheres(-0.03);
     world.step();
-    assert_eq!(world.detections.len(), 1);
-    let d = &world.detections[0];
+    assert_eq!(world.contact.detections.len(), 1);
+    let d = &world.contact.detections[0];
     let spacing = 0.005;
     for (obj, other, found) in [(0, 1, &d.a_in_b), (1, 0, &d.b_in_a)] {
         let c_other = world.objects[other].phyxels.centre_of_mass();
@@ -513,10 +513,10 @@ fn disjoint_objects_cost_no_narrow_phase() {
     for _ in 0..3 {
         world.step();
     }
-    assert!(world.pairs.is_empty());
-    assert!(world.detections.is_empty());
+    assert!(world.contact.pairs.is_empty());
+    assert!(world.contact.detections.is_empty());
     assert_eq!(world.record.times.work(Phase::Detect), 0);
-    assert_eq!(world.record.times.work(Phase::SurfelGrid), 0);
+    assert_eq!(world.record.times.work(Phase::Grids), 0);
     assert_eq!(world.record.max_penetration, 0.0);
 }
 
@@ -639,14 +639,14 @@ fn block_boxes_change_no_result() {
     for phase in Phase::ALL.into_iter().take_while(|&p| p != Phase::Topology) {
         phased.run_phase(phase);
     }
-    assert!(!stepped.pairs.is_empty() && stepped.detections[0].candidates > 0);
+    assert!(!stepped.contact.pairs.is_empty() && stepped.contact.detections[0].candidates > 0);
     assert!(
-        stepped.detections[0].a_in_b.len() > 10,
+        stepped.contact.detections[0].a_in_b.len() > 10,
         "the spheres are in contact"
     );
-    assert_eq!(stepped.pairs, phased.pairs);
-    assert_eq!(stepped.detections, phased.detections);
-    assert_eq!(stepped.patches, phased.patches);
+    assert_eq!(stepped.contact.pairs, phased.contact.pairs);
+    assert_eq!(stepped.contact.detections, phased.contact.detections);
+    assert_eq!(stepped.contact.patches, phased.contact.patches);
     for (a, b) in stepped.objects.iter().zip(&phased.objects) {
         let n = a.phyxels.len();
         for c in 0..n {

@@ -129,7 +129,7 @@ fn an_implicit_body_collides_with_an_explicit_one() {
     assert_eq!(world.objects[0].dynamics.name(), "mls-implicit");
     assert_eq!(world.objects[1].dynamics.name(), "mls");
     let incoming = world.objects[0].phyxels.momentum()[0];
-    collide(&mut world, 400, incoming, |w| !w.patches.is_empty());
+    collide(&mut world, 400, incoming, |w| !w.contact.patches.is_empty());
 }
 
 /// Two stiff spheres (E = 1e8 Pa, 280 phyxels each) meeting at 2 m/s, stepped at
@@ -153,7 +153,9 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     let mut world = implicit_world(&scene, dt);
     let incoming = world.objects[0].phyxels.momentum()[0];
     let e0 = world.energy().total();
-    collide(&mut world, 60, incoming, |w| !w.springs.springs.is_empty());
+    collide(&mut world, 60, incoming, |w| {
+        !w.contact.springs.springs.is_empty()
+    });
     let approach = 2.0 * 1.0 * dt;
     assert!(
         world.record.max_penetration <= approach,

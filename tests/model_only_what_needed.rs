@@ -123,7 +123,8 @@ fn surfels_finer_than_the_carriers_are_tested_only_for_frames() {
         "{carriers} carriers of {surfels} surfels: no thinning to test"
     );
     let non_carriers = |w: &phyxel::World| {
-        w.detections
+        w.contact
+            .detections
             .iter()
             .map(|d| {
                 let (a, b) = (&w.objects[d.a].force_carrier, &w.objects[d.b].force_carrier);

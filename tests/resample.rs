@@ -34,8 +34,8 @@ fn resampled(name: &str, time: f32) -> Resampled {
     let mid = 0.5 * (c0 + c1);
     let axis = (c1 - c0).normalize();
     let h = w.objects[0].surfel_spacing.min(w.objects[1].surfel_spacing);
-    assert_eq!(w.patches.len(), 1, "{name}: one pair in contact");
-    let render = &w.patches[0].render;
+    assert_eq!(w.contact.patches.len(), 1, "{name}: one pair in contact");
+    let render = &w.contact.patches[0].render;
     let in_plane = |p: Vec3| {
         let d = p - mid;
         d - d.dot(axis) * axis
@@ -79,7 +79,7 @@ fn resampled(name: &str, time: f32) -> Resampled {
     }
     let r = Resampled {
         count: render.len(),
-        carriers: w.patches[0].surfels.len(),
+        carriers: w.contact.patches[0].surfels.len(),
         offset: render
             .iter()
             .map(|c| (c.pos - mid).dot(axis).abs())

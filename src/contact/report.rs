@@ -1,5 +1,5 @@
 //! What a contact did, for users: each contact surfel's state and each pair's totals at
-//! the last contact phase ([`crate::World::patches`]), as plain serialisable values.
+//! the last contact phase ([`crate::world::ContactState::patches`]), as plain serialisable values.
 //!
 //! The forces are the pipeline's (paper eqs. 3–7) at the positions of the step's end,
 //! which act over the next step. A pair in an implicit solve (`Object::contact_in_solve`)

@@ -496,8 +496,8 @@ impl PyWorld {
         super::errors::shield(|| {
             let s = self.lock()?;
             let w = s.world()?;
-            let mut out = Vec::with_capacity(w.patches.len());
-            for p in &w.patches {
+            let mut out = Vec::with_capacity(w.contact.patches.len());
+            for p in &w.contact.patches {
                 let d = PyDict::new(py);
                 d.set_item("a", w.objects.get(p.a).map(|o| o.id))?;
                 d.set_item("b", w.objects.get(p.b).map(|o| o.id))?;

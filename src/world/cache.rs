@@ -118,7 +118,7 @@ pub(super) struct SurfaceGrids {
     /// Coarse grid for far-field samples, built on first use in a step.
     pub far: LazyGrid,
     /// Deepest penetration of the last step's pairs of this object, either way (m):
-    /// written by `detect`, read by the next step's `surfel_grid` to size the region
+    /// written by `detect`, read by the next step's `grids` to size the region
     /// (speed only: queries outside the region get the same answer from `all`).
     pub depth: f32,
     /// Grid of every surfel, built on first use, when the kernel grid covers a region.

@@ -46,7 +46,7 @@ pub(super) struct InOrderScratch {
 /// against the surfaces the pairs before it left (module docs): detection again for a
 /// pair with a changed side, then Φ, its resampling and, with
 /// `World::resampled_forces`, the resampled surfels as the force carriers. Fills
-/// `w.patches` (the forces phase computes their forces); `w.detections` keep the
+/// `w.contact.patches` (the forces phase computes their forces); `w.contact.detections` keep the
 /// detection against the original surfaces, which the render surface and the reported
 /// depth use. Returns the contact surfels placed.
 pub(super) fn contact_in_order(w: &mut World) -> u64 {
@@ -58,7 +58,7 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
     scratch.working.resize_with(n, || None);
     let view = SurfaceView::new(&w.objects, &cache.grids);
     let mut used = 0;
-    for (d0, pair) in w.detections.iter().zip(&w.pairs) {
+    for (d0, pair) in w.contact.detections.iter().zip(&w.contact.pairs) {
         let (a, b) = (d0.a, d0.b);
         let (wa, wb) = (scratch.working[a].as_ref(), scratch.working[b].as_ref());
         let (surfels_a, carriers_a) = columns(&w.objects[a], wa);
@@ -109,13 +109,13 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
         if d.a_in_b.is_empty() && d.b_in_a.is_empty() {
             continue;
         }
-        if w.patches.len() == used {
-            w.patches.push(ContactPatch::default());
+        if w.contact.patches.len() == used {
+            w.contact.patches.push(ContactPatch::default());
         }
         if cache.patch.len() == used {
             cache.patch.push(Default::default());
         }
-        let patch = &mut w.patches[used];
+        let patch = &mut w.contact.patches[used];
         used += 1;
         let p = view.params(a, b, dt);
         contact::contact_surface(d, &s, &p, &mut cache.patch[used - 1], patch);
@@ -134,8 +134,12 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
         scratch.working[a] = Some(na);
         scratch.working[b] = Some(nb);
     }
-    w.patches.truncate(used);
-    w.patches.iter().map(|p| p.surfels.len() as u64).sum()
+    w.contact.patches.truncate(used);
+    w.contact
+        .patches
+        .iter()
+        .map(|p| p.surfels.len() as u64)
+        .sum()
 }
 
 /// An object's surfels and force-carrier flags: as the earlier pairs left them when
@@ -206,12 +210,12 @@ mod tests {
         scene.pairs_in_order = Some(true);
         scene.resampled_forces = Some(true);
         let mut w = scene.build(&BuildOptions::default()).unwrap();
-        while w.patches.is_empty() || w.patches[0].render.len() < 20 {
+        while w.contact.patches.is_empty() || w.contact.patches[0].render.len() < 20 {
             w.step();
             assert!(w.steps < 500, "no contact");
         }
-        let d = &w.detections[0];
-        let phi = &w.patches[0].render;
+        let d = &w.contact.detections[0];
+        let phi = &w.contact.patches[0].render;
         for (k, colliding, sign) in [(0, &d.a_in_b, 1.0f32), (1, &d.b_in_a, -1.0)] {
             let o = &w.objects[k];
             let wk = w.cache.in_order.working[k]

@@ -44,7 +44,7 @@ use glam::Vec3;
 ///
 /// Four parts: what the caller sets (`objects`, `gravity`, `dt`, `keep_stable`,
 /// `render_contacts`), the clock and the guard (`steps`, `time`, `non_finite`), the
-/// contact state of the last step (`pairs`, `detections`, `patches`: read them, the
+/// contact state of the last step (`contact`: read it, the
 /// step rewrites them), and the run's [`RunRecord`]. Privately it keeps the ids it
 /// hands out and which object list the contact state indexes, and a cache of grids,
 /// boxes and scratch: [`World::clear_cache`] drops the cache, and the next step
@@ -91,19 +91,10 @@ pub struct World {
     /// The first non-finite value the step's checks found (`None`: all finite so far);
     /// see [`NonFinite`].
     pub non_finite: Option<NonFinite>,
-    /// Overlapping pairs of the last step, in a fixed order (indices into `objects`):
-    /// written by `broad_phase`, read by the contact phases after it.
-    pub pairs: Vec<Pair>,
-    /// Colliding surfels of every overlapping pair of the last step: written by
-    /// `detect`, read by `contact_surface`.
-    pub detections: Vec<PairDetection>,
-    /// Contact surfaces and forces of the last step: written by `contact_surface`,
-    /// `resample` and `forces`, read by `distribute` (and by callers after the step).
-    pub patches: Vec<ContactPatch>,
-    /// The contact springs of the last step's patches between implicit bodies (and
-    /// between one and a static object): written by `distribute`, they join the next
-    /// step's implicit solves ([`crate::solver`]).
-    pub springs: ContactSprings,
+    /// What the contact phases of the last step found and hand on: pairs, colliding
+    /// surfels, contact patches and the contact springs of the implicit solve (read
+    /// them; the step rewrites them).
+    pub contact: ContactState,
     /// Statistics of the run so far: phase times, deepest penetration, splits, dt
     /// changes, warnings.
     pub record: RunRecord,
@@ -120,6 +111,51 @@ pub struct World {
     cache: StepCache,
 }
 
+/// The contact state of a step, in the order the phases write it: each phase reads
+/// what the ones before it wrote.
+#[derive(Clone, Debug, Default)]
+pub struct ContactState {
+    /// Overlapping pairs, in a fixed order (indices into `World::objects`): written by
+    /// `broad_phase`, read by `grids`, `detect`.
+    pub pairs: Vec<Pair>,
+    /// Colliding surfels of every overlapping pair: written by `detect`, read by
+    /// `contact_surface`.
+    pub detections: Vec<PairDetection>,
+    /// Contact surfaces and their forces: written by `contact_surface`, `resample` and
+    /// `forces`, read by `distribute` and `springs` (and by callers after the step).
+    pub patches: Vec<ContactPatch>,
+    /// The contact springs of the patches between implicit bodies (and between one and
+    /// a static object): written by `springs`, read by the next step's `dynamics`
+    /// ([`crate::solver`]).
+    pub springs: ContactSprings,
+}
+
+impl ContactState {
+    /// Forgets everything (the objects it indexes are gone).
+    pub fn clear(&mut self) {
+        self.pairs.clear();
+        self.detections.clear();
+        self.patches.clear();
+        self.springs.clear();
+    }
+}
+
+/// The contact state's fields read as the world's (`world.patches`), as before they
+/// had a struct of their own.
+impl std::ops::Deref for World {
+    type Target = ContactState;
+
+    fn deref(&self) -> &ContactState {
+        &self.contact
+    }
+}
+
+impl std::ops::DerefMut for World {
+    fn deref_mut(&mut self) -> &mut ContactState {
+        &mut self.contact
+    }
+}
+
 /// A summary: the objects (each as [`Object`]'s summary), the step, the pairs and
 /// contacts of the last step; not the caches and scratch.
 impl std::fmt::Debug for World {
@@ -129,8 +165,8 @@ impl std::fmt::Debug for World {
             .field("gravity", &self.gravity)
             .field("dt", &self.dt)
             .field("steps", &self.steps)
-            .field("pairs", &self.pairs.len())
-            .field("patches", &self.patches.len())
+            .field("pairs", &self.contact.pairs.len())
+            .field("patches", &self.contact.patches.len())
             .field("max_penetration", &self.record.max_penetration)
             .field("splits", &self.record.splits.len())
             .field("non_finite", &self.non_finite)
@@ -169,10 +205,7 @@ impl World {
             steps: 0,
             time: 0.0,
             non_finite: None,
-            pairs: Vec::new(),
-            detections: Vec::new(),
-            patches: Vec::new(),
-            springs: ContactSprings::default(),
+            contact: ContactState::default(),
             record: RunRecord::default(),
             next_id: objects_next_id,
             renewals_seen: 0,
@@ -285,7 +318,8 @@ impl World {
         let mut t = std::mem::take(&mut self.record.times);
         self.cache.arena.reset();
         let mut blocks_current = false;
-        for phase in Phase::ALL.into_iter().filter(|&p| p != Phase::Topology) {
+        let end = [Phase::SelfCollision, Phase::Topology];
+        for phase in Phase::ALL.into_iter().filter(|p| !end.contains(p)) {
             let work = t.time(phase, || step::run(self, phase, blocks_current));
             t.add_work(phase, work);
             // From the advection on, the block boxes bound every moving surfel.
@@ -296,17 +330,19 @@ impl World {
         self.time += self.dt as f64;
         self.record
             .contacts
-            .add(&self.objects, &self.patches, self.time, self.dt);
+            .add(&self.objects, &self.contact.patches, self.time, self.dt);
     }
 
-    /// The topology phase of the step: self-collision forces and fracture. Returns the
-    /// number of objects that split. Ends the step with the finiteness check that sets
+    /// The topology phases of the step: self-collision forces, then fracture. Returns
+    /// the number of objects that split. Ends the step with the finiteness check that sets
     /// [`World::non_finite`].
     pub fn step_topology(&mut self) -> usize {
         let mut t = std::mem::take(&mut self.record.times);
         let before = self.record.splits.len();
-        let work = t.time(Phase::Topology, || step::run(self, Phase::Topology, true));
-        t.add_work(Phase::Topology, work);
+        for phase in [Phase::SelfCollision, Phase::Topology] {
+            let work = t.time(phase, || step::run(self, phase, true));
+            t.add_work(phase, work);
+        }
         self.record.times = t;
         let splits = self.record.splits.len() - before;
         if self.non_finite.is_none() {
@@ -327,19 +363,20 @@ impl World {
     ///
     /// # Panics
     ///
-    /// As [`World::step`]; and for a contact phase (`SurfelGrid` to `Distribute`) when
+    /// As [`World::step`]; and for a contact phase (`Grids` to `Springs`) when
     /// the object list changed since the last broad phase, whose pairs it would read
     /// (run `Phase::BroadPhase` or a step first).
     pub fn run_phase(&mut self, phase: Phase) {
         self.check_inputs();
         let contact = matches!(
             phase,
-            Phase::SurfelGrid
+            Phase::Grids
                 | Phase::Detect
                 | Phase::ContactSurface
                 | Phase::Resample
                 | Phase::Forces
                 | Phase::Distribute
+                | Phase::Springs
         );
         assert!(
             !contact || self.objects_unchanged(),
@@ -412,7 +449,8 @@ impl World {
     /// `contact::ContactPoint::of` over `patches[k].surfels`.
     pub fn contact_totals(&self) -> Vec<crate::contact::PatchTotals> {
         let com = |k: usize| glam::DVec3::from(self.objects[k].phyxels.centre_of_mass());
-        self.patches
+        self.contact
+            .patches
             .iter()
             .map(|p| crate::contact::PatchTotals::of(p, 0.5 * (com(p.a) + com(p.b))))
             .collect()
@@ -427,7 +465,8 @@ impl World {
         if !self.objects_unchanged() {
             return 0.0;
         }
-        self.patches
+        self.contact
+            .patches
             .iter()
             .map(|patch| {
                 let (a, b) = (&self.objects[patch.a], &self.objects[patch.b]);

@@ -61,7 +61,7 @@ pub fn surface_frame(world: &World) -> Frame {
         .iter()
         .map(|o| vec![false; o.surfels.len()])
         .collect();
-    for d in &world.detections {
+    for d in &world.contact.detections {
         for c in &d.a_in_b {
             colliding[d.a][c.surfel as usize] = true;
         }
@@ -76,7 +76,7 @@ pub fn surface_frame(world: &World) -> Frame {
             frame.push(s.pos.get(i), s.normal.get(i), s.radius[i], o.id as i32, 0);
         }
     }
-    for c in world.patches.iter().flat_map(|p| &p.render) {
+    for c in world.contact.patches.iter().flat_map(|p| &p.render) {
         let c: &ContactSurfel = c;
         let o = &world.objects[c.object.min(n_obj - 1)];
         let r = o.surfel_spacing * std::f32::consts::FRAC_2_PI.sqrt();
@@ -136,7 +136,7 @@ pub fn write_phyxels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
 }
 
 /// The contact surfels of every pair that carry force at the last contact phase
-/// ([`World::patches`]), one point each with the columns of
+/// ([`ContactState::patches`](crate::world::ContactState::patches)), one point each with the columns of
 /// [`crate::contact::ContactPoint`] and the pair's object ids `a` and `b`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ContactFrame {
@@ -154,7 +154,7 @@ pub struct ContactFrame {
 /// The contact frame of `world` (see [`ContactFrame`]).
 pub fn contact_frame(world: &World) -> ContactFrame {
     let mut f = ContactFrame::default();
-    for patch in &world.patches {
+    for patch in &world.contact.patches {
         let (a, b) = (world.objects[patch.a].id, world.objects[patch.b].id);
         for c in &patch.surfels {
             let p = ContactPoint::of(c);

@@ -9,29 +9,38 @@ pub enum Phase {
     Dynamics,
     Advect,
     BroadPhase,
-    SurfelGrid,
+    Grids,
     Detect,
     ContactSurface,
     Resample,
     Forces,
     Distribute,
+    Springs,
+    SelfCollision,
     Topology,
 }
 
 impl Phase {
     /// Every phase, in the order the step runs them.
-    pub const ALL: [Phase; 10] = [
+    pub const ALL: [Phase; 12] = [
         Phase::Dynamics,
         Phase::Advect,
         Phase::BroadPhase,
-        Phase::SurfelGrid,
+        Phase::Grids,
         Phase::Detect,
         Phase::ContactSurface,
         Phase::Resample,
         Phase::Forces,
         Phase::Distribute,
+        Phase::Springs,
+        Phase::SelfCollision,
         Phase::Topology,
     ];
+
+    /// Renamed [`Phase::Grids`]: the phase builds the phyxel grids too.
+    #[deprecated(note = "use Phase::Grids")]
+    #[allow(non_upper_case_globals)]
+    pub const SurfelGrid: Phase = Phase::Grids;
 
     /// The phase's name (the name of the function that runs it).
     pub fn name(self) -> &'static str {
@@ -39,12 +48,14 @@ impl Phase {
             Phase::Dynamics => "dynamics",
             Phase::Advect => "advect",
             Phase::BroadPhase => "broad_phase",
-            Phase::SurfelGrid => "surfel_grid",
+            Phase::Grids => "grids",
             Phase::Detect => "detect",
             Phase::ContactSurface => "contact_surface",
             Phase::Resample => "resample",
             Phase::Forces => "forces",
             Phase::Distribute => "distribute",
+            Phase::Springs => "springs",
+            Phase::SelfCollision => "self_collision",
             Phase::Topology => "topology",
         }
     }
@@ -53,10 +64,11 @@ impl Phase {
 /// Accumulated time and work items per phase.
 #[derive(Clone, Debug, Default)]
 pub struct PhaseTimes {
-    time: [Duration; 10],
+    time: [Duration; Phase::ALL.len()],
     /// Work items per phase, as each phase counts them (phyxels stepped, pairs found,
-    /// surfels gridded or tested, contact surfels, phyxels checked; 0 where none).
-    work: [u64; 10],
+    /// points gridded, surfels tested, contact surfels, springs, phyxels checked; 0
+    /// where none).
+    work: [u64; Phase::ALL.len()],
 }
 
 impl PhaseTimes {

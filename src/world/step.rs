@@ -1,46 +1,147 @@
 //! The phases of one step (Keiser et al. 2004, §8), one `#[inline(never)]` function
 //! each, so that a flamegraph names them as the timing table does
-//! (`phyxel::world::step::detect`). [`run`] dispatches the phases of [`Phase::ALL`] to
-//! them. A value one phase hands to a later one travels as an argument
-//! (`blocks_current`) or in the world's contact state (`pairs`, `detections`,
-//! `patches`); the one value kept from step to step is each object's last penetration
-//! depth in the cache, which sizes the next grid region (speed only).
+//! (`phyxel::world::step::detect`). Each phase takes what it reads and writes what it
+//! produces, as its signature says: the contact state travels
+//! `pairs → detections → patches → springs` ([`ContactState`]), the grids and scratch
+//! are the cache's. [`run`] dispatches the phases of [`Phase::ALL`] to them. The one
+//! value a phase keeps from step to step besides the contact state is each object's
+//! last penetration depth in the cache, which sizes the next grid region (speed only).
 
-use super::World;
 use super::cache::{
-    GRID_REGION_DEPTH_FACTOR, GRID_REGION_MARGIN, SurfaceGrids, SurfaceView, current_blocks,
+    GRID_REGION_DEPTH_FACTOR, GRID_REGION_MARGIN, ObjectGrids, StepCache, SurfaceGrids,
+    SurfaceView, current_blocks,
 };
 use super::guard::NonFinite;
 use super::phase::Phase;
+use super::{ContactState, RunRecord, World};
 use crate::body::fracture::{self, Components};
 use crate::body::object::Object;
 use crate::contact;
-use crate::contact::detect::{Candidates, Volume, colliding_surfels};
+use crate::contact::ContactPatch;
+use crate::contact::detect::{Candidates, PairDetection, Volume, colliding_surfels};
 use crate::contact::field::{grid_cell, radius_range};
-use crate::spatial::broad_phase::{Aabb, overlapping_pairs, points_in_blocks};
+use crate::solver::{ContactSprings, Solver};
+use crate::spatial::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
+use bumpalo::Bump;
 use bumpalo::collections::Vec as BumpVec;
+use glam::Vec3;
 use rayon::prelude::*;
 
-/// Runs `phase` of `w` on its current state and returns its work count (the timing table's
-/// work column). `blocks_current`: this step's advection has run, so every moving
-/// object's block boxes bound its surfels and the scans may skip blocks by them.
+/// What every phase may read of the step besides its inputs.
+#[derive(Clone, Copy, Debug)]
+struct Settings {
+    /// Time step (s) and gravity (m/s²).
+    dt: f32,
+    gravity: Vec3,
+    /// Simulated time at the step's start (s): loads ramp over it.
+    time: f32,
+    /// The step being taken (1 for the first).
+    step: u64,
+    /// Test every surfel for contact and resample Φ (`World::render_contacts`).
+    render_contacts: bool,
+    /// Forces on the resampled Φ (`World::resampled_forces`).
+    resampled_forces: bool,
+    /// This step's advection has run, so every moving object's block boxes bound its
+    /// surfels and the scans may skip blocks by them.
+    blocks_current: bool,
+}
+
+/// Runs `phase` of `w` on its current state and returns its work count (the timing
+/// table's work column).
 pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
+    let s = Settings {
+        dt: w.dt,
+        gravity: w.gravity,
+        time: w.time as f32,
+        step: w.steps + 1,
+        render_contacts: w.render_contacts,
+        resampled_forces: w.resampled_forces,
+        blocks_current,
+    };
     match phase {
-        Phase::Dynamics => dynamics(w),
-        Phase::Advect => advect(w),
-        Phase::BroadPhase => broad_phase(w, blocks_current),
-        Phase::SurfelGrid => surfel_grid(w, blocks_current),
-        Phase::Detect => detect(w, blocks_current),
-        Phase::ContactSurface => contact_surface(w),
-        Phase::Resample => resample(w),
-        Phase::Forces => forces(w),
-        Phase::Distribute => distribute(w),
-        Phase::Topology => topology(w),
+        Phase::Dynamics => {
+            // The springs name objects by index: only for the object list they were
+            // built on.
+            if !w.objects_unchanged() {
+                w.contact.springs.clear();
+            }
+            dynamics(&mut w.objects, &w.contact.springs, &mut w.cache.solver, &s)
+        }
+        Phase::Advect => advect(&mut w.objects, &mut w.record),
+        Phase::BroadPhase => {
+            let work = broad_phase(
+                &w.objects,
+                &s,
+                &mut w.cache,
+                &mut w.record,
+                &mut w.non_finite,
+                &mut w.contact.pairs,
+            );
+            w.contact_owner.clear();
+            w.contact_owner.extend(w.objects.iter().map(|o| o.serial()));
+            work
+        }
+        Phase::Grids => {
+            let c = &mut w.cache;
+            grids(&w.objects, &w.contact.pairs, &s, &mut c.grids, &c.arena)
+        }
+        Phase::Detect => detect(
+            &w.objects,
+            &w.contact.pairs,
+            &s,
+            &mut w.cache,
+            &mut w.record,
+            &mut w.contact.detections,
+        ),
+        Phase::ContactSurface if w.pairs_in_order => super::in_order::contact_in_order(w),
+        Phase::ContactSurface => contact_surface(
+            &w.objects,
+            &w.contact.detections,
+            &s,
+            &mut w.cache,
+            &mut w.contact.patches,
+        ),
+        Phase::Resample if w.pairs_in_order && (s.render_contacts || s.resampled_forces) => {
+            // Done pair by pair in the contact-surface phase.
+            w.contact
+                .patches
+                .iter()
+                .map(|p| p.render.len() as u64)
+                .sum()
+        }
+        Phase::Resample => resample(&w.objects, &s, &w.cache.grids, &mut w.contact.patches),
+        Phase::Forces => forces(
+            &w.objects,
+            &s,
+            &mut w.cache,
+            &mut w.record,
+            &mut w.contact.patches,
+        ),
+        Phase::Distribute => distribute(&mut w.objects, &w.contact.patches, &mut w.cache),
+        Phase::Springs => {
+            let c = &mut w.cache;
+            springs(
+                &w.objects,
+                &w.contact.patches,
+                &s,
+                &c.grids,
+                &mut c.solver,
+                &mut w.contact.springs,
+            )
+        }
+        Phase::SelfCollision => self_collision(&mut w.objects, &s),
+        Phase::Topology => topology(
+            &mut w.objects,
+            &mut w.contact,
+            w.steps,
+            &mut w.next_id,
+            &mut w.record,
+        ),
     }
 }
 
-fn moving_phyxels(w: &World) -> u64 {
-    w.objects
+fn moving_phyxels(objects: &[Object]) -> u64 {
+    objects
         .iter()
         .filter(|o| !o.is_static())
         .map(|o| o.phyxels.len() as u64)
@@ -49,18 +150,16 @@ fn moving_phyxels(w: &World) -> u64 {
 
 /// Each non-static object's backend advances its phyxels (under gravity, the
 /// contact forces of the previous step and the object's external load); implicit
-/// bodies by islands joined by the last step's contact springs ([`crate::solver`]).
+/// bodies by islands joined by the last step's contact `springs` ([`crate::solver`]).
 #[inline(never)] // a named frame in flamegraphs
-fn dynamics(w: &mut World) -> u64 {
-    // The springs name objects by index: only for the object list they were built on.
-    if !w.objects_unchanged() {
-        w.springs.clear();
-    }
-    let t = w.time as f32;
-    w.cache
-        .solver
-        .step(&mut w.objects, &w.springs, w.dt, w.gravity, t, check_counts);
-    moving_phyxels(w)
+fn dynamics(
+    objects: &mut [Object],
+    springs: &ContactSprings,
+    solver: &mut Solver,
+    s: &Settings,
+) -> u64 {
+    solver.step(objects, springs, s.dt, s.gravity, s.time, check_counts);
+    moving_phyxels(objects)
 }
 
 /// A backend may write the phyxels' columns: one that changed their count would fail
@@ -71,17 +170,16 @@ fn check_counts(o: &Object) {
     }
 }
 
-/// Surfels follow the phyxels of their object.
+/// Surfels follow the phyxels of their object; plastic flow that asked for a new rest
+/// shape gets it (counted in `record.rest_renewals`).
 #[inline(never)] // a named frame in flamegraphs
-fn advect(w: &mut World) -> u64 {
-    w.objects
+fn advect(objects: &mut [Object], record: &mut RunRecord) -> u64 {
+    objects
         .par_iter_mut()
         .filter(|o| !o.is_static())
         .for_each(|o| o.advect_surfels());
-    // Plastic flow that asked for a new rest shape gets it now that the surfels
-    // have followed this step's motion.
-    w.record.rest_renewals += w
-        .objects
+    // Now that the surfels have followed this step's motion.
+    record.rest_renewals += objects
         .par_iter_mut()
         .filter(|o| !o.is_static() && o.dynamics.wants_new_rest())
         .map(|o| {
@@ -92,80 +190,91 @@ fn advect(w: &mut World) -> u64 {
     0
 }
 
-/// Overlapping surfel bounding boxes and their intersection boxes.
+/// Overlapping surfel bounding boxes and their intersection boxes, written to `pairs`;
+/// the boxes are kept in the cache, a body beyond f32's reach or non-finite is recorded
+/// in `non_finite`, a crossing in `record.warnings`.
 #[inline(never)] // a named frame in flamegraphs
-fn broad_phase(w: &mut World, blocks_current: bool) -> u64 {
-    let n = w.objects.len();
-    w.cache.boxes.resize(n, Aabb::EMPTY);
-    w.cache.previous_boxes.clone_from(&w.cache.boxes);
-    w.cache.grids.surfel.resize_with(n, || None);
-    w.cache.owner.resize(n, u64::MAX);
-    for (k, o) in w.objects.iter().enumerate() {
+fn broad_phase(
+    objects: &[Object],
+    s: &Settings,
+    cache: &mut StepCache,
+    record: &mut RunRecord,
+    non_finite: &mut Option<NonFinite>,
+    pairs: &mut Vec<Pair>,
+) -> u64 {
+    let n = objects.len();
+    cache.boxes.resize(n, Aabb::EMPTY);
+    cache.previous_boxes.clone_from(&cache.boxes);
+    cache.grids.surfel.resize_with(n, || None);
+    cache.owner.resize(n, u64::MAX);
+    for (k, o) in objects.iter().enumerate() {
         // A static object's box and grids are computed once, for the object at k.
-        let fresh = w.cache.owner[k] != o.serial();
+        let fresh = cache.owner[k] != o.serial();
         if fresh {
-            w.cache.owner[k] = o.serial();
-            w.cache.grids.surfel[k] = None;
-            w.cache.previous_boxes[k] = Aabb::EMPTY;
+            cache.owner[k] = o.serial();
+            cache.grids.surfel[k] = None;
+            cache.previous_boxes[k] = Aabb::EMPTY;
         }
         if fresh || !o.is_static() {
-            let surface = match current_blocks(blocks_current, o) {
+            let surface = match current_blocks(s.blocks_current, o) {
                 Some(blocks) => Aabb::of_boxes(blocks),
                 None => Aabb::of(&o.surfels.pos),
             };
-            if surface.is_non_finite() && w.non_finite.is_none() {
-                // (The step being taken: `steps` counts it at the end.)
-                w.non_finite = NonFinite::find(o, w.steps + 1, true);
+            if surface.is_non_finite() && non_finite.is_none() {
+                *non_finite = NonFinite::find(o, s.step, true);
             }
-            if !o.is_static() && w.non_finite.is_none() {
-                w.non_finite = NonFinite::beyond_range(o, &surface, w.steps + 1);
+            if !o.is_static() && non_finite.is_none() {
+                *non_finite = NonFinite::beyond_range(o, &surface, s.step);
             }
             // A static object's box holds its volume too: a closed surface holds
             // its phyxels, but an open one (a `plane`: surfels on top, phyxels
             // below) does not, and a box of its surfels alone is flat, so no surfel
-            // of a body sinking into it was ever a candidate (a 2 cm ball fell
-            // through a plane of 5 cm surfels). Moving bodies keep the surfels' box
-            // (the paper's): in a fast impact the phyxels of a squashed sphere
-            // reach past its surfels, and the larger box let surfels near them
-            // count as deep inside (12 m/s: deepest 4.8 → 9.2 cm of 10).
-            w.cache.boxes[k] = if o.is_static() {
+            // of a body sinking into it would be a candidate. Moving bodies keep the
+            // surfels' box (the paper's): in a fast impact the phyxels of a squashed
+            // body reach past its surfels, and a box of both lets surfels near them
+            // count as deep inside.
+            cache.boxes[k] = if o.is_static() {
                 surface.union(&Aabb::of(&o.phyxels.pos))
             } else {
                 surface
             };
         }
     }
-    if !w.cache.crossing_warned
+    if !cache.crossing_warned
         && let Some(warning) = super::guard::crossing_warning(
-            &w.objects,
-            &w.cache.previous_boxes,
-            &w.cache.boxes,
-            w.steps + 1,
-            w.dt,
+            objects,
+            &cache.previous_boxes,
+            &cache.boxes,
+            s.step,
+            s.dt,
         )
     {
-        w.cache.crossing_warned = true;
-        w.record.warnings.push(warning);
+        cache.crossing_warned = true;
+        record.warnings.push(warning);
     }
-    let is_static = BumpVec::from_iter_in(w.objects.iter().map(|o| o.is_static()), &w.cache.arena);
-    overlapping_pairs(&w.cache.boxes, &is_static, &mut w.pairs);
-    w.contact_owner.clear();
-    w.contact_owner.extend(w.objects.iter().map(|o| o.serial()));
-    w.pairs.len() as u64
+    let is_static = BumpVec::from_iter_in(objects.iter().map(|o| o.is_static()), &cache.arena);
+    overlapping_pairs(&cache.boxes, &is_static, pairs);
+    pairs.len() as u64
 }
 
 /// Surfel and phyxel grids of the objects in an overlapping pair (Teschner et al.
 /// 2003); static objects keep theirs, objects in no pair get none.
 #[inline(never)] // a named frame in flamegraphs
-fn surfel_grid(w: &mut World, blocks_current: bool) -> u64 {
-    let n = w.objects.len();
-    w.cache.grids.surfel.resize_with(n, || None);
-    w.cache.grids.phyxel.resize_with(n, || None);
-    w.cache.grids.surface.resize_with(n, SurfaceGrids::default);
-    let mut needed = BumpVec::from_iter_in(std::iter::repeat_n(false, n), &w.cache.arena);
+fn grids(
+    objects: &[Object],
+    pairs: &[Pair],
+    s: &Settings,
+    grids: &mut ObjectGrids,
+    arena: &Bump,
+) -> u64 {
+    let n = objects.len();
+    grids.surfel.resize_with(n, || None);
+    grids.phyxel.resize_with(n, || None);
+    grids.surface.resize_with(n, SurfaceGrids::default);
+    let mut needed = BumpVec::from_iter_in(std::iter::repeat_n(false, n), arena);
     // The union of each object's pairs' intersection boxes.
-    let mut near = BumpVec::from_iter_in(std::iter::repeat_n(Aabb::EMPTY, n), &w.cache.arena);
-    for p in &w.pairs {
+    let mut near = BumpVec::from_iter_in(std::iter::repeat_n(Aabb::EMPTY, n), arena);
+    for p in pairs {
         for k in [p.a, p.b] {
             needed[k] = true;
             near[k] = Aabb {
@@ -174,19 +283,17 @@ fn surfel_grid(w: &mut World, blocks_current: bool) -> u64 {
             };
         }
     }
-    let objects = &w.objects;
     let (needed, near) = (&needed[..], &near[..]);
-    let current = blocks_current;
+    let current = s.blocks_current;
     // Objects in parallel, and each object's two grids in parallel: a grid's counting
     // sort is serial, so this is where the cores share the phase. The far grid and
     // the grid of all surfels are only reset here: they are built if and when a
     // query needs them.
-    w.cache
-        .grids
+    grids
         .surfel
         .par_iter_mut()
-        .zip(w.cache.grids.phyxel.par_iter_mut())
-        .zip(w.cache.grids.surface.par_iter_mut())
+        .zip(grids.phyxel.par_iter_mut())
+        .zip(grids.surface.par_iter_mut())
         .enumerate()
         .map(|(k, ((g, pg), sg))| {
             let o = &objects[k];
@@ -242,20 +349,28 @@ fn surfel_grid(w: &mut World, blocks_current: bool) -> u64 {
 }
 
 /// Colliding surfels of every pair: surfels in the intersection box that are inside
-/// the other object (eq. 2).
+/// the other object (eq. 2), written to `detections`; the deepest penetration goes to
+/// `record.max_penetration` and, per object, to the cache (it sizes the next grids).
 #[inline(never)] // a named frame in flamegraphs
-fn detect(w: &mut World, blocks_current: bool) -> u64 {
-    let n = w.pairs.len();
+fn detect(
+    objects: &[Object],
+    pairs: &[Pair],
+    s: &Settings,
+    cache: &mut StepCache,
+    record: &mut RunRecord,
+    detections: &mut Vec<PairDetection>,
+) -> u64 {
+    let n = pairs.len();
     // Results and scratch keep their buffers from earlier steps.
-    w.detections.resize_with(n, Default::default);
-    w.cache.detect.resize_with(n, Default::default);
-    let view = SurfaceView::new(&w.objects, &w.cache.grids);
-    let phyxel_grids = &w.cache.grids.phyxel;
+    detections.resize_with(n, Default::default);
+    cache.detect.resize_with(n, Default::default);
+    let view = SurfaceView::new(objects, &cache.grids);
+    let phyxel_grids = &cache.grids.phyxel;
     // Without a render surface only the force carriers' contacts are used: the
     // other surfels are not tested (a million-surfel sphere on 20k phyxels has one
     // carrier in four or five surfels).
-    let render = w.render_contacts;
-    let current = blocks_current;
+    let render = s.render_contacts;
+    let current = s.blocks_current;
     let side = |surfels, k: usize| {
         let o = &view.objects[k];
         Candidates {
@@ -268,10 +383,10 @@ fn detect(w: &mut World, blocks_current: bool) -> u64 {
         phyxels: phyxel_grids[k].as_ref().expect("grid built for pairs"),
         reach: view.objects[k].phyxel_spacing,
     };
-    w.detections
+    detections
         .par_iter_mut()
-        .zip(w.cache.detect.par_iter_mut())
-        .zip(w.pairs.par_iter())
+        .zip(cache.detect.par_iter_mut())
+        .zip(pairs.par_iter())
         .for_each(|((d, [sa, sb]), pair)| {
             let s = view.pair(pair.a, pair.b);
             d.a = pair.a;
@@ -301,69 +416,73 @@ fn detect(w: &mut World, blocks_current: bool) -> u64 {
             );
             d.candidates = na + nb;
         });
-    for sg in &mut w.cache.grids.surface {
+    for sg in &mut cache.grids.surface {
         sg.depth = 0.0;
     }
-    for d in &w.detections {
+    for d in detections.iter() {
         // Over the force carriers, whether or not the others were tested, so that
         // writing frames does not change the reported depth.
         let carrier = |k: usize| {
-            let c = &w.objects[k].force_carrier;
+            let c = &objects[k].force_carrier;
             move |s: u32| c[s as usize]
         };
         let depth = d.max_depth_of(carrier(d.a), carrier(d.b));
-        w.record.max_penetration = w.record.max_penetration.max(depth);
+        record.max_penetration = record.max_penetration.max(depth);
         for k in [d.a, d.b] {
-            let sg = &mut w.cache.grids.surface[k];
+            let sg = &mut cache.grids.surface[k];
             sg.depth = sg.depth.max(depth);
         }
     }
-    w.detections.iter().map(|d| d.candidates as u64).sum()
+    detections.iter().map(|d| d.candidates as u64).sum()
 }
 
-/// Colliding surfels moved onto the contact surface Φ (paper §6).
+/// Colliding surfels moved onto the contact surface Φ (paper §6), one patch per
+/// touching pair, written to `patches`.
 #[inline(never)] // a named frame in flamegraphs
-fn contact_surface(w: &mut World) -> u64 {
-    if w.pairs_in_order {
-        return super::in_order::contact_in_order(w);
-    }
+fn contact_surface(
+    objects: &[Object],
+    detections: &[PairDetection],
+    s: &Settings,
+    cache: &mut StepCache,
+    patches: &mut Vec<ContactPatch>,
+) -> u64 {
     let touching = BumpVec::from_iter_in(
-        w.detections
+        detections
             .iter()
             .filter(|d| !d.a_in_b.is_empty() || !d.b_in_a.is_empty()),
-        &w.cache.arena,
+        &cache.arena,
     );
-    w.patches.resize_with(touching.len(), Default::default);
-    w.cache.patch.resize_with(touching.len(), Default::default);
-    let view = SurfaceView::new(&w.objects, &w.cache.grids);
-    let dt = w.dt;
-    w.patches
+    patches.resize_with(touching.len(), Default::default);
+    cache.patch.resize_with(touching.len(), Default::default);
+    let view = SurfaceView::new(objects, &cache.grids);
+    let dt = s.dt;
+    patches
         .par_iter_mut()
-        .zip(w.cache.patch.par_iter_mut())
+        .zip(cache.patch.par_iter_mut())
         .zip(touching.par_iter())
         .for_each(|((patch, scratch), d)| {
             let p = view.params(d.a, d.b, dt);
             contact::contact_surface(d, &view.pair(d.a, d.b), &p, scratch, patch);
         });
-    w.patches.iter().map(|p| p.surfels.len() as u64).sum()
+    patches.iter().map(|p| p.surfels.len() as u64).sum()
 }
 
 /// Even, hole-free resampling of each contact surface for the render surface and, with
 /// `World::resampled_forces`, as the contact surfels the forces act on; skipped when
 /// neither needs it.
 #[inline(never)] // a named frame in flamegraphs
-fn resample(w: &mut World) -> u64 {
-    if !(w.render_contacts || w.resampled_forces) {
+fn resample(
+    objects: &[Object],
+    s: &Settings,
+    grids: &ObjectGrids,
+    patches: &mut [ContactPatch],
+) -> u64 {
+    if !(s.render_contacts || s.resampled_forces) {
         return 0;
     }
-    if w.pairs_in_order {
-        // Done pair by pair in the contact-surface phase.
-        return w.patches.iter().map(|p| p.render.len() as u64).sum();
-    }
-    let view = SurfaceView::new(&w.objects, &w.cache.grids);
-    let dt = w.dt;
-    let on_resampled = w.resampled_forces;
-    w.patches.par_iter_mut().for_each(|patch| {
+    let view = SurfaceView::new(objects, grids);
+    let (dt, on_resampled) = (s.dt, s.resampled_forces);
+    patches.par_iter_mut().for_each(|patch| {
         let p = view.params(patch.a, patch.b, dt);
         let pair = view.pair(patch.a, patch.b);
         contact::resample(patch, &pair, &p);
@@ -372,20 +491,25 @@ fn resample(w: &mut World) -> u64 {
             patch.surfels.clone_from(&patch.render);
         }
     });
-    w.patches.iter().map(|p| p.render.len() as u64).sum()
+    patches.iter().map(|p| p.render.len() as u64).sum()
 }
 
-/// Penalty and friction forces on the contact surfels (paper §7). Returns the
-/// contact surfels forced and, of those, the ones whose pair has friction.
+/// Penalty and friction forces on the contact surfels of `patches` (paper §7). Returns
+/// the contact surfels forced; those of pairs with friction are added to
+/// `record.friction_work`.
 #[inline(never)] // a named frame in flamegraphs
-fn forces(w: &mut World) -> u64 {
-    let view = SurfaceView::new(&w.objects, &w.cache.grids);
-    let dt = w.dt;
-    let on_resampled = w.resampled_forces;
-    let with_friction: u64 = w
-        .patches
+fn forces(
+    objects: &[Object],
+    s: &Settings,
+    cache: &mut StepCache,
+    record: &mut RunRecord,
+    patches: &mut [ContactPatch],
+) -> u64 {
+    let view = SurfaceView::new(objects, &cache.grids);
+    let (dt, on_resampled) = (s.dt, s.resampled_forces);
+    let with_friction: u64 = patches
         .par_iter_mut()
-        .zip(w.cache.patch.par_iter_mut())
+        .zip(cache.patch.par_iter_mut())
         .map(|(patch, scratch)| {
             let mut p = view.params(patch.a, patch.b, dt);
             if on_resampled {
@@ -400,78 +524,94 @@ fn forces(w: &mut World) -> u64 {
             }
         })
         .sum();
-    w.record.friction_work += with_friction;
-    w.patches.iter().map(|p| p.surfels.len() as u64).sum()
+    record.friction_work += with_friction;
+    patches.iter().map(|p| p.surfels.len() as u64).sum()
 }
 
 /// Contact forces spread onto the phyxels of moving objects (their grids were built
 /// this step with the surfel grids); they act at the next step. Parallel over
 /// objects: each object takes its patches in patch order, so the sums do not depend
-/// on the thread count. The patches of pairs in an implicit solve become its contact
-/// springs instead ([`crate::solver::springs`]), which apply their force in the solve.
+/// on the thread count. The patches of pairs whose contact joins an implicit solve are
+/// left to the `springs` phase.
 #[inline(never)] // a named frame in flamegraphs
-fn distribute(w: &mut World) -> u64 {
-    let n = w.objects.len();
-    w.cache.distribute.resize_with(n, Default::default);
-    {
-        let c = &mut w.cache;
-        let in_solve = BumpVec::from_iter_in(
-            w.patches
-                .iter()
-                .map(|p| w.objects[p.a].contact_in_solve(&w.objects[p.b])),
-            &c.arena,
-        );
-        let in_solve = &in_solve[..];
-        let (patches, grids) = (&w.patches, &c.grids.phyxel);
-        w.objects
-            .par_iter_mut()
-            .zip(c.distribute.par_iter_mut())
-            .enumerate()
-            .filter(|(_, (o, _))| !o.is_static())
-            .for_each(|(k, (o, scratch))| {
-                let h = o.distribution_radius();
-                for (patch, _) in patches.iter().zip(in_solve.iter()).filter(|e| !*e.1) {
-                    let sign = match (patch.a == k, patch.b == k) {
-                        (true, _) => 1.0f32,
-                        (_, true) => -1.0,
-                        _ => continue,
-                    };
-                    let grid = grids[k].as_ref().expect("grid built for pairs");
-                    contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h, scratch);
-                }
-            });
-    }
-    let c = &mut w.cache;
-    c.solver.renew_springs(
-        &mut w.springs,
-        &w.patches,
-        &w.objects,
-        &c.grids.phyxel,
-        w.dt,
+fn distribute(objects: &mut [Object], patches: &[ContactPatch], cache: &mut StepCache) -> u64 {
+    let n = objects.len();
+    cache.distribute.resize_with(n, Default::default);
+    let in_solve = BumpVec::from_iter_in(
+        patches
+            .iter()
+            .map(|p| objects[p.a].contact_in_solve(&objects[p.b])),
+        &cache.arena,
     );
+    let in_solve = &in_solve[..];
+    let grids = &cache.grids.phyxel;
+    objects
+        .par_iter_mut()
+        .zip(cache.distribute.par_iter_mut())
+        .enumerate()
+        .filter(|(_, (o, _))| !o.is_static())
+        .for_each(|(k, (o, scratch))| {
+            let h = o.distribution_radius();
+            for (patch, _) in patches.iter().zip(in_solve.iter()).filter(|e| !*e.1) {
+                let sign = match (patch.a == k, patch.b == k) {
+                    (true, _) => 1.0f32,
+                    (_, true) => -1.0,
+                    _ => continue,
+                };
+                let grid = grids[k].as_ref().expect("grid built for pairs");
+                contact::distribute(&patch.surfels, sign, &mut o.phyxels, grid, h, scratch);
+            }
+        });
     0
 }
 
-/// Self-collision forces (objects with `self_collision`), then fracture of the objects
-/// whose backend and material can break ([`crate::body::fracture`]); each split is
-/// recorded in `record.splits`. Returns the work (phyxels checked): zero when no
-/// object uses either feature.
+/// The contact springs of the patches between implicit bodies, written to `springs`
+/// for the next step's solve ([`Solver::renew_springs`]). Returns the springs.
 #[inline(never)] // a named frame in flamegraphs
-fn topology(w: &mut World) -> u64 {
+fn springs(
+    objects: &[Object],
+    patches: &[ContactPatch],
+    s: &Settings,
+    grids: &ObjectGrids,
+    solver: &mut Solver,
+    springs: &mut ContactSprings,
+) -> u64 {
+    solver.renew_springs(springs, patches, objects, &grids.phyxel, s.dt);
+    springs.springs.len() as u64
+}
+
+/// Self-collision forces of the objects with `self_collision` (paper §8). Returns the
+/// phyxels checked.
+#[inline(never)] // a named frame in flamegraphs
+fn self_collision(objects: &mut [Object], s: &Settings) -> u64 {
     let mut work = 0;
-    for o in w.objects.iter_mut().filter(|o| !o.is_static()) {
+    for o in objects.iter_mut().filter(|o| !o.is_static()) {
         if let Some(sc) = &mut o.self_collision {
             work += o.phyxels.len() as u64;
-            sc.apply(&mut o.phyxels, &o.material, w.dt);
+            sc.apply(&mut o.phyxels, &o.material, s.dt);
         }
     }
-    if !w.objects.iter().any(fracture::may_fracture) {
-        return work;
+    work
+}
+
+/// Fracture of the objects whose backend and material can break
+/// ([`crate::body::fracture`]): each split is recorded in `record.splits`, and the
+/// contact state, which indexes the old objects, is cleared. Returns the phyxels
+/// checked: zero when no object may break.
+#[inline(never)] // a named frame in flamegraphs
+fn topology(
+    objects: &mut Vec<Object>,
+    contact: &mut ContactState,
+    steps: u64,
+    next_id: &mut u32,
+    record: &mut RunRecord,
+) -> u64 {
+    if !objects.iter().any(fracture::may_fracture) {
+        return 0;
     }
     // Each object that may break counts its components (a spanning-tree check
     // unless the tree broke: crate::body::connectivity), in parallel over objects.
-    let (checked, breaking) = w
-        .objects
+    let (checked, breaking) = objects
         .par_iter_mut()
         .filter(|o| fracture::may_fracture(o))
         .map(|o| {
@@ -480,9 +620,8 @@ fn topology(w: &mut World) -> u64 {
             (p.len() as u64, usize::from(count > 1))
         })
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
-    work += checked;
     if breaking == 0 {
-        return work;
+        return checked;
     }
     // A body that has gone non-finite falls apart in the component count; it is
     // left whole for the end-of-step check to report (its pieces could not be built).
@@ -491,37 +630,34 @@ fn topology(w: &mut World) -> u64 {
             .iter()
             .all(|c| c.first_non_finite().is_none())
     };
-    let broken: Vec<(usize, Components)> = (0..w.objects.len())
+    let broken: Vec<(usize, Components)> = (0..objects.len())
         .filter(|&k| {
-            let o = &w.objects[k];
+            let o = &objects[k];
             fracture::may_fracture(o) && o.connectivity.count() > 1 && finite(o)
         })
-        .map(|k| (k, w.objects[k].connectivity.components()))
+        .map(|k| (k, objects[k].connectivity.components()))
         .collect();
     // Pieces: the first takes the broken object's place (other objects keep their
     // indices, so static objects keep their grids), the others are appended.
-    let mut objects: Vec<Option<Object>> = std::mem::take(&mut w.objects)
-        .into_iter()
-        .map(Some)
-        .collect();
+    let mut slots: Vec<Option<Object>> = std::mem::take(objects).into_iter().map(Some).collect();
     let mut appended = Vec::new();
     for (k, comps) in broken {
-        let o = objects[k].take().expect("each object splits once per step");
-        match fracture::split(o, &comps, w.steps, &mut w.next_id) {
+        let o = slots[k].take().expect("each object splits once per step");
+        match fracture::split(o, &comps, steps, next_id) {
             Ok((pieces, event)) => {
                 let mut pieces = pieces.into_iter();
-                objects[k] = pieces.next();
+                slots[k] = pieces.next();
                 appended.extend(pieces);
-                w.record.splits.push(event);
+                record.splits.push(event);
             }
-            Err(o) => objects[k] = Some(*o),
+            Err(o) => slots[k] = Some(*o),
         }
     }
-    w.objects = objects.into_iter().flatten().collect();
-    w.objects.extend(appended);
-    // This step's detections and patches index the old objects' surfels.
-    w.detections.clear();
-    w.patches.clear();
-    w.springs.clear();
-    work
+    *objects = slots.into_iter().flatten().collect();
+    objects.extend(appended);
+    // This step's detections, patches and springs index the old objects' surfels.
+    contact.detections.clear();
+    contact.patches.clear();
+    contact.springs.clear();
+    checked
 }

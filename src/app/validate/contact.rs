@@ -317,7 +317,7 @@ pub fn collision_momentum(
     let (mut worst, mut touched) = (0.0f64, false);
     let steps = (0.25 / w.dt) as usize;
     let info = timed(&mut w, steps, |w| {
-        touched |= !w.patches.is_empty();
+        touched |= !w.contact.patches.is_empty();
         worst = worst.max(DVec3::from(w.momentum()).length());
         true
     });

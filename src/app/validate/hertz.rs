@@ -186,7 +186,7 @@ pub fn hertz_plane(case: &HertzCase, load: f64, backend: &str) -> Result<HertzRu
         if k < from {
             return true;
         }
-        let Some(patch) = w.patches.first() else {
+        let Some(patch) = w.contact.patches.first() else {
             return true;
         };
         let pts: Vec<ContactPoint> = patch.surfels.iter().map(ContactPoint::of).collect();

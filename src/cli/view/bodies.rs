@@ -194,9 +194,9 @@ fn overlapped(world: &World, at: Vec3, radius: f32) -> Option<&str> {
 /// next step finds them again).
 pub(super) fn remove_body(world: &mut World, id: u32) {
     world.objects.retain(|o| o.id != id);
-    world.pairs.clear();
-    world.detections.clear();
-    world.patches.clear();
+    world.contact.pairs.clear();
+    world.contact.detections.clear();
+    world.contact.patches.clear();
 }
 
 /// The moving body whose surfel the ray (eye, unit `dir`) meets first (within its disc
