@@ -89,26 +89,26 @@ impl Default for Material {
 pub const DEFAULT_DAMPING_RATIO: f32 = 0.1;
 
 /// Largest Young's modulus (Pa) a material may have: a thousand times diamond's. The
-/// backends' stiffness bounds square it with the inverse spacing, which overflowed f32
-/// at 1e37 Pa (the bound came out infinite and the run went NaN at its third step).
+/// backends' stiffness bounds square it with the inverse spacing, which overflows f32
+/// at 1e37 Pa (the bound is then infinite and the run goes NaN at its third step).
 pub const MAX_YOUNG: f32 = 1e15;
 
 /// Range of densities (kg/m³) a material may have: from a millionth of air's to ten
-/// thousand times osmium's. Two spheres colliding at 1 m/s stayed finite on every backend
-/// at its corners, with `young` from 1e-30 to [`MAX_YOUNG`]; `sph` went NaN in its first
+/// thousand times osmium's. Two spheres colliding at 1 m/s stay finite on every backend
+/// at its corners, with `young` from 1e-30 to [`MAX_YOUNG`]; `sph` goes NaN in its first
 /// step at 1e25, and at 1e-30 with `young = 1e-30` (products under- and overflowing f32).
 pub const DENSITY_RANGE: (f32, f32) = (1e-6, 1e10);
 
 /// Largest Coulomb coefficient accepted. Below the regularisation speed friction is a
-/// viscous force `μ F_n / v_slip`, integrated explicitly; at the default time step it
-/// gained energy from μ = 30 on in an oblique impact of two spheres (and went NaN at
-/// 100), while 10 ran as stably as 1. Measured coefficients of dry contacts lie well
-/// below it (rubber on rough surfaces about 1–2).
+/// viscous force `μ F_n / v_slip`, integrated explicitly; at the default time step an
+/// oblique impact of two spheres gains energy from μ = 30 on (and goes NaN at 100),
+/// while 10 runs as stably as 1. Measured coefficients of dry contacts lie well below it
+/// (rubber on rough surfaces about 1–2).
 pub const MAX_FRICTION: f32 = 10.0;
 
 /// Smallest `plastic_max` of a plastic material: the plastic strain is capped there, so
 /// 0 would mean no flow at all, and strains below about 10⁻⁶ are round-off in f32 (the
-/// cap's norm of squares underflowed below 10⁻¹⁹ and flow went unbounded).
+/// cap's norm of squares underflows below 10⁻¹⁹, and flow is then unbounded).
 pub const MIN_PLASTIC_MAX: f32 = 1e-6;
 
 impl Material {
@@ -245,7 +245,7 @@ impl Material {
             ));
         }
         // A stiffness like `young`, bounded for the same reason (at 1e37 Pa the stable
-        // bound overflowed to infinity and the run went NaN).
+        // bound overflows to infinity and the run goes NaN).
         if self.volume_stiffness > MAX_YOUNG {
             return Err(format!(
                 "volume_stiffness = {:e}: must be at most {MAX_YOUNG:e} Pa (as young; above it \

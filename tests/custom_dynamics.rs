@@ -227,8 +227,8 @@ impl Dynamics for NoBound {
 }
 
 /// A NaN, zero or negative stable bound from a user backend is reported by
-/// `World::stable_dt` with its object, not skipped (`f32::min` drops NaN: the world then
-/// reported the other object's bound).
+/// `World::stable_dt` with its object, not skipped (`f32::min` drops NaN, which would
+/// report the other object's bound).
 #[test]
 fn an_unusable_bound_is_reported() {
     for bad in [f32::NAN, 0.0, -1.0] {
@@ -401,7 +401,7 @@ fn world_time_sums_the_steps() {
 }
 
 /// Phyxels built with another density than the material's (the backends' bounds read
-/// the material, the forces the masses: SPH's bound came out about 30 times too large
+/// the material, the forces the masses: SPH's bound comes out about 30 times too large
 /// for a 1000-fold mismatch) are refused, naming the phyxel and both figures.
 #[test]
 #[should_panic(expected = "phyxel 0 has mass")]
@@ -419,8 +419,8 @@ fn a_mass_that_is_not_density_times_volume_is_refused() {
     );
 }
 
-/// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` froze
-/// every object without a word).
+/// `BuildOptions::backend` takes the names of `backends::NAMES` only (`"static"` would
+/// freeze every object without a word).
 #[test]
 fn unknown_backend_override_is_an_error() {
     let scene = phyxel::scene::Scene::builtin("two-spheres").unwrap();
@@ -716,8 +716,8 @@ fn a_user_backend_fractures_through_fragment() {
 }
 
 /// A phyxel mass overwritten with NaN after `Object::new` (the column is public) is
-/// refused by the next step, naming the object and the phyxel: it made the momentum and
-/// energy NaN while every position stayed finite, and no check saw it.
+/// refused by the next step, naming the object and the phyxel: it makes the momentum
+/// and energy NaN while every position stays finite.
 #[test]
 #[should_panic(expected = "object 'ball0' (id 0): phyxels.mass[3] = NaN")]
 fn a_mass_made_nan_later_is_named() {
@@ -731,7 +731,7 @@ fn a_mass_made_nan_later_is_named() {
 }
 
 /// A zero surfel normal is refused by `Object::new`: detection reads normals as
-/// directions, and two balls with zero normals passed through each other silently.
+/// directions, and two balls with zero normals pass through each other silently.
 #[test]
 #[should_panic(expected = "Object::new 'ball': surfel 7 has a normal of length 0")]
 fn a_zero_surfel_normal_is_refused() {
@@ -792,8 +792,8 @@ fn a_nan_gravity_is_refused() {
 }
 
 /// The object's spacings are public fields that the grids and the contact read: a
-/// carrier spacing of 0 is named by the next step (it was a grid's "cell size must be
-/// > 0" panic inside the contact phases).
+/// carrier spacing of 0 is named by the next step, not by a grid's "cell size must be
+/// > 0" panic inside the contact phases.
 #[test]
 #[should_panic(expected = "object 'ball0' (id 0): carrier_spacing = 0: must be finite and > 0")]
 fn a_zero_carrier_spacing_is_named() {
@@ -807,8 +807,8 @@ fn a_zero_carrier_spacing_is_named() {
 }
 
 /// A contact phase run alone after the object list changed would read the last broad
-/// phase's pairs, which name objects by index: it is refused with what to run first (it
-/// was an index panic inside `detect`).
+/// phase's pairs, which name objects by index: it is refused with what to run first,
+/// not an index panic inside `detect`.
 #[test]
 #[should_panic(
     expected = "World::run_phase(Detect): the objects changed since the last broad phase"

@@ -110,8 +110,8 @@ fn steel_ball_at_3_m() -> World {
 /// 9.3·10⁻⁸ m per step. Reference: symplectic Euler's discrete free fall
 /// `g dt² n(n+1)/2` (m), matched to 1e-3 of the 0.93 mm drop by the centre of mass (f64
 /// mean of the f32 positions, each within half an ulp, 1.3·10⁻⁴ of the drop, of the
-/// compensated sum). Without the compensated position sum (`Phyxels::pos_carry`) the
-/// ball did not move.
+/// compensated sum). Without the compensated position sum (`Phyxels::pos_carry`) each
+/// step's motion, under half the ulp, rounds away and the ball does not move.
 #[test]
 fn slow_motion_far_from_the_origin_is_not_rounded_away() {
     let mut world = steel_ball_at_3_m();
@@ -134,9 +134,9 @@ fn slow_motion_far_from_the_origin_is_not_rounded_away() {
 /// its positions' ulp, so the positions do not change; the compensated sums' carries
 /// hold the drop. Reference: symplectic Euler's discrete free fall, `v_n = n g dt` and a
 /// drop of `g dt² n(n+1)/2`, so the potential loss is the kinetic gain times
-/// `(n+1)/n` (J), matched within 1e-3. `World::energy` read the heights without the
-/// carries: the potential did not change while the kinetic energy grew, and `run`
-/// warned of an energy gain.
+/// `(n+1)/n` (J), matched within 1e-3. `World::energy` reads the heights with the
+/// carries: without them the potential stays put while the kinetic energy grows, a
+/// false energy gain.
 #[test]
 fn free_fall_energy_balances_before_the_positions_move() {
     let mut world = steel_ball_at_3_m();

@@ -625,8 +625,8 @@ fn boundaries_and_radius_zero() {
     assert!(grid_within(&grid, Vec3::splat(0.5000001), 0.0).is_empty());
 }
 
-/// Round-off at the boundary (cases proptest found against a grid searching exactly
-/// `x ± r`): with r = 0 a point 4e-28 away is accepted because its d² underflows to 0,
+/// Round-off at the boundary (cases that a grid searching exactly `x ± r` gets wrong):
+/// with r = 0 a point 4e-28 away is accepted because its d² underflows to 0,
 /// although it lies in another cell; and r = 1e20 has r*r = ∞, which accepts a point
 /// 3e27 away in a cell far outside `x ± r` (saturated cell indices).
 /// Reference: brute force; tolerance: exact.

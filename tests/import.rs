@@ -260,7 +260,7 @@ fn data_after_the_declared_elements_is_an_error() {
 }
 
 /// A frame vertex with a negative or infinite disk radius, or a NaN normal, is an error
-/// naming the file and the vertex (the renderer drew nothing for them, silently).
+/// naming the file and the vertex (the renderer would draw nothing for them, silently).
 #[test]
 fn bad_radius_or_normal_in_a_frame_is_an_error() {
     let dir = TempDir::new("import", "radius");

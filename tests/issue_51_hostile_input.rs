@@ -137,7 +137,8 @@ fn contacts_may_not_name_an_input_or_a_run_file() {
 }
 
 /// Panic: phyxel frames of scenes whose bodies have phyxel counts that are no multiple
-/// of the SIMD width (the padded mass column was written whole), with a manifest.
+/// of the SIMD width (their mass column is padded past the count) are written, with a
+/// manifest.
 #[test]
 fn phyxel_frames_of_any_count_are_written() {
     let d = common::TempDir::new("issue51", "phyxels");
@@ -177,7 +178,7 @@ velocity = [-0.5, 0.0, 0.0]
 "#;
 
 /// Silent pass-through: a kinematic body refuses `fixed`, `load` and `self_collision`
-/// (which did nothing, or stretched the rigid tool); the same scene without them runs
+/// (which would do nothing, or stretch the rigid tool); the same scene without them runs
 /// and writes phyxel frames (its counts, 81 and 88, are odd).
 #[test]
 fn a_kinematic_body_refuses_settings_that_do_nothing() {
@@ -203,7 +204,7 @@ fn a_kinematic_body_refuses_settings_that_do_nothing() {
 }
 
 /// Silent loss: the step whose state goes non-finite ends the contacts stream with a
-/// line that says where (it had none), and the stream has one line per step run.
+/// line that says where, and the stream has one line per step run.
 /// (`two-spheres` at dt = 3e-3 s, four times its stable bound, blows up by step 30.)
 #[test]
 fn the_contacts_stream_ends_with_the_non_finite_step() {

@@ -626,9 +626,9 @@ fn target_counts_set_the_sampling() {
     }
 }
 
-/// Sampling a `mesh` shape built in code before `Shape::load_mesh` names the file and
-/// the missing call: it returned no points, and `Object::new` then panicked with "no
-/// phyxels", far from the cause.
+/// Sampling a `mesh` shape built in code before `Shape::load_mesh` panics naming the file
+/// and the missing call, instead of giving no points, which `Object::new` would blame as
+/// "no phyxels", far from the cause.
 #[test]
 #[should_panic(
     expected = "Shape::sample_volume: mesh \"bunny.obj\" is not loaded: call Shape::load_mesh first"
@@ -658,11 +658,10 @@ fn sampling_an_unloaded_mesh_surface_names_it() {
 /// Sampling a mesh's volume costs lattice points × triangles (each point's winding
 /// number sums every triangle): past `MAX_INSIDE_TEST_WORK` the build is refused at
 /// once, naming the spacing, the counts and the remedies, instead of running for minutes
-/// (a 2-million-triangle mesh at 0.01 m ran past a minute silently). A torus of 384 × 192
-/// quads (147,456 triangles, a box of 0.2 × 0.06 × 0.2 m) at 1.5 mm tests about 7e5
-/// lattice points: 1e11 terms, refused at once; at 5 mm (2e9 / 147,456 ≈ 13,600 points
-/// allowed, 19,200 in its box) it is refused too, and at 15 mm (about 700 points) it
-/// builds.
+/// (a 2-million-triangle mesh at 0.01 m). A torus of 384 × 192 quads (147,456
+/// triangles, a box of 0.2 × 0.06 × 0.2 m) at 1.5 mm tests about 7e5 lattice points:
+/// 1e11 terms, refused at once; at 5 mm (2e9 / 147,456 ≈ 13,600 points allowed, 19,200
+/// in its box) it is refused too, and at 15 mm (about 700 points) it builds.
 #[test]
 fn a_mesh_too_costly_to_sample_is_refused_at_once() {
     let dir = TempDir::new("mesh", "costly");

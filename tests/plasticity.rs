@@ -118,7 +118,7 @@ fn past_yield_keeps_residual_deformation() {
 /// A fast creep (`plastic_creep = 10⁴`/s, yield 0, so every strain flows) on a body in
 /// free fall: the plastic strain relaxes towards the strain without passing it, so no
 /// energy appears. Reference: free fall, ½ m (g t)² (J), within 1%, and the elastic
-/// energy below 10⁻⁶ J. (The explicit `c·dt` step overshot at `c·dt` ≈ 3: 250 J of
+/// energy below 10⁻⁶ J. (An explicit `c·dt` step overshoots at `c·dt` ≈ 3: 250 J of
 /// elastic energy after 20 steps.)
 #[test]
 fn fast_creep_creates_no_energy() {
@@ -156,10 +156,9 @@ fn fast_creep_creates_no_energy() {
 /// energy, which this closed, dissipative system can only lose: kinetic plus elastic
 /// energy (J) never above the initial kinetic energy (+0.1%), and momentum (kg·m/s) kept
 /// within 1e-4 of one sphere's m·v. (With dt left at the start's 0.70 ms, 1.5× the
-/// renewed bound, the kinetic energy rose from 109 J to 1.6e11 J within 40 steps, every
-/// value finite, while contact forces were applied off their surfels; since they act at
-/// their surfels, that run happens to stay bounded (1.4 J after 160 steps), but a dt above
-/// the bound is not stable in general: `tests/cli.rs::an_unstable_dt_gains_energy_and_is_warned`.)
+/// renewed bound, this run happens to stay bounded, 1.4 J after 160 steps, but a dt
+/// above the bound is not stable in general:
+/// `tests/cli.rs::an_unstable_dt_gains_energy_and_is_warned`.)
 #[test]
 fn plastic_flow_that_stiffens_lowers_dt() {
     let sphere = |name: &str, x: f32, v: f32| {

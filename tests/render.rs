@@ -369,9 +369,7 @@ fn an_unfittable_frame_is_named() {
 
 /// Degenerate frames still show their points with the fitted camera: one point (its
 /// own radius, or none), coincident points and collinear points without radii. The
-/// centre pixel is drawn and the corners are background. (The camera used to be fitted
-/// to the points' box alone: for one point the eye sat inside its disc, a blank image;
-/// points without radius in a flat box got 1 µm discs.)
+/// centre pixel is drawn and the corners are background.
 #[test]
 fn degenerate_frames_are_drawn() {
     let one = |r: f32| {
@@ -414,7 +412,7 @@ fn degenerate_frames_are_drawn() {
 
 /// Samples per pixel drop for images too large to hold them: every size the CLI accepts
 /// (16 to 8192 per side) keeps at most `MAX_SAMPLES` samples (32 bytes each, 2 GB), and
-/// sizes that fit keep the asked 2 × 2 (an 8192² image at 2 × 2 took 8.6 GB).
+/// sizes that fit keep the asked 2 × 2 (an 8192² image at 2 × 2 would take 8.6 GB).
 #[test]
 fn large_images_take_fewer_samples() {
     use phyxel::app::render::{MAX_SAMPLES, samples_per_axis};
@@ -433,7 +431,7 @@ fn large_images_take_fewer_samples() {
 
 /// A camera whose points are finite but whose distance overflows f32 (1e30 m: its
 /// square is past f32's range) is refused as too large, not as an `up` parallel to the
-/// view direction (the overflowed direction made every `up` look parallel).
+/// view direction (the overflowed direction makes every `up` look parallel).
 #[test]
 fn far_cameras_are_refused_as_too_large() {
     let cam = |position: [f32; 3], target: [f32; 3]| Camera {

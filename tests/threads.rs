@@ -77,10 +77,10 @@ fn deep_contact_agrees_bitwise_on_one_and_two_threads() {
 }
 
 /// The elastic energy each backend reports (a diagnostic of `run --json`) has the same
-/// bits on 1 and 2 threads, on every run: `sph` and `lj` once summed it by a parallel
-/// reduction, whose order follows work stealing, and about one `pile` run in twenty
-/// (sph) printed a different last digit. Reference: the 1-thread run; five 2-thread runs
-/// of each, so that a stealing-dependent order has chances to show.
+/// bits on 1 and 2 threads, on every run (a parallel reduction's order follows work
+/// stealing: summed that way, about one `pile` run in twenty on `sph` prints a different
+/// last digit). Reference: the 1-thread run; five 2-thread runs of each, so that a
+/// stealing-dependent order has chances to show.
 #[test]
 fn reported_elastic_energy_is_the_same_on_any_thread_count() {
     for backend in ["sph", "lj"] {

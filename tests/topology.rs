@@ -537,8 +537,8 @@ fn bad_topology_keys_are_refused() {
 
 /// A body that may break and goes non-finite is reported, not split: an `lj` ball (its
 /// bonds can always break) given one NaN phyxel velocity falls apart in the component
-/// count, and building its pieces panicked (`Object::new`: "a phyxel or surfel position
-/// ... is not finite"). Now the step ends with `World::non_finite` naming it.
+/// count, and building its pieces would panic (`Object::new`: "a phyxel or surfel
+/// position ... is not finite"): the step ends with `World::non_finite` naming it.
 #[test]
 fn a_breakable_body_gone_non_finite_is_reported_not_split() {
     let text = r#"

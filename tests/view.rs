@@ -278,8 +278,8 @@ fn a_replay_draws_what_the_live_run_drew() {
 
 /// Grabbing a finely sampled soft ball (3,000 phyxels) and dragging it sideways pulls it
 /// towards the drag, and the state stays finite: the grab spring's damping acts on the
-/// few grabbed phyxels only, and with the whole ball's mass it made this ball NaN within
-/// 7 steps. Reference: the drag's direction (+x) and finiteness; the ball's centre moves
+/// few grabbed phyxels only (with the whole ball's mass it makes this ball NaN within
+/// 7 steps). Reference: the drag's direction (+x) and finiteness; the ball's centre moves
 /// at least 1 mm along +x in 100 steps.
 #[test]
 fn grabbing_a_fine_ball_pulls_it_and_stays_finite() {

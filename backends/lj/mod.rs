@@ -78,7 +78,7 @@ pub struct LjDynamics {
     omega2_max: f32,
     energy: f64,
     /// Bond energy per phyxel (J), summed in phyxel order into `energy`: a parallel
-    /// reduction's order depends on work stealing and changed its last bits run to run.
+    /// reduction's order depends on work stealing and changes its last bits run to run.
     phyxel_energy: Vec<f64>,
     max_strain: f32,
 }
@@ -217,8 +217,8 @@ impl LjDynamics {
 
 /// Compression (as `r / r⁰`) below which the bond's repulsive wall continues as a
 /// straight line: its stiffness there, 2.7 times the rest stiffness, is what the stable
-/// step's Gershgorin margin covers. The true r⁻¹² wall stiffens without bound: a coarse
-/// ball dropped at 5 m/s on a plane gained a hundredfold energy at the default dt.
+/// step's Gershgorin margin covers. The true r⁻¹² wall stiffens without bound, so an
+/// impact compresses bonds past what the stable step covers and the body gains energy.
 pub const WALL_START: f32 = 0.95;
 
 /// The bond's repulsive force along the bond (N, > 0 pushes apart) and its energy above

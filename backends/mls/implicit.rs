@@ -345,9 +345,9 @@ impl Implicit for MlsImplicit {
     ) -> f64 {
         let dt = ctx.dt;
         // The step's displacement goes into the position carry, which the force kernel
-        // adds to `pos − rest`: rounded into the f32 position it lost up to half an ulp
-        // (3e-8 m at 0.5 m), which a stiff bar (E = 1e8 Pa) turned into force noise as
-        // large as its weight, and Newton stalled at a fifth of the first residual.
+        // adds to `pos − rest`: rounded into the f32 position it would lose up to half an
+        // ulp (3e-8 m at 0.5 m), which a stiff bar (E = 1e8 Pa) turns into force noise as
+        // large as its weight, and Newton stalls at a fifth of the first residual.
         for (j, &v) in v.iter().enumerate() {
             if phyxels.fixed[j] == 0 {
                 phyxels.pos_carry.set(j, self.carry0[j] + v * dt);

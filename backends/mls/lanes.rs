@@ -564,7 +564,7 @@ fn gather<const W: usize>(rows: &impl Rows<[f32; W]>, idx: &[u32], half: usize) 
 /// `velocity`).
 ///
 /// `VELOCITY` is a constant so that each case gets its own loop: a run-time flag inside
-/// the slot loop cost the elastic case its register allocation.
+/// the slot loop costs the elastic case its register allocation.
 #[inline(always)]
 fn lane_gradients<const VELOCITY: bool>(
     st: &LaneStencil,

@@ -16,7 +16,7 @@ pub(super) struct Law {
     /// The fraction of the elastic strain that flows in one step: `1 − exp(−c·dt)`,
     /// the exact step of the creep law `ε̇_p = c (ε − ε_p)` at the step's strain. It is
     /// `c·dt` to first order and never exceeds 1, so a fast creep (or a large dt) cannot
-    /// carry `ε_p` past `ε` and flip the stress (the explicit `c·dt` gave a free-falling
+    /// carry `ε_p` past `ε` and flip the stress (the explicit `c·dt` gives a free-falling
     /// body 250 J of elastic energy at `c = 10⁴`/s).
     pub(super) plastic_creep_dt: f32,
     pub(super) plastic_max: f32,
@@ -47,7 +47,7 @@ impl Law {
     /// Strain of the displacement gradient `g` (`J = I + g`; calibrated or paper form),
     /// as `g + gᵀ + gᵀg`: the same as `JᵀJ − I`, without forming `J`, whose f32
     /// entries near 1 keep only 1e-7 of the strain (10 Pa of stress noise at E = 1e8,
-    /// which a stiff bar's stencil sums amplified into force noise a fifth of its weight).
+    /// which a stiff bar's stencil sums amplify into force noise a fifth of its weight).
     #[inline]
     pub(super) fn strain(&self, g: Mat3) -> Mat3 {
         let c = g + g.transpose() + g.transpose() * g;

@@ -1,9 +1,9 @@
 use super::*;
 use phyxel::body::shape::Shape;
 
-/// `apply_stiffness` (parallel, gathered per phyxel) gives the bits of the serial
-/// scatter over the rows it replaced, on a rough vector: the own term sits at its
-/// row's place in each sum. Reference: that scatter, written out here.
+/// `apply_stiffness` (parallel, gathered per phyxel) gives the bits of a serial
+/// scatter over the rows, on a rough vector: the own term sits at its row's place in
+/// each sum. Reference: that scatter, written out here.
 #[test]
 fn stiffness_gather_matches_the_serial_scatter() {
     let mat = Material::default();
@@ -46,7 +46,7 @@ fn stiffness_gather_matches_the_serial_scatter() {
 /// Both passes over buffers of each kind (the fixed view of 65,536 rows, and the
 /// checked slice of exactly `padded` rows or of a length no fixed view takes)
 /// give the same bits: the masked index reads the row the checked one reads.
-/// Reference: the checked slice of `padded` rows, the kernel before fixed views.
+/// Reference: the checked slice of `padded` rows, the kernel without fixed views.
 #[test]
 fn fixed_rows_read_what_checked_rows_read() {
     let mat = Material::default();

@@ -108,9 +108,8 @@ pub struct SphDynamics {
     d_self: Vec<Vec3>,
     /// `Σ_j x⁰_ji d_ijᵀ` (the identity where the correction is exact), so that
     /// `∇u_i = Σ_j x_ji d_ijᵀ − rest_sum_i` needs no rest positions. Summed in the
-    /// step's order, so a body at rest has `∇u = 0` exactly: `F = rest_offset + Σ`
-    /// with `rest_offset = I − Σ⁰` left a strain of an ulp, which the stiffest
-    /// materials turned into forces on a body at rest.
+    /// step's order, so a body at rest has `∇u = 0` exactly: `F = (I − Σ⁰) + Σ` leaves
+    /// a strain of an ulp, which the stiffest materials turn into forces at rest.
     rest_sum: Vec<Mat3>,
     /// Current neighbours from the density pass, `MAX_STORED` slots per phyxel, and
     /// their number ([`OVERFLOW`]: search again).
@@ -128,7 +127,7 @@ pub struct SphDynamics {
     max_strain: f32,
     energy: f64,
     /// Stored energy per phyxel (J), summed in phyxel order into `energy`: a parallel
-    /// reduction's order depends on work stealing and changed its last bits run to run.
+    /// reduction's order depends on work stealing and changes its last bits run to run.
     phyxel_energy: Vec<f64>,
     /// Smallest lattice spacing (m), for the CFL bound and the default damping.
     spacing: f32,
@@ -152,8 +151,8 @@ impl SphDynamics {
         let (off, nbr) = rest_rows(&rest, &grid, support);
         // The rest density by the step's own sum (same grid, order and distances), so
         // that a body at rest has a density ratio of exactly 1 and no pressure: summed
-        // in stencil order it came out a few ulps off, which the Tait law's stiffness
-        // turned into forces on a body at rest.
+        // in stencil order it is a few ulps off, which the Tait law's stiffness turns
+        // into forces on a body at rest.
         let zero = Vec3s::zeros(n);
         let rest_density: Vec<f32> = (0..n)
             .map(|i| {

@@ -77,7 +77,7 @@ pub(super) fn pair_forces_x8(i: usize, list: &[u32], fl: &Fluid<'_>) -> Vec3 {
         let visc = -ach * vx / ((r2 + eps_h2) * f32x8::splat(0.5) * (rhoi + g[8]));
         let s = pti + g[7] + vx.simd_lt(z).select(visc, z);
         // `(mi s)(mj ∇W/r)`: each factor stays in range from micrometre to planet-sized
-        // phyxels, where `mi mj` alone overflowed (inf · 0 = NaN at rest).
+        // phyxels, where `mi mj` alone overflows (inf · 0 = NaN at rest).
         let coef = (mi * s) * (g[6] * grad_over_r);
         for c in 0..3 {
             acc[c] -= d[c] * coef;

@@ -134,8 +134,8 @@ fn same_file(a: &Path, b: &Path) -> bool {
 }
 
 /// Creates the output directory `dir` (and its parents). A path that exists as a file
-/// is said to be one: `create_dir_all` reported "File exists", as if the trouble were
-/// that something was there at all.
+/// is said to be one: `create_dir_all` reports "File exists", which reads as if the
+/// trouble were that something is there at all.
 pub fn make_dir(dir: &Path) -> Result<(), String> {
     if dir.exists() && !dir.is_dir() {
         return Err("a file, not a directory: give a directory for the output".to_string());

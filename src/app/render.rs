@@ -224,7 +224,7 @@ fn disc_radius(frame: &Frame, i: usize, fallback: f32) -> f32 {
 pub const DEFAULT_RADIUS: f32 = 0.01;
 
 /// Most samples one render keeps (32 bytes each: colour and depth, objects and contact
-/// overlay): 2 GB. An 8192 × 8192 image at 2 × 2 samples per pixel took 8.6 GB; larger
+/// overlay): 2 GB. An 8192 × 8192 image at 2 × 2 samples per pixel needs 8.6 GB; larger
 /// images get fewer samples per pixel, down to one.
 pub const MAX_SAMPLES: u64 = 1 << 26;
 

@@ -364,8 +364,8 @@ fn energy_warning(
         .max(supplied.abs());
     let gain = e1.total() - e0.total() - supplied;
     // Rounding: the sums are of f32 states, so a gain within a few hundred f32 epsilons of
-    // the energies' magnitudes is not one (at dt = 1e-30 s nothing moves, the scale is
-    // ~0, and a rounding "gain" of 8e-56 J was reported).
+    // the energies' magnitudes is not one (at dt = 1e-30 s nothing moves and the scale
+    // is ~0, yet rounding leaves a "gain" of 8e-56 J).
     let magnitude = [e0, e1]
         .iter()
         .map(|e| e.kinetic + e.elastic + e.contact + e.potential.abs())

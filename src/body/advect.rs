@@ -47,7 +47,7 @@ type AffineRow = [[f32; 8]; 2];
 /// rows padded with weight 0 on their own last phyxel). The advection sums a group's
 /// eight rows side by side, eight independent chains with one trip count per group,
 /// instead of one surfel's short loop after another (whose exit, at 4, 5 or 6 entries,
-/// the branch predictor kept missing).
+/// the branch predictor keeps missing).
 #[derive(Clone, Debug, Default)]
 pub struct SurfelBinding {
     /// Slots of group g: `slot_off[g]..slot_off[g + 1]`.

@@ -78,7 +78,7 @@ static NEXT_SERIAL: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64:
 /// subset at this spacing is tested for contact (all surfels are when frames are
 /// written: `World::render_contacts`), moved onto the contact surface and carries
 /// force. An eighth keeps the paper's sampling (about a sixth) untouched; a quarter
-/// made a resting ball jitter (each carrier's area estimate changes as its neighbours
+/// makes a resting ball jitter (each carrier's area estimate changes as its neighbours
 /// enter and leave the contact) (docs/ARCHITECTURE.md).
 pub const FORCE_CARRIER_SPACING: f32 = 0.125;
 
@@ -182,8 +182,8 @@ impl Object {
             phyxels.pos.all_finite() && surfels.pos.all_finite() && surfels.normal.all_finite(),
             "Object::new '{name}': a phyxel or surfel position or a surfel normal is not finite"
         );
-        // Detection and contact read the normals as directions: a zero normal hid its
-        // surfel (two balls with zero normals passed through each other).
+        // Detection and contact read the normals as directions: a zero normal hides its
+        // surfel (two balls with zero normals pass through each other).
         for (column, what) in [
             (&surfels.normal, "normal"),
             (&surfels.rest_normal, "rest normal"),
@@ -295,7 +295,7 @@ impl Object {
     /// deep in a phase or a column silently skipped. Also the phyxels' mass, volume,
     /// spacing and radius, and the object's phyxel and carrier spacings and largest
     /// influence radius, finite and > 0, which a caller or a backend may overwrite (a
-    /// NaN mass made the momentum NaN with every position finite; O(phyxels)).
+    /// NaN mass makes the momentum NaN with every position finite; O(phyxels)).
     pub fn check_counts(&self) -> Result<(), String> {
         let (surfels, phyxels) = self.binding.counts();
         let now = (self.surfels.len(), self.phyxels.len());
@@ -305,7 +305,7 @@ impl Object {
             };
             self.phyxels.check(true).map_err(|e| named(e, "phyxels"))?;
             // The grids' cells and the contact's spacings derive from these (public)
-            // fields: 0 made a grid panic, and a phyxel spacing of 0 NaN forces. (The
+            // fields: 0 makes a grid panic, and a phyxel spacing of 0 NaN forces. (The
             // surfel spacing is 0 for a fragment without surfels, and only read with
             // surfels.)
             for (field, v) in [

@@ -15,7 +15,7 @@ pub const FRICTION_SLIP_SPEED: f32 = 1.0e-4;
 /// exact for any uniform sampling, unlike a k-nearest radius).
 ///
 /// The kernel is evaluated as `4/(π h²) · (1 − r²/h²)³`: written as `4/(π h⁸) · (h² −
-/// r²)³` its `h⁸` left f32's range for spacings below about 8 µm (every area 0, so no
+/// r²)³` its `h⁸` leaves f32's range for spacings below about 8 µm (every area 0, so no
 /// contact force) or above about 30 km (areas infinite, forces NaN).
 pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScratch) {
     let hh = 2.0 * spacing;

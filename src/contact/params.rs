@@ -79,7 +79,7 @@ pub const CONTACT_LAYER_SPACINGS: f32 = 2.5;
 /// The layer, in spacings, that a body of `phyxels` phyxels can put behind its contact
 /// surface: [`CONTACT_LAYER_SPACINGS`], or the body's own thickness (about `n^(1/3)`
 /// spacings) when it is thinner. A one-phyxel body is one spacing thick: at the 2.5
-/// spacings' bound two such spheres left a collision with twice their energy.
+/// spacings' bound two such spheres leave a collision with twice their energy.
 pub fn contact_layer(phyxels: usize) -> f32 {
     CONTACT_LAYER_SPACINGS.min((phyxels.max(1) as f32).cbrt())
 }

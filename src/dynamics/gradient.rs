@@ -53,8 +53,8 @@ impl MlsStencil {
                 nb.sort_unstable_by_key(|e| e.0);
                 // The weights matter only up to a factor per row (`A⁻¹ x w` and the
                 // quadratic fit do not change when all of a row's weights scale), so the
-                // unnormalised poly6 shape: the normalised kernel's 1/h⁹ overflowed f32
-                // below about 15 µm spacing, and every weight came out infinite.
+                // unnormalised poly6 shape: the normalised kernel's 1/h⁹ overflows f32
+                // below about 15 µm spacing, which makes every weight infinite.
                 let mut a = DMat3::ZERO;
                 for &(j, d2) in &nb {
                     let x = (phyxels.rest.get(j as usize) - xi).as_dvec3();

@@ -27,8 +27,8 @@ pub fn read_ply(path: &Path) -> Result<PlyFile, String> {
 const MESSAGE_CHARS: usize = 400;
 
 /// `message` as it may reach a terminal: control characters other than line breaks
-/// and tabs escaped (the parser quotes file content: a NUL or an escape sequence came
-/// through raw), cut to [`MESSAGE_CHARS`].
+/// and tabs escaped (the parser quotes file content, so a NUL or an escape sequence
+/// would come through raw), cut to [`MESSAGE_CHARS`].
 fn shown(message: &str) -> String {
     let mut s = String::new();
     for (k, c) in message.chars().enumerate() {
@@ -95,7 +95,7 @@ fn read_ply_raw(path: &Path) -> Result<PlyFile, String> {
 }
 
 /// Why a file that does not start with the PLY magic word is not read, from its first
-/// bytes: the parser's own message was a multi-line dump of its expected tokens (for the
+/// bytes: the parser's own message is a multi-line dump of its expected tokens (for the
 /// `.vtp` frames `run --format vtk` writes, too).
 fn not_ply(start: &[u8]) -> String {
     if start.is_empty() {
@@ -242,9 +242,9 @@ pub fn read_frame(path: &Path) -> Result<Frame, String> {
 
 #[cfg(test)]
 mod tests {
-    /// A PLY error never carries a raw control character or more than the limit
-    /// (found by `tests/fuzz.rs`: a NUL in a header line came through the parser's
-    /// message).
+    /// A PLY error never carries a raw control character (a NUL, an escape sequence
+    /// quoted from a header line) or more than the limit: escaped exactly, cut to
+    /// `MESSAGE_CHARS` plus the ellipsis.
     #[test]
     fn messages_are_escaped_and_cut() {
         let m = super::shown("Line 2: 'format \u{0}\u{1b}[31m'\n\tError");

@@ -10,7 +10,7 @@ pub mod import;
 pub mod points;
 
 /// Largest scene file read (bytes): a scene is a page of TOML; a 50 MB file of 1.3
-/// million `fixed` entries took 4.1 GB to parse.
+/// million `fixed` entries takes 4.1 GB to parse.
 pub const SCENE_FILE_LIMIT: u64 = 16 << 20;
 /// Largest mesh or frame file read (bytes): a 2-million-triangle binary PLY is 37 MB.
 pub const INPUT_FILE_LIMIT: u64 = 1 << 30;

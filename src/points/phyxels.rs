@@ -43,7 +43,7 @@ pub struct Phyxels {
     /// What the last position update lost to f32 rounding (m), added to the next one
     /// (compensated summation): a step's motion can be far below a position's ulp (a
     /// stiff body's small stable dt, or a body far from the origin), and plain `x + v·dt`
-    /// then moved it too little or not at all. Zero at rest; setting `pos` by hand may
+    /// then moves it too little or not at all. Zero at rest; setting `pos` by hand may
     /// leave it as it is (it is below half an ulp).
     pub pos_carry: Vec3s,
 }

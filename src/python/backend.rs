@@ -127,7 +127,7 @@ impl Dynamics for PyDynamics {
         if let Err(message) = result {
             // The trait's step cannot fail: unwind to the world's caller, which catches
             // this and raises it. `resume_unwind` skips the panic hook, so nothing is
-            // printed (a `panic!` printed a Rust message and backtrace per body).
+            // printed (a `panic!` would print a Rust message and backtrace per body).
             std::panic::resume_unwind(Box::new(message));
         }
     }

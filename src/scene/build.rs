@@ -224,15 +224,14 @@ fn check_overrides(opts: &BuildOptions, origin: &str) -> Result<(), SceneError> 
 /// about a spacing (the built-in `pile` starts with 2 mm); interpenetrating bodies it
 /// cannot untangle (deep surfels project onto the wrong side: pairs stay stuck or pass
 /// through). A plane counts below its patch only (its `size`, widened by that spacing):
-/// its contact acts where its surfels are, and a body beside the patch falls past it (a
-/// ball beside a 0.6 m ground patch, level with it, was refused as 9 cm inside it).
+/// its contact acts where its surfels are, and a body beside the patch falls past it.
 pub(super) fn start_overlap(
     objects: &[Object],
     placed: &[(Shape, (Quat, Vec3))],
 ) -> Result<(), String> {
     // Each object's phyxel box, and each shape's inverse rotation and bounding sphere:
-    // a pair whose box misses the sphere's cube has no phyxel to test (the scene of
-    // 5,000 separate spheres tested every phyxel against every shape: 19 s).
+    // a pair whose box misses the sphere's cube has no phyxel to test (testing every
+    // phyxel against every shape takes 19 s for 5,000 separate spheres).
     let boxes: Vec<Aabb> = objects.iter().map(|o| Aabb::of(&o.phyxels.pos)).collect();
     let bounds: Vec<(Quat, f32)> = placed
         .iter()
@@ -548,7 +547,7 @@ impl ObjectSpec {
 pub const CONTACT_BOUND_WARNING: f32 = 1e-3;
 
 /// A default dt set by the contact springs far below the bodies' own stable step
-/// (`contact_stiffness = 1e30` gave dt = 9.4e-18 s without a word): it names the
+/// (`contact_stiffness = 1e30` gives dt = 9.4e-18 s): it names the
 /// stiffest object's `contact_stiffness` and the cost.
 fn contact_bound_warning(world: &World) -> Option<String> {
     let own = world
@@ -652,7 +651,7 @@ fn check_memory(
 /// quarter of a surfel spacing out along their normal) before it is refused as
 /// overlapping itself. A closed, consistently oriented surface that does not intersect
 /// itself has none (the built-in tests' meshes: 0); two cubes overlapping in one file
-/// had 11.5%.
+/// have 11.5%.
 pub const SELF_OVERLAP_SHARE: f64 = 0.01;
 /// Winding-number terms the self-overlap test may spend (about half a second on two
 /// cores); past it, fewer samples are tested.

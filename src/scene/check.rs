@@ -169,7 +169,8 @@ impl ObjectSpec {
             );
         }
         // Before the position's check: a spacing far too fine for any placement is the
-        // spacing's fault (1e-7 m was blamed on the position, for 4e18 phyxels).
+        // spacing's fault (1e-7 m needs 4e18 phyxels; the position check would blame
+        // the placement).
         // (A mesh not yet loaded has no size: `n` is infinite, and the check after
         // loading makes it.)
         let n = phyxel_estimate(&o.shape, o.spacing);
@@ -316,8 +317,8 @@ impl ObjectSpec {
 
 /// Finest f32 resolution allowed at an object's position, as a fraction of its finest
 /// spacing (`Scene::validate`): a millimetre-spaced object may stand up to about 10 m
-/// from the origin, a 4 cm-spaced one about 300 m. Further out, f32 rounded phyxel
-/// spacings to 0 and per-step motions away (a body at 50 km did not move at 1 m/s).
+/// from the origin, a 4 cm-spaced one about 300 m. Further out, f32 rounds phyxel
+/// spacings to 0 and per-step motions away (a body at 50 km does not move at 1 m/s).
 pub const POSITION_RESOLUTION: f32 = 1e-3;
 
 /// Most phyxels one object may have: each costs about a kilobyte (neighbour lists, MLS
@@ -329,18 +330,18 @@ pub const MAX_PHYXELS: usize = 5_000_000;
 pub const MAX_SURFELS: usize = 20_000_000;
 /// Most lattice points the volume sampler may test for one object
 /// ([`Shape::lattice_points`], about 2 ns each: some seconds). A thin torus 600 m
-/// across at 0.2 mm spacing would have tested 10¹³ (hours) to keep a few thousand.
+/// across at 0.2 mm spacing would test 10¹³ (hours) to keep a few thousand.
 pub const MAX_LATTICE_POINTS: f64 = 2e9;
 /// Most winding-number terms sampling one mesh's volume may take
 /// ([`Shape::inside_test_work`]: lattice points × triangles, about 16 ns each on two
-/// cores: some 30 s; 2.9e9 took 47 s). A 2-million-triangle mesh at 0.01 m ran past a
-/// minute silently.
+/// cores: some 30 s; 2.9e9 terms take 47 s). A 2-million-triangle mesh at 0.01 m would
+/// run for over a minute.
 pub const MAX_INSIDE_TEST_WORK: f64 = 2e9;
 
 /// About how many phyxels the lattice of `spacing` puts into `shape`: the volume's
 /// cells, the boundary layer's (area / spacing²), and one row along the longest extent,
-/// which a needle thinner than the spacing still gets (its volume and area alone
-/// counted 10⁵ phyxels of a 2 km needle that sampled 10⁷).
+/// which a needle thinner than the spacing still gets (volume and area alone count
+/// 10⁵ phyxels for a 2 km needle that samples 10⁷).
 pub(super) fn phyxel_estimate(shape: &Shape, spacing: f32) -> f64 {
     let (volume, area) = (shape.volume() as f64, shape.area() as f64);
     let s = spacing as f64;

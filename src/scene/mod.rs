@@ -63,7 +63,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
 pub const DEFAULT_SCENE: &str = "two-spheres";
 
 /// Edge of the cells, in surfel spacings, whose Morton order a sampled object's surfels
-/// are stored in ([`morton::order`]). Cells of 1, 4 and 16 spacings ran the 1M `scale`
+/// are stored in ([`morton::order`]). Cells of 1, 4 and 16 spacings run the 1M `scale`
 /// scene equally fast (docs/PERFORMANCE.md); 4 keeps a cell's patch of about 16 surfels
 /// together.
 pub const SURFEL_ORDER_CELL: f32 = 4.0;

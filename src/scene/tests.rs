@@ -2,7 +2,7 @@ use super::warnings::speed_text;
 use super::*;
 
 /// Speeds in the build's warnings: three decimals up to 10⁴ m/s, then scientific
-/// notation (1e30 m/s printed 31 digits).
+/// notation (1e30 m/s as `1.000e30`, not 31 digits).
 #[test]
 fn speeds_in_messages_stay_short() {
     assert_eq!(speed_text(11.6024), "11.602");
@@ -29,8 +29,8 @@ fn builtin_scenes_build_without_warnings() {
 
 /// A 5 cm ball (E = 10 MPa, 0.55 kg) thrown at a static wall 1 cm thick
 /// (3V/A = 1.45 cm): the penalty spring `k = κE*/h` needs a depth
-/// `d = (3 m v²/(4π R k))^(1/3)` to stop it, 2.6 cm at 100 m/s (it passed through),
-/// 0.9 cm at 20 m/s (it bounced): the build warns at 100 m/s, naming both objects
+/// `d = (3 m v²/(4π R k))^(1/3)` to stop it, 2.6 cm at 100 m/s (it passes through),
+/// 0.9 cm at 20 m/s (it bounces): the build warns at 100 m/s, naming both objects
 /// and the depth, and not at 20 m/s, nor when the ball flies away from the wall.
 #[test]
 fn an_impact_deeper_than_the_wall_warns() {
@@ -280,8 +280,8 @@ fn sparse_surfels_warn() {
 }
 
 /// A three-vector key given four numbers (or a plane's size three) is refused with
-/// the line and the count, not cut to its first numbers: serde's fixed arrays read
-/// the first N and ignored the rest, so `velocity = [0, 0, 0, 5]` ran at rest.
+/// the line and the count, not cut to its first numbers (serde's fixed arrays read the
+/// first N and ignore the rest, so `velocity = [0, 0, 0, 5]` would run at rest).
 #[test]
 fn arrays_of_the_wrong_length_are_refused() {
     let object = |line: &str| {
@@ -320,8 +320,8 @@ fn arrays_of_the_wrong_length_are_refused() {
 
 /// A phyxel's mass is its cell volume times the density (kg): values each in range
 /// whose product underflows f32 (a lattice of 1e-14 m at 1e-6 kg/m³: 1e-48 kg) are
-/// refused naming the density and the spacing; `Object::new` panicked on a mass of 0
-/// (and on an infinite one, which `material::DENSITY_RANGE` now keeps out).
+/// refused naming the density and the spacing (`Object::new` would panic on a mass of
+/// 0; an infinite one `material::DENSITY_RANGE` keeps out).
 #[test]
 fn phyxel_masses_out_of_range_are_refused() {
     let text = "name = \"x\"\n[[objects]]\nshape = { type = \"sphere\", radius = 5e-14 }\n\
@@ -338,10 +338,9 @@ fn phyxel_masses_out_of_range_are_refused() {
 }
 
 /// Shapes thin for their extent are refused before sampling, where their volume and
-/// area alone underestimated the lattice: a needle 2 km long and 1 µm thick at 0.2
-/// mm spacing has one row of 10⁷ phyxels (it exhausted memory), a 600 m torus of 1 µm
-/// tube tests 9·10¹² lattice points (it ran for hours), and a plane 1 µm deep is one
-/// row too.
+/// area alone underestimate the lattice: a needle 2 km long and 1 µm thick at 0.2 mm
+/// spacing has one row of 10⁷ phyxels (enough to exhaust memory), a 600 m torus of 1 µm
+/// tube tests 9·10¹² lattice points (hours), and a plane 1 µm deep is one row too.
 #[test]
 fn thin_shapes_are_refused_before_sampling() {
     let one = |shape: &str, extra: &str| {
@@ -372,8 +371,8 @@ fn thin_shapes_are_refused_before_sampling() {
 
 /// A phyxel count asked of a needle (2 m × 0.1 mm × 0.1 mm) is met within 10%: the
 /// spacing search starts near the needle's own estimate, not from its volume alone
-/// (whose spacing put 7,400 phyxels on it, and eight cube-root corrections of a count
-/// that goes as 1/spacing left 1,124).
+/// (whose spacing puts 7,400 phyxels on it, and eight cube-root corrections of a count
+/// that goes as 1/spacing leave 1,124).
 #[test]
 fn a_needle_gets_its_phyxel_count() {
     let text = "name = \"x\"\n[[objects]]\nshape = { type = \"box\", size = [2.0, 1e-4, 1e-4] }\n\
@@ -386,7 +385,7 @@ fn a_needle_gets_its_phyxel_count() {
 
 /// The default dt is 90% of the stable bound, at most 1 ms (`MAX_DEFAULT_DT`): a
 /// material of 1.2e-38 Pa has a bound of about 10¹⁸ s, and at that dt its sphere
-/// fell past f32's range by the fourth step; at 1 ms it falls ½ g t² (m) like any
+/// falls past f32's range by the fourth step; at 1 ms it falls ½ g t² (m) like any
 /// body, within 1% after 50 steps (symplectic Euler's discrete drop, g dt² n(n+1)/2).
 #[test]
 fn the_default_dt_is_at_most_a_millisecond() {
@@ -413,8 +412,8 @@ fn the_default_dt_is_at_most_a_millisecond() {
 }
 
 /// Names must tell objects apart, the names given to unnamed objects (`object{k}`)
-/// included: an explicit `object1` on objects[0] beside an unnamed objects[1] made
-/// two bodies called 'object1'.
+/// included: an explicit `object1` on objects[0] beside an unnamed objects[1] (two
+/// bodies called 'object1') is refused, naming `objects[1].name`.
 #[test]
 fn generated_names_do_not_collide() {
     let two = |a: &str, b: &str| {

@@ -16,7 +16,7 @@ impl Scene {
     /// body's `3V/A`, its radius for a sphere) on the spring `k` per area
     /// ([`crate::contact::params::contact_params`]): `½ μ v² = ⅔ π R k d³` (the contact disc's area
     /// `2π R d`), μ the pair's reduced mass (the moving body's mass against a static
-    /// one). A 5 cm ball at 100 m/s needs 2.6 cm, and passed through a 1 cm static wall
+    /// one). A 5 cm ball at 100 m/s needs 2.6 cm, and passes through a 1 cm static wall
     /// with every value finite and no other warning. Planes (no volume) count as thick.
     pub(super) fn deep_impacts(&self, objects: &[Object]) -> Vec<String> {
         let thickness = |i: usize| thickness_scale(&self.objects[i].shape).unwrap_or(f64::INFINITY);
@@ -116,8 +116,9 @@ impl Scene {
 /// `3V/A`, above which `Scene::build` warns (`Scene::deep_impacts`): penalty contact
 /// pushes back only in proportion to depth, and a body pushed through more than its
 /// thickness comes out on the other side. A 5 cm ball (E = 10 MPa) onto a 1 cm static
-/// wall (3V/A = 1.45 cm), estimated depth against that thickness: 20 m/s 0.62 and
-/// 30 m/s 0.81 bounced, 50 m/s 1.14 and 100 m/s 1.81 passed through (`mls`).
+/// wall (3V/A = 1.45 cm), estimated depth against that thickness: at 20 m/s (0.62) and
+/// 30 m/s (0.81) it bounces, at 50 m/s (1.14) and 100 m/s (1.81) it passes through
+/// (`mls`).
 pub const IMPACT_DEPTH_WARNING: f64 = 0.75;
 
 /// Relative difference between a moving object's sampled volume (phyxel count × lattice
@@ -179,8 +180,8 @@ pub(super) fn surface_warning(spec: &ObjectSpec, obj: &Object) -> Option<String>
 
 /// Strain `ρ |g| H / E` under a body's own weight (H: its height along gravity) above
 /// which the build warns that it may collapse. `sphere-on-plane` with the ball at
-/// E = 3 kPa (0.67 by this H: the phyxels' height plus a spacing) held, squashed to a
-/// third of its height; at 2 kPa (1.01) and below it sank through the plane on `mls`.
+/// E = 3 kPa (0.67 by this H: the phyxels' height plus a spacing) holds, squashed to a
+/// third of its height; at 2 kPa (1.01) and below it sinks through the plane on `mls`.
 /// The `self-contact` ring, meant to buckle onto itself, is at 0.62; the other
 /// built-in scenes stay below 0.1. Bodies stacked on it add their weight
 /// (`load_above`: twice their mass counts as own weight).
@@ -253,8 +254,8 @@ pub(super) fn load_above(
 /// `ρ |g| H` at its base (mean strain half of that), a load's `|g| load / A` is the same
 /// all through it (`A = V / H`, its mean cross-section): a load strains it as much as
 /// twice its mass of own weight. A 10 cm cube (1 kg) under a 10 kg cube (docs/SCENES.md,
-/// "Limits"): at E = 20 kPa (1.08) it was squeezed out through the plane, at 30 kPa
-/// (0.72) it held but tipped, at 50 kPa (0.43) it held.
+/// "Limits"): at E = 20 kPa (1.08) it is squeezed out through the plane, at 30 kPa
+/// (0.72) it holds but tips, at 50 kPa (0.43) it holds.
 pub(super) fn weight_warning(
     obj: &Object,
     gravity: Vec3,
@@ -300,7 +301,7 @@ pub(super) fn weight_warning(
 /// Share of an object's phyxels with a flat neighbourhood
 /// ([`crate::dynamics::Diagnostics::flat_phyxels`]) above which the build warns. The
 /// built-in scenes have none; a plate one phyxel layer thick has all of them, and on
-/// `mls` (no stiffness across the layer) a ball dropped on one crumpled it until it went
+/// `mls` (no stiffness across the layer) a ball dropped on one crumples it until it goes
 /// NaN, at any dt.
 pub const FLAT_WARNING: f64 = 0.01;
 
@@ -332,7 +333,7 @@ pub(super) fn thickness_scale(shape: &Shape) -> Option<f64> {
 }
 
 /// A speed (m/s) for messages: three decimals, in scientific notation from 10⁴ on (a
-/// speed of 1e30 printed 31 digits).
+/// speed of 1e30 in plain notation has 31 digits).
 pub(super) fn speed_text(v: f64) -> String {
     if v.abs() < 1e4 {
         format!("{v:.3}")

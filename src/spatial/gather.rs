@@ -2,7 +2,7 @@
 //!
 //! The lane kernels read per-phyxel rows by index (the MLS stencil's neighbours, the
 //! advection's affine table), eight per slot. Indexing a slice checks every load; in
-//! those loops the checks were about a tenth of the instructions. A buffer of exactly
+//! those loops the checks are about a tenth of the instructions. A buffer of exactly
 //! [`FIXED_ROWS`] rows (a power of two known at compile time), indexed with the index
 //! masked to it, needs no check: the compiler can see every index is in bounds. So such
 //! buffers get [`fixed_rows`] rows, and [`with_rows!`](crate::with_rows) hands a kernel
@@ -10,7 +10,7 @@
 //! Every index a kernel uses is below the buffer's used length, so the mask changes
 //! none. A mask taken at run time (`i & (len − 1)`) does not do it: the compiler keeps
 //! the check and adds the `and`; a smaller fixed length (1,024) masks with an `and`
-//! per load and gained nothing (measured with `cargo bench --bench kernels`).
+//! per load and gains nothing (measured with `cargo bench --bench kernels`).
 
 /// Rows of a buffer whose gathers need no bounds checks: 65,536, so that the masked
 /// index is the low half of the `u32` (one zero-extending load).
@@ -29,7 +29,7 @@ pub fn fixed_rows(n: usize) -> usize {
 /// Bytes of address space the padded [`RowBuffer`]s of the process may hold at once.
 /// A padded buffer costs address space, not memory, but a small body has about 6 MB of
 /// them (the MLS force pass's two and the advection's table), so 2,000 small bodies
-/// reserved 12 GB, which a `ulimit -v` or strict overcommit refuses. Past the budget a
+/// reserve 12 GB, which a `ulimit -v` or strict overcommit refuses. Past the budget a
 /// buffer gets just its used rows: checked gathers, the same results.
 pub const FIXED_ROWS_BUDGET: usize = 1 << 30;
 
@@ -98,7 +98,7 @@ impl<T: Copy + Default> Clone for RowBuffer<T> {
     }
 }
 
-/// Empty, and holding none of the budget (a padded buffer for no rows reserved 4 MB).
+/// Empty, and holding none of the budget (a padded buffer for no rows would reserve 4 MB).
 impl<T> Default for RowBuffer<T> {
     fn default() -> Self {
         Self {

@@ -433,7 +433,7 @@ fn stretched_free_sphere(dt_fraction: f32, backend: &str) -> Result<World, Strin
 /// - `sph`: none. Its volumetric energy `½K(ρ/ρ⁰ − 1)² V` takes ρ from kernel sums over
 ///   the stretched neighbours, which a truncated kernel at the free surface does not
 ///   give as `ρ⁰/det F` (with `ρ/ρ⁰ = 1/det F` and the exact shear term `μ |dev ε|² V`
-///   the closed form came out 11.8% above the reported energy of this sphere).
+///   the closed form is 11.8% above the reported energy of this sphere).
 pub fn stretch_energy(backend: &str, p: &Phyxels, m: &Material, stretch: DVec3) -> Option<f64> {
     let f = DMat3::from_diagonal(stretch);
     let volume = |i: usize| p.volume[i] as f64;
@@ -544,7 +544,7 @@ pub fn free_energy(
 /// (relative departure of the energy) for MLS and for LJ: 2–3 × the largest error
 /// measured over the quick (0.2 s) and full (0.5 s) runs, which agreed within 1% of each
 /// error on an AVX2+FMA and a baseline x86-64 build (a free body has no contact to amplify
-/// rounding). MLS 1.98%, 0.73%, 0.20% (its 0.9 row keeps the earlier 3%); LJ 0.29%,
+/// rounding). MLS 1.98%, 0.73%, 0.20% (its 0.9 row has 3%); LJ 0.29%,
 /// 0.16%, 0.087%. The departure is larger in the quick runs (fifths of 0.04 s instead
 /// of 0.1 s).
 pub const ENERGY_ROWS: [(f32, f64, f64); 3] = [
@@ -627,12 +627,11 @@ pub fn case_energy(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
 /// energy with itself, so they cannot see a scale error in it). Tolerance: MLS 3e-6, LJ
 /// 1.5e-5 (relative), set by the f32 positions: half an ulp at 0.1 m is 3.7e-6 of a
 /// phyxel's 2 mm displacement (7e-6 of an LJ bond's 0.5 mm elongation). Measured: MLS
-/// 1.0e-6 with the strain computed as `g + gᵀ + gᵀg` (3.7e-7 with the earlier
-/// `JᵀJ − I`, whose f32 `J` loses the strain's digits at small strain instead), LJ
-/// 5.7e-6. MLS's energy density with `½ ε:σ` doubled (a
-/// mutation check) fails by 93%. No rows for a backend without a
-/// closed form or an energy report. One row: the stretched state does not depend on the
-/// suite's knobs.
+/// 1.0e-6 (the strain computed as `g + gᵀ + gᵀg`: the f32 `J` of `JᵀJ − I` loses the
+/// strain's digits at small strain), LJ 5.7e-6. MLS's energy density with `½ ε:σ`
+/// doubled (a mutation check) fails by 93%. No rows for a backend without a closed form
+/// or an energy report. One row: the stretched state does not depend on the suite's
+/// knobs.
 pub fn case_energy_initial(backend: &str, _quick: bool) -> Result<Vec<Row>, String> {
     let Some((e, reference, run)) = initial_energy(backend)? else {
         return Ok(Vec::new());

@@ -194,7 +194,7 @@ pub fn tolerance(case: &str, backend: &str, default: f64) -> f64 {
 /// kernel; LJ: fewer bonds). Their errors fall steeply with resolution (asserted), so one
 /// bound for every row would be several times the finer rows' errors; each row gets
 /// about twice its measured error instead, or about 10 points above it where the error
-/// is large (the errors are deterministic: an AVX2+FMA and a baseline x86-64 build gave
+/// is large (the errors are deterministic: an AVX2+FMA and a baseline x86-64 build give
 /// the same errors to 3 digits). Measured deflection / frequency errors (%; their boxes
 /// keep the lattice's cell centres, `Shape::sample_volume`):
 ///

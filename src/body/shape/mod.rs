@@ -545,8 +545,8 @@ fn positive(field: &str, value: f32) -> Result<(), String> {
 }
 
 impl Shape {
-    /// Panics, naming the file, for a mesh whose file is not loaded: sampling one gave
-    /// no points at all, and `Object::new` then blamed "no phyxels".
+    /// Panics, naming the file, for a mesh whose file is not loaded: sampling one would
+    /// give no points at all, which `Object::new` would blame as "no phyxels".
     fn check_loaded(&self, what: &str) {
         if let Shape::Mesh {
             path, mesh: None, ..

@@ -93,8 +93,7 @@ pub const PROJECTION_TOLERANCE: f32 = 1.0e-4;
 /// grows with the distance from the origin, so far from it `|f|` cannot fall below
 /// [`PROJECTION_TOLERANCE`] σ and the projection would run to its iteration limit
 /// (a sphere of 3.5 mm spacing 100 m out: 427 of 500 projections unconverged without
-/// the floor; in a probe one epsilon let all converge, two leave a margin:
-/// `tests/detect.rs`).
+/// the floor). One epsilon lets all converge there; two leave a margin (`tests/detect.rs`).
 pub const PROJECTION_ROUNDOFF_EPS: f32 = 2.0;
 
 /// Result of projecting a point onto the surface.
@@ -203,7 +202,7 @@ pub fn radius_range(radius: &[f32]) -> (f32, f32) {
 /// a few kernel reaches deep takes one or two coarse queries instead of thousands of
 /// fine cells. A search's box holds `(2r + cell)²` of a surface sheet, so a cell much
 /// wider than the search radius `r` (about the depth) scans surfels the ball misses: at
-/// 1M surfels, 4 ran detection 4–7% faster than 8, as fast as 3, and 9% faster than 2
+/// 1M surfels, 4 runs detection 4–7% faster than 8 and 9% faster than 2, as fast as 3
 /// (docs/PERFORMANCE.md).
 pub const FAR_GRID_FACTOR: f32 = 4.0;
 

@@ -14,8 +14,8 @@ pub(super) const P3: u32 = 83_492_791;
 
 /// A dense table may have up to this many times the buckets of the hashed one (which
 /// has at least twice the point count): the 1M `scale` scene's contact-region grid (83k
-/// surfels, 350k cells in its box) ran 1–13% faster dense than hashed, and a factor of 4
-/// gained nothing more (measured on that scene with `phyxel run scale`).
+/// surfels, 350k cells in its box) runs 1–13% faster dense than hashed, and a factor of 4
+/// gains nothing more (measured on that scene with `phyxel run scale`).
 pub(super) const DENSE_TABLE_FACTOR: u64 = 2;
 
 /// How cells map to buckets: `h(x, y, z) = x + p2·y + p3·z mod (mask + 1)`.

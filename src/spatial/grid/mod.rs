@@ -114,7 +114,7 @@ enum Query {
 }
 
 /// Capacity of the per-query hit buffer (a power of two, at least 2 × LANES). Small
-/// enough that clearing it per query is a few stores, not a `memset` call (128 was).
+/// enough that clearing it per query is a few stores, not a `memset` call (as at 128).
 const HITS: usize = 64;
 /// Most sorted positions in one batch of [`Grid::for_each_hit_batch`].
 pub const HIT_BATCH: usize = HITS;
