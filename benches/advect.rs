@@ -52,7 +52,7 @@ fn advect(c: &mut Criterion) {
             b.iter(|| binding.advect(black_box(&mut s), &p, &grad))
         });
         g.bench_function("reference", |b| {
-            b.iter(|| binding.advect_reference(black_box(&mut s), &p, &grad))
+            b.iter(|| phyxel::testing::advect_reference(&binding, black_box(&mut s), &p, &grad))
         });
         g.finish();
     }

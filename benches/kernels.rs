@@ -56,7 +56,7 @@ fn implicit_sums(c: &mut Criterion) {
         b.iter(|| {
             points
                 .iter()
-                .map(|&x| reference.weighted_sums_scalar(black_box(x)).0)
+                .map(|&x| phyxel::testing::weighted_sums_scalar(&reference, black_box(x)).0)
                 .sum::<f32>()
         })
     });
@@ -77,7 +77,8 @@ fn implicit_sums(c: &mut Criterion) {
 /// the scalar per-phyxel reference, 2,000 contact surfels in a shell half an influence
 /// radius around `two-spheres`' first sphere (390 phyxels, about 40 within reach each).
 fn distribution(c: &mut Criterion) {
-    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
+    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute};
+    use phyxel::testing::distribute_reference;
     let scene = phyxel::scene::Scene::builtin("two-spheres").expect("built-in scene");
     let w = scene
         .build(&phyxel::scene::BuildOptions::default())
@@ -178,7 +179,11 @@ fn mls_forces(c: &mut Criterion) {
             pool.install(|| b.iter(|| m.compute_forces(black_box(&p), &mat, 1e-4)))
         });
         g.bench_function(format!("scalar/{label}"), |b| {
-            pool.install(|| b.iter(|| m.compute_forces_reference(black_box(&p), &mat, 1e-4)))
+            pool.install(|| {
+                b.iter(|| {
+                    phyxel::testing::compute_forces_reference(&mut m, black_box(&p), &mat, 1e-4)
+                })
+            })
         });
     }
     g.finish();

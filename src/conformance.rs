@@ -1,5 +1,5 @@
 //! The conformance suite: what every dynamics backend must do on the contact pipeline,
-//! run for each built-in backend by `tests/backends.rs` and callable for a backend of
+//! run for each built-in backend by `tests/dynamics/backends.rs` and callable for a backend of
 //! your own ([`run`] with [`Backend::Custom`], as `tests/custom_dynamics.rs` does).
 //!
 //! | case | scene | reference | passes when |

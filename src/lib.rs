@@ -57,6 +57,8 @@ pub mod points;
 pub mod scene;
 pub mod solver;
 pub mod spatial;
+#[doc(hidden)]
+pub mod testing;
 pub mod world;
 
 #[cfg(feature = "app")]
@@ -79,8 +81,8 @@ pub mod topology {
 #[doc(hidden)]
 pub use {
     body::{advect, connectivity, mesh, object, shape},
-    contact::{detect, field as implicit},
-    dynamics::gradient,
+    contact::{detect, implicit},
+    dynamics::mls,
     io::{frame, import},
     math::{brent, kernel},
     points::{phyxels, surfels},

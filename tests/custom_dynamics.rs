@@ -2,13 +2,13 @@
 //! drives objects through the same step (dynamics, surfel advection, contact phases).
 
 use glam::{Mat3, Vec3};
+use phyxel::body::shape::Shape;
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::{Dynamics, StepContext, integrate_symplectic};
-use phyxel::grid::Grid;
 use phyxel::material::Material;
-use phyxel::phyxels::Phyxels;
-use phyxel::shape::Shape;
-use phyxel::surfels::Surfels;
+use phyxel::points::phyxels::Phyxels;
+use phyxel::points::surfels::Surfels;
+use phyxel::spatial::grid::Grid;
 use phyxel::{Object, World};
 
 /// Damped springs between rest neighbours (a mass-spring solid).
@@ -825,7 +825,7 @@ fn a_contact_phase_after_removing_an_object_is_refused() {
     world.step();
     assert_eq!(world.pairs.len(), 1);
     world.objects.remove(0);
-    world.run_phase(phyxel::timing::Phase::Detect);
+    world.run_phase(phyxel::world::Phase::Detect);
 }
 
 /// A user's backend runs the library's conformance suite (`phyxel::conformance`) as the

@@ -51,7 +51,7 @@ fn grid_within(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
 /// The scalar reference query, in the same form as [`grid_within`].
 fn grid_within_scalar(grid: &Grid, x: Vec3, r: f32) -> Vec<(usize, u32)> {
     let mut out = Vec::new();
-    grid.for_each_within_scalar(x, r, |i, d| out.push((i, d.to_bits())));
+    phyxel::testing::for_each_within_scalar(grid, x, r, |i, d| out.push((i, d.to_bits())));
     out.sort_unstable();
     out
 }

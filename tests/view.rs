@@ -364,8 +364,8 @@ fn bad_input_fails_with_a_message_and_a_pause_ends_a_screenshot_run() {
         "{err}"
     );
 
-    // NaN passed the range check (`max_element` passes NaN by) and panicked the
-    // simulation thread.
+    // NaN points are refused: a range check alone passes NaN by (`max_element`), and a
+    // NaN tool or drop would panic the simulation thread.
     for event in ["tool = [nan, 0.0, 0.0]", "drop = [nan, 0.5, 0.0]"] {
         std::fs::write(
             dir.0.join("nan.toml"),

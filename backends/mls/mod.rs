@@ -324,7 +324,8 @@ impl MlsDynamics {
 
     /// The scalar reference of [`MlsDynamics::compute_forces`]: per phyxel, glam
     /// matrices, the stencil in rows and the transposed lists (same formulas and sum
-    /// order; the results agree to rounding, see `tests/mls.rs`).
+    /// order; the results agree to rounding, see `tests/dynamics/mls.rs`).
+    #[doc(hidden)]
     pub fn compute_forces_reference(&mut self, phyxels: &Phyxels, material: &Material, dt: f32) {
         let law = self.pack_state(phyxels, material, dt);
         let st = &self.stencil;

@@ -194,7 +194,7 @@ impl SurfelBinding {
     /// Moves surfels, their normals and velocities with the phyxels, given the
     /// displacement gradient of every phyxel.
     ///
-    /// Same field as [`Self::advect_reference`] up to f32 round-off, computed from a
+    /// Same field as `crate::testing::advect_reference` up to f32 round-off, computed from a
     /// per-phyxel affine table and written straight into the surfel columns.
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
         let o = self.origin;
@@ -339,7 +339,7 @@ impl SurfelBinding {
     /// The direct sum of Müller et al. (2004, §5) per surfel and entry, with the rest
     /// offset `s₀ − x₀ᵢ`: the reference for tests and benches of [`Self::advect`]
     /// (it allocates its output).
-    pub fn advect_reference(&self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
+    pub(crate) fn advect_reference(&self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
         let out: Vec<(Vec3, Vec3, Vec3)> = (0..surfels.len())
             .into_par_iter()
             .map(|s| {

@@ -55,7 +55,7 @@ impl PairDetection {
 
 /// A candidate whose implicit function `f` exceeds this fraction of the kernel reach is
 /// outside without projecting it (eq. 2 agrees: in every built-in scene, no candidate
-/// with `f > 0` is inside; `tests/detect.rs` checks the margin against the full test).
+/// with `f > 0` is inside; `tests/contact/detect.rs` checks the margin against the full test).
 pub const OUTSIDE_FRACTION: f32 = 0.05;
 /// Candidates per rayon task (a few hundred candidates per side at the paper's size
 /// still split over both cores).

@@ -30,7 +30,7 @@ pub struct DistributeScratch {
 /// one query per surfel gives its lane groups and their weights, whose sum normalises;
 /// the surfel's share then goes to force columns kept in the grid's order, so the adds
 /// are contiguous lane stores instead of scattered writes; the columns go to the
-/// phyxels once at the end. [`distribute_reference`] is the scalar
+/// phyxels once at the end. `crate::testing::distribute_reference` is the scalar
 /// version (tests and benches).
 pub fn distribute(
     surfels: &[ContactSurfel],
@@ -135,7 +135,7 @@ pub fn distribute(
 /// Scalar reference of [`distribute`]: the same weights, one phyxel at a time, found by
 /// the scalar grid query ([`Grid::for_each_within_scalar`]) and written straight to the
 /// phyxels; no lanes anywhere.
-pub fn distribute_reference(
+pub(crate) fn distribute_reference(
     surfels: &[ContactSurfel],
     sign: f32,
     phyxels: &mut Phyxels,

@@ -40,9 +40,7 @@ pub mod report;
 mod resample;
 mod surface;
 
-pub use distribute::{
-    DistributeScratch, MIN_DISTRIBUTION_PHYXELS, distribute, distribute_reference,
-};
+pub use distribute::{DistributeScratch, MIN_DISTRIBUTION_PHYXELS, distribute};
 pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
 pub use params::ContactParams;
 pub use report::{ContactPoint, PatchTotals};

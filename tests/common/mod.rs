@@ -1,7 +1,22 @@
 //! Helpers shared by the integration tests (each test file that needs them declares
 //! `mod common;`; not every file uses every helper, hence the `dead_code` allowances).
 
+use phyxel::World;
+use phyxel::scene::{BuildOptions, Scene};
 use std::path::PathBuf;
+
+/// `scene` built with `backend` on its moving objects (`None`: the scene's own), or a
+/// panic naming the scene, the backend and the error.
+#[allow(dead_code)]
+pub fn build(scene: &Scene, backend: Option<&str>) -> World {
+    let options = BuildOptions {
+        backend: backend.map(str::to_string),
+        ..Default::default()
+    };
+    scene
+        .build(&options)
+        .unwrap_or_else(|e| panic!("{} ({backend:?}): {e}", scene.name))
+}
 
 /// A fresh temp directory `phyxel-{group}-{label}-{pid}`, removed on drop.
 #[allow(dead_code)]

@@ -134,7 +134,7 @@ mod phyxel_engine {
 
     /// Above this step (s) the swing is read settled, not averaged over its first half
     /// period: at 1/60 s backward Euler damps the swing within a period (ω dt = 0.6) and
-    /// the half period is six samples, so that mean fell 6–8% below the static sag.
+    /// the half period is six samples, so that mean lies 6–8% below the static sag.
     const SWING_DT: f32 = 0.01;
 
     /// The built-in cantilever at phyxel and surfel spacing `spacing` on `backend` at `dt`
@@ -182,8 +182,8 @@ mod phyxel_engine {
         (steps as f64 * w.dt as f64, t.elapsed().as_secs_f64())
     }
 
-    /// The finest ball `mls-implicit` runs (per radius): at 16 (17,000 phyxels) one run of
-    /// 0.16 s went past 20 minutes and 3 GB (the skyline factor of a soft 3D body, and
+    /// The finest ball `mls-implicit` runs (per radius): at 16 (17,000 phyxels) a run of
+    /// 0.16 s takes over 20 minutes and 3 GB (the skyline factor of a soft 3D body, and
     /// the contact solve's iterations).
     const IMPLICIT_BALL_MAX: u32 = 12;
 

@@ -54,7 +54,7 @@ pub fn mls_consistency(spacing: f32) -> (f64, f64, f64, RunInfo) {
     (worst, g_norm, b_norm, info)
 }
 
-/// MLS consistency rows; tolerance 1e-4 (f32 arithmetic), as in tests/mls.rs.
+/// MLS consistency rows; tolerance 1e-4 (f32 arithmetic), as in tests/dynamics/mls.rs.
 pub fn case_mls_consistency(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     let spacings: &[f32] = if quick {
         &[0.04, 0.03, 0.02]

@@ -1,8 +1,8 @@
 //! The surface field of a surfel set: the paper's implicit surface (Keiser et al. 2004,
 //! eq. 1, after Alexa et al.):
 //! `a(x) = Σθ_k s_k / Σθ_k`, `n(x) = normalize(Σθ_k n_k)`, `f(x) = n(x)·(x − a(x))`,
-//! with truncated Gaussian weights `θ_k = exp(−|x − s_k|²/σ_k²)` for `|x − s_k| < 2.5 σ_k`,
-//! whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
+//! with truncated Gaussian weights `θ_k = exp(−|x − s_k|²/σ_k²)` for
+//! `|x − s_k| < 2.5 σ_k`, whose width `σ_k` is the surfel's disk radius, so it follows the local spacing.
 //! A point is inside when `(x − x_proj)·n(x_proj) < 0` (eq. 2).
 
 mod lanes;
@@ -93,7 +93,7 @@ pub const PROJECTION_TOLERANCE: f32 = 1.0e-4;
 /// grows with the distance from the origin, so far from it `|f|` cannot fall below
 /// [`PROJECTION_TOLERANCE`] σ and the projection would run to its iteration limit
 /// (a sphere of 3.5 mm spacing 100 m out: 427 of 500 projections unconverged without
-/// the floor). One epsilon lets all converge there; two leave a margin (`tests/detect.rs`).
+/// the floor). One epsilon lets all converge there; two leave a margin (`tests/contact/detect.rs`).
 pub const PROJECTION_ROUNDOFF_EPS: f32 = 2.0;
 
 /// Result of projecting a point onto the surface.
@@ -386,7 +386,7 @@ impl<'a> SurfaceField<'a> {
     /// for the next samples: one within [`NEAR_HITS_SLACK`] reaches of the last query's
     /// centre reads the kept groups instead of the grid (a root search's last
     /// evaluations lie within its tolerance of each other). Same weights and sums as
-    /// `sample_near` up to summation order (`tests/detect.rs`).
+    /// `sample_near` up to summation order (`tests/contact/detect.rs`).
     pub fn sample_near_kept(&self, x: Vec3, hits: &mut NearHits) -> Option<SurfaceSample> {
         let slack = NEAR_HITS_SLACK * self.reach;
         let wide = self.reach + slack;
@@ -424,7 +424,7 @@ impl<'a> SurfaceField<'a> {
     /// Scalar reference of [`SurfaceField::weighted_sums`] (tests and benches): the
     /// scalar grid query ([`Grid::for_each_within_scalar`]), libm `exp` and vector
     /// multiply-adds per hit, no lanes anywhere.
-    pub fn weighted_sums_scalar(&self, x: Vec3) -> (f32, Vec3, Vec3) {
+    pub(crate) fn weighted_sums_scalar(&self, x: Vec3) -> (f32, Vec3, Vec3) {
         self.sums_per_hit::<true>(x)
     }
 

@@ -48,7 +48,7 @@ impl Grid {
     /// Scalar reference of [`Grid::for_each_within`]: the same cells, points and f32
     /// distance test, one point at a time and in order (no lanes), so the scalar
     /// references of the SIMD kernels are scalar throughout. Does not allocate.
-    pub fn for_each_within_scalar(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, f32)) {
+    pub(crate) fn for_each_within_scalar(&self, x: Vec3, r: f32, mut f: impl FnMut(usize, f32)) {
         let mut test = |k: usize, r2: f32, row: Option<(i32, i32)>| {
             let (dx, dy, dz) = (self.px[k] - x.x, self.py[k] - x.y, self.pz[k] - x.z);
             let d2 = dx * dx + dy * dy + dz * dz;

@@ -2,14 +2,15 @@
 //! 2004, §8): each contact pair meets the surfaces `S ∖ C ∪ Φ` the pairs before it in
 //! the same step left, instead of the original surfaces.
 
+use crate::common;
 use phyxel::World;
-use phyxel::scene::{BuildOptions, Scene};
+use phyxel::scene::Scene;
 
-fn build(name: &str, in_order: bool) -> World {
+fn with_forces_on_phi(name: &str, in_order: bool) -> World {
     let mut scene = Scene::builtin(name).unwrap();
     scene.resampled_forces = Some(true);
     scene.pairs_in_order = Some(in_order);
-    let w = scene.build(&BuildOptions::default()).unwrap();
+    let w = common::build(&scene, None);
     assert_eq!(w.pairs_in_order, in_order);
     w
 }
@@ -19,7 +20,10 @@ fn build(name: &str, in_order: bool) -> World {
 /// the collision's deepest point). Reference: the two paths' definition.
 #[test]
 fn a_single_pair_is_the_same_in_order() {
-    let (mut a, mut b) = (build("two-spheres", true), build("two-spheres", false));
+    let (mut a, mut b) = (
+        with_forces_on_phi("two-spheres", true),
+        with_forces_on_phi("two-spheres", false),
+    );
     let mut touched = 0;
     for _ in 0..150 {
         a.step();
@@ -43,8 +47,8 @@ fn a_single_pair_is_the_same_in_order() {
 #[test]
 fn the_cradle_in_order_conserves_momentum_and_barely_differs() {
     let (mut a, mut b) = (
-        build("newtons-cradle", true),
-        build("newtons-cradle", false),
+        with_forces_on_phi("newtons-cradle", true),
+        with_forces_on_phi("newtons-cradle", false),
     );
     let p_in = a.objects[0].phyxels.momentum()[0];
     let mut shared = 0;

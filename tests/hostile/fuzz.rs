@@ -16,7 +16,7 @@
 //!
 //! CI runs [`DEFAULT_CASES`] mutations per target, the same ones each time
 //! ([`FIXED_SEED`]). A longer pass over new inputs:
-//! `PHYXEL_FUZZ_CASES=20000 cargo test --release --test fuzz -- --nocapture` (4,000
+//! `PHYXEL_FUZZ_CASES=20000 cargo test --release --test hostile fuzz:: -- --nocapture` (4,000
 //! per target take about 48 s on two cores); a failure prints the seed file and the edits
 //! that break it (shrunk): the input they make goes into
 //! `tests/fuzz/crashes/` once fixed.

@@ -101,7 +101,7 @@ fn a_pressed_sphere_carries_its_load_and_scales_with_r_and_e() {
 }
 
 /// The study behind docs/ACCURACY.md's Hertz table (19 minutes on two cores):
-/// `cargo test --release --test hertz -- --ignored --nocapture`. Every (R, E, ν) of the
+/// `cargo test --release --test contact hertz:: -- --ignored --nocapture`. Every (R, E, ν) of the
 /// issue's matrix at 8, 12 and 16 phyxels per radius (load for a = 0.15 R), then R = 0.1 m,
 /// E = 1e5 Pa at 8, 12 and 16 phyxels per radius and ν = 0.25, 0.4 with three loads
 /// (a = 0.12, 0.15, 0.19 R) for the approach fit `δ = c F^{2/3} + b F`. Asserts only
@@ -158,9 +158,9 @@ fn hertz_study() {
 }
 
 /// The paper's configuration on the same case (docs/ACCURACY.md, "The paper's
-/// configuration"): `cargo test --release --test hertz -- --ignored --nocapture
-/// paper`. R = 0.1 m, E = 1e5 Pa, ν = 0.3, a = 0.15 R, at 8 and 12 phyxels per radius,
-/// default and paper side by side. Asserts only finite results and force balance
+/// configuration"): `cargo test --release --test contact -- --ignored --nocapture
+/// hertz::hertz_paper`. R = 0.1 m, E = 1e5 Pa, ν = 0.3, a = 0.15 R, at 8 and 12
+/// phyxels per radius, default and paper side by side. Asserts only finite results and force balance
 /// within 5%.
 #[test]
 #[ignore]
@@ -188,7 +188,7 @@ fn hertz_paper_preset() {
 }
 
 /// Where the patch's error comes from (docs/ACCURACY.md, "Hertz on a rigid plane"):
-/// `cargo test --release --test hertz -- --ignored --nocapture hertz_sources` (the
+/// `cargo test --release --test contact -- --ignored --nocapture hertz::hertz_sources` (the
 /// longest part of the study). R = 0.1 m, E = 1e5 Pa, load for `a = 0.15 R`:
 /// - resolution: ν = 0.25 and 0.4 at 24 phyxels per radius (58,000 phyxels), and
 ///   ν = 0.25 at 32 (140,000), beside the study's 8, 12 and 16; and the approach fit

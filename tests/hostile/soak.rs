@@ -11,7 +11,7 @@
 //! fails the soak, at any dt the scene defaults to.
 //!
 //! Every scene is printed (seed and TOML) before it runs, so a failure shows what to
-//! rerun: `PHYXEL_SOAK_SEED=<seed> cargo test --release --test soak -- --nocapture`
+//! rerun: `PHYXEL_SOAK_SEED=<seed> cargo test --release --test hostile soak:: -- --nocapture`
 //! runs that one scene; `PHYXEL_SOAK_SCENES=N` sets how many (default [`SCENES`]).
 
 use phyxel::World;

@@ -7,7 +7,7 @@ use phyxel::io::import::read_frame;
 use std::path::Path;
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::TempDir;
 
 fn phyxel(args: &[&str]) -> std::process::Output {

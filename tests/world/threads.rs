@@ -6,7 +6,7 @@
 //! Reference: the same run on one thread. Tolerance: bitwise equality of every phyxel
 //! and surfel position and velocity after the run.
 
-mod common;
+use crate::common;
 
 use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};

@@ -538,7 +538,7 @@ fn simd_kernel_sums_match_scalar_reference() {
     for _ in 0..2000 {
         let x = rng.dir() * (r + 1.5 * spacing * rng.next());
         let (w, s, n) = surface.weighted_sums(x);
-        let (w0, s0, n0) = reference.weighted_sums_scalar(x);
+        let (w0, s0, n0) = phyxel::testing::weighted_sums_scalar(&reference, x);
         assert!(
             (w - w0).abs() <= 1e-5 * w0.abs().max(1e-30),
             "Σθ {w} vs {w0} at {x}"

@@ -5,7 +5,7 @@
 //! Reference: the same run with the cache kept. Tolerance: bitwise equality of every
 //! phyxel and surfel position and velocity, and of the largest penetration.
 
-mod common;
+use crate::common;
 
 use phyxel::World;
 use phyxel::scene::{BuildOptions, Scene};

@@ -188,7 +188,7 @@ fn forces_on_the_resampled_surface_balance_and_conserve() {
 /// docs/ACCURACY.md's "Resampling Φ" table: the sphere on a rigid plane
 /// (`validate::hertz_plane`, ν = 0.3, a = 0.15 R) at 8 and 12 phyxels per radius with
 /// the forces on the contact surfels (default) and on the resampled Φ, at rest:
-/// `cargo test --release --test resample -- --ignored --nocapture`. Asserts force
+/// `cargo test --release --test contact resample:: -- --ignored --nocapture`. Asserts force
 /// balance within 1% (Newton); the errors are what it reports.
 #[test]
 #[ignore]

@@ -1,14 +1,11 @@
 //! Contact response against independent references: conservation of momentum, resting
 //! contact, Hertz's law, Coulomb friction on an incline, Newton's cradle and a pile.
 
+use crate::common;
 use glam::{DVec3, Vec3};
 use phyxel::World;
 use phyxel::app::validate;
 use phyxel::scene::{BuildOptions, Scene};
-
-fn build(scene: &Scene) -> World {
-    scene.build(&BuildOptions::default()).unwrap()
-}
 
 fn com(w: &World, k: usize) -> Vec3 {
     let c = w.objects[k].phyxels.centre_of_mass();
@@ -33,7 +30,7 @@ fn kinetic(w: &World) -> f64 {
 #[test]
 fn collision_conserves_momentum() {
     let scene = Scene::builtin("two-spheres").unwrap();
-    let mut w = build(&scene);
+    let mut w = common::build(&scene, None);
     let scale = w.objects[0].phyxels.total_mass() * 1.0;
     let mut contact_steps = 0;
     for _ in 0..scene.steps {
@@ -63,8 +60,8 @@ fn collision_conserves_momentum() {
 #[test]
 fn reordering_objects_keeps_the_physics() {
     let scene = Scene::builtin("sphere-on-plane").unwrap();
-    let mut control = build(&scene);
-    let mut swapped = build(&scene);
+    let mut control = common::build(&scene, None);
+    let mut swapped = common::build(&scene, None);
     for _ in 0..300 {
         control.step();
         swapped.step();
@@ -118,7 +115,7 @@ fn stiff_contact_stays_stable_at_the_default_dt() {
 /// energy (`World::energy`, J) at the end of each window.
 fn resting_sphere() -> (Vec<f64>, f32, f32, Vec<f64>) {
     let scene = Scene::builtin("sphere-on-plane").unwrap();
-    let mut w = build(&scene);
+    let mut w = common::build(&scene, None);
     let window = (0.1 / w.dt) as usize;
     let settle = (1.5 / w.dt) as usize;
     for _ in 0..settle {
@@ -256,7 +253,7 @@ fn incline_slides_by_coulomb() {
 #[test]
 fn newtons_cradle_passes_momentum() {
     let scene = Scene::builtin("newtons-cradle").unwrap();
-    let mut w = build(&scene);
+    let mut w = common::build(&scene, None);
     let p_in = w.objects[0].phyxels.momentum()[0];
     for _ in 0..scene.steps {
         w.step();
@@ -304,7 +301,7 @@ fn hertz_at_three_resolutions() {
 #[test]
 fn pile_comes_to_rest_without_passing_through() {
     let scene = Scene::builtin("pile").unwrap();
-    let mut w = build(&scene);
+    let mut w = common::build(&scene, None);
     let (mut peak, mut last) = (0.0f64, 0.0f64);
     for _ in 0..(1.5 / w.dt) as usize {
         w.step();
@@ -396,7 +393,7 @@ fn shell_surfels(
     f32,
     Vec<phyxel::contact::ContactSurfel>,
 ) {
-    let w = build(&Scene::builtin("two-spheres").unwrap());
+    let w = common::build(&Scene::builtin("two-spheres").unwrap(), None);
     let o = &w.objects[0];
     let h = o.max_influence;
     let grid = phyxel::spatial::grid::Grid::build(o.phyxels.pos.iter(), h);
@@ -447,8 +444,9 @@ fn shell_surfels(
 /// 1e-5 relative (eq. 8's exact distribution).
 #[test]
 fn simd_distribution_matches_scalar_reference() {
-    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute, distribute_reference};
+    use phyxel::contact::{ContactSurfel, DistributeScratch, distribute};
     use phyxel::spatial::grid::Grid;
+    use phyxel::testing::distribute_reference;
     let (w, grid, h, surfels) = shell_surfels(2000, 40, 7);
     let o = &w.objects[0];
     let run = |f: fn(
@@ -801,7 +799,7 @@ fn scene_rotation_is_x_then_y_then_z_about_the_turned_axes() {
         position = [0.1, -0.2, 0.3]
         rotation = [30.0, 40.0, 50.0]
     "#;
-    let w = build(&Scene::parse(text, "rotated").unwrap());
+    let w = common::build(&Scene::parse(text, "rotated").unwrap(), None);
     let (a, b, c) = (30f64.to_radians(), 40f64.to_radians(), 50f64.to_radians());
     let rx = DMat3::from_cols(
         DVec3::new(1.0, 0.0, 0.0),
@@ -914,7 +912,7 @@ fn pair_contact_constants_follow_the_documented_formulas() {
         );
     };
     for b_static in [false, true] {
-        let w = build(&Scene::parse(&text(b_static), "pair").unwrap());
+        let w = common::build(&Scene::parse(&text(b_static), "pair").unwrap(), None);
         let (a, b) = (&w.objects[0], &w.objects[1]);
         assert_eq!((a.name.as_str(), b.name.as_str()), ("a", "b"));
         assert_eq!(b.is_static(), b_static);
@@ -1066,7 +1064,7 @@ fn pressed_spheres_release_the_contact_energy() {
         "pressed",
     )
     .unwrap();
-    let mut w = build(&scene);
+    let mut w = common::build(&scene, None);
     assert_eq!(w.energy().total(), 0.0);
     w.step();
     let stored = w.contact_energy();
@@ -1141,7 +1139,7 @@ fn off_centre_collision_conserves_angular_momentum() {
     };
     for (mu, backend) in [(0.5, "mls"), (0.0, "mls"), (0.5, "lj")] {
         let scene = scene(mu, backend);
-        let mut w = build(&scene);
+        let mut w = common::build(&scene, None);
         let l0 = angular_momentum(&w);
         let scale = w.objects[0].phyxels.total_mass() * 1.0 * 0.1;
         let (mut worst, mut contact_steps) = (0.0f64, 0);
@@ -1173,7 +1171,8 @@ fn off_centre_collision_conserves_angular_momentum() {
 /// a moment of about 0.3 `|f| h` (its weighted centroid lies inside the body).
 #[test]
 fn distributed_contact_forces_act_at_the_surfel() {
-    use phyxel::contact::{DistributeScratch, distribute, distribute_reference};
+    use phyxel::contact::{DistributeScratch, distribute};
+    use phyxel::testing::distribute_reference;
     let (w, grid, h, surfels) = shell_surfels(200, 10, 11);
     let o = &w.objects[0];
     let (mut worst, mut worst_sum) = ([0.0f64; 2], [0.0f64; 2]);

@@ -1,8 +1,10 @@
 //! The built-in backends on the same contact pipeline: the conformance suite over the
 //! whole registry (`phyxel::conformance`), then resting contact, SPH weak
-//! compressibility, LJ equilibrium, a mixed-backend collision. Scenes are the built-in ones with coarser
-//! surfels (the contact pipeline's cost), so the whole file runs in about three minutes.
+//! compressibility, LJ equilibrium, a mixed-backend collision. Scenes are the built-in
+//! ones with coarser surfels (the contact pipeline's cost), so the whole module runs in
+//! about three minutes.
 
+use crate::common;
 use glam::Vec3;
 use phyxel::World;
 use phyxel::backends::lj::LjDynamics;
@@ -21,15 +23,6 @@ fn coarse(name: &str, surfel: f32) -> Scene {
         o.surfel_spacing = Some(o.surfel_spacing.unwrap_or(0.0).max(surfel));
     }
     scene
-}
-
-fn build(scene: &Scene, backend: &str) -> World {
-    scene
-        .build(&BuildOptions {
-            backend: Some(backend.into()),
-            ..Default::default()
-        })
-        .unwrap_or_else(|e| panic!("{backend}: {e}"))
 }
 
 fn com_velocity(w: &World, k: usize) -> Vec3 {
@@ -64,7 +57,7 @@ fn sphere_on_plane_settles_with_each_explicit_backend() {
     let m = &ball.material;
     let e_star = m.young / (1.0 - m.poisson * m.poisson);
     for b in EXPLICIT {
-        let mut w = build(&scene, b);
+        let mut w = common::build(&scene, Some(b));
         let steps = (1.5 / w.dt).ceil() as usize;
         for _ in 0..steps {
             w.step();
@@ -274,7 +267,7 @@ backend = "sph"
 fn fast_lj_impact_breaks_the_ball() {
     let mut scene = coarse("sphere-on-plane", 0.01);
     scene.objects[1].velocity = [0.0, -10.0, 0.0];
-    let mut w = build(&scene, "lj");
+    let mut w = common::build(&scene, Some("lj"));
     assert!(w.objects[1].dynamics.can_fracture(&w.objects[1].material));
     let steps = (0.1 / w.dt).ceil() as usize;
     for _ in 0..steps {

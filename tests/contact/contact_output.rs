@@ -1,7 +1,7 @@
 //! Contact output (`World::contact_totals`, `contact::ContactPoint`): what the library
 //! reports a contact did, checked against Newton's laws.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use phyxel::contact::ContactPoint;

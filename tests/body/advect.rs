@@ -78,7 +78,7 @@ fn compare_with_reference(surfel_spacing: f32) -> usize {
     // Twice, so the second step runs on the kept table and reads advected normals.
     for _ in 0..2 {
         binding.advect(&mut fast, &p, &grad);
-        binding.advect_reference(&mut reference, &p, &grad);
+        phyxel::testing::advect_reference(&binding, &mut reference, &p, &grad);
     }
     let (mut dp, mut dn, mut dv, mut moved) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
     for i in 0..s.len() {

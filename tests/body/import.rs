@@ -6,7 +6,7 @@ use phyxel::scene::Scene;
 use phyxel::world::output::surface_frame;
 use std::process::Command;
 
-mod common;
+use crate::common;
 use common::TempDir;
 
 /// The render surface of two-spheres mid-collision (contact surfels present).

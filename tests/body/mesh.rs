@@ -9,7 +9,7 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
-mod common;
+use crate::common;
 use common::TempDir;
 
 type Raw = (Vec<Vec3>, Vec<[u32; 3]>);
@@ -401,11 +401,11 @@ fn bad_meshes_give_clear_errors() {
         e.contains("mesh.stl") && e.contains("unknown mesh format"),
         "{e}"
     );
-    // No extension: said so (it read "unknown mesh format '.'").
+    // No extension: said so, not as an unknown format "'.'".
     std::fs::write(d.join("mesh"), "solid\n").unwrap();
     let e = scene_error(d, "mesh");
     assert!(e.contains("no file extension") && !e.contains("'.'"), "{e}");
-    // A negative face index is named (it read "no integer list 'vertex_indices'").
+    // A negative face index is named, not reported as a missing index list.
     std::fs::write(
         d.join("neg.ply"),
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
@@ -446,7 +446,7 @@ fn bad_meshes_give_clear_errors() {
     assert!(e.contains("cloud.ply") && e.contains("no 'face'"), "{e}");
 
     // Finite vertices and a finite scale whose product overflows f32: refused by the
-    // scale, not a panic when sampling (it was `capacity overflow`).
+    // scale, not a panic when sampling (an infinite box asks for unbounded capacity).
     let scene = d.join("huge.toml");
     std::fs::write(
         &scene,

@@ -4,7 +4,7 @@
 //! the solver's tolerance. Each test names the class of the cases it pins.
 //! The viewer's cases are in `tests/view.rs`, Python's in `tests/python/test_hostile.py`.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 use std::process::{Command, Output};

@@ -1,0 +1,8 @@
+//! The application layer: the software renderer and the validation suite.
+//! References and tolerances: docs/ACCURACY.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod render;
+mod validate;

@@ -1,0 +1,10 @@
+//! The world and its step: results independent of the thread count, a droppable cache, work
+//! only for what a scene uses.
+//! References and tolerances: docs/ACCURACY.md.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod model_only_what_needed;
+mod threads;
+mod world_cache;
