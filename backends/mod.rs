@@ -1,7 +1,7 @@
 //! The built-in dynamics backends (`mls`, `mls-implicit`, `sph`, `lj`, and the
 //! prescribed-motion `kinematic` and `static`), and the registry that creates them by
 //! name. Each backend is written against phyxel's public API only, as an outside crate
-//! would be (CI refuses `crate::` here).
+//! would be (CI refuses paths from the crate root here).
 
 pub mod lj;
 pub mod mls;
