@@ -348,6 +348,12 @@ impl Object {
         self.dynamics.is_static()
     }
 
+    /// True for objects whose motion is prescribed ([`Dynamics::is_prescribed`]: static
+    /// objects and tools).
+    pub fn is_prescribed(&self) -> bool {
+        self.dynamics.is_prescribed()
+    }
+
     /// True when the backend joins the implicit solve ([`Dynamics::implicit`] gives its
     /// operators), as read at [`Object::new`], [`Object::set_dynamics`] and the start of
     /// each step.

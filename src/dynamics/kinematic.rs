@@ -145,14 +145,18 @@ impl Dynamics for Kinematic {
         }
     }
 
-    /// Nothing integrates, so nothing bounds the step (contact with the bodies it
-    /// touches still does, through their own bounds and the contact bound).
+    /// Nothing integrates, so nothing bounds the step, its contacts included
+    /// ([`Dynamics::is_prescribed`]); the bodies it touches keep their own bounds.
     fn stable_dt(&self, _phyxels: &Phyxels, _material: &Material) -> f32 {
         f32::INFINITY
     }
 
     fn displacement_gradient(&self) -> Option<&[Mat3]> {
         Some(&self.zero_gradient)
+    }
+
+    fn is_prescribed(&self) -> bool {
+        true
     }
 }
 

@@ -186,6 +186,13 @@ pub trait Dynamics: std::any::Any + Send + Sync {
         false
     }
 
+    /// True for backends whose motion is prescribed, not integrated (a tool moved by the
+    /// caller, a static object): the forces it receives move nothing, so its contacts
+    /// impose no stability bound on it. Default: [`Dynamics::is_static`].
+    fn is_prescribed(&self) -> bool {
+        self.is_static()
+    }
+
     /// The operators of a backward-Euler step, for a backend that joins the implicit
     /// solve ([`crate::solver`]): the world then steps it there instead of by
     /// [`Dynamics::step`], together with the implicit bodies it touches, and the contact

@@ -216,8 +216,8 @@ impl World {
 
     /// Largest stable time step over all objects (s) and the object that limits it:
     /// each object's own dynamics, and, where two objects may touch, its contact spring
-    /// ([`contact_stable_dt`]) unless every moving object is implicit (its contacts are
-    /// then springs in the solves). A backend's bound that is not a number > 0 (a
+    /// ([`contact_stable_dt`]) unless its motion is prescribed ([`Object::is_prescribed`])
+    /// or every moving object is implicit (its contacts are then springs in the solves). A backend's bound that is not a number > 0 (a
     /// broken [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is
     /// returned with its object, not hidden.
     pub fn stable_dt(&self) -> (f32, Option<&Object>) {
@@ -251,7 +251,8 @@ impl World {
             .map(|o| {
                 let own = o.dynamics.stable_dt(&o.phyxels, &o.material);
                 let contact = match partner {
-                    Some((c, k)) if !o.is_static() && !all_implicit => {
+                    // A prescribed body (a tool) moves as told whatever it receives.
+                    Some((c, k)) if !o.is_prescribed() && !all_implicit => {
                         let e_star = 1.0 / (compliance(&o.material) + c);
                         let k = 0.5 * (o.material.contact_stiffness + k);
                         let h = o.phyxel_spacing;
