@@ -373,10 +373,11 @@ impl Object {
     }
 
     /// True if the contact between this object and `other` joins an implicit solve as
-    /// springs: every side that moves is implicit, and one does.
+    /// springs: each side is implicit or has its motion prescribed (static, a tool), and
+    /// one is implicit.
     pub fn contact_in_solve(&self, other: &Object) -> bool {
-        let joins = |o: &Object| o.is_static() || o.is_implicit();
-        joins(self) && joins(other) && !(self.is_static() && other.is_static())
+        let joins = |o: &Object| o.is_prescribed() || o.is_implicit();
+        joins(self) && joins(other) && !(self.is_prescribed() && other.is_prescribed())
     }
 
     /// Moves the surfels with the phyxels (uses the backend's gradient, or the core's

@@ -55,10 +55,16 @@ pub(super) struct Active {
     /// The slip at the previous iterate, and whether it has reversed in this step.
     pub last_slip: Vec3,
     pub reversed: bool,
+    /// Velocity of side b when it is no member of the island (static, or a tool's given
+    /// motion: [`ContactSpring::given`]).
+    pub given: Vec3,
+    /// The force on side a at the last iterate (N): what a tool on side b receives,
+    /// reversed.
+    pub last_force: Vec3,
 }
 
 impl Active {
-    pub fn new(index: u32, a: Side, b: Option<Side>) -> Self {
+    pub fn new(index: u32, a: Side, b: Option<Side>, given: Vec3) -> Self {
         Self {
             index,
             a,
@@ -70,6 +76,8 @@ impl Active {
             slide: Vec3::ZERO,
             last_slip: Vec3::ZERO,
             reversed: false,
+            given,
+            last_force: Vec3::ZERO,
         }
     }
 
@@ -77,6 +85,13 @@ impl Active {
     /// vector `x`.
     pub fn relative(&self, x: &[Vec3], springs: &ContactSprings) -> Vec3 {
         let at = |s: &Side| springs.velocity(&s.spring, |j| x[s.offset + j]);
+        at(&self.a) - self.b.as_ref().map_or(self.given, at)
+    }
+
+    /// The change of [`Active::relative`] for a change `dx` of the island's velocities:
+    /// a side outside the island (static, a tool) does not change with them.
+    pub fn relative_change(&self, dx: &[Vec3], springs: &ContactSprings) -> Vec3 {
+        let at = |s: &Side| springs.velocity(&s.spring, |j| dx[s.offset + j]);
         at(&self.a) - self.b.as_ref().map_or(Vec3::ZERO, at)
     }
 
@@ -122,6 +137,7 @@ impl Active {
             };
             self.last_slip = slip;
         }
+        self.last_force = f;
         f
     }
 

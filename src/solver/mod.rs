@@ -106,9 +106,24 @@ impl Solver {
                 }
                 after(o);
             });
-        if !islands.any_shared() {
-            return;
+        if islands.any_shared() {
+            self.solve_shared(objects, springs, dt, gravity, time, &after);
         }
+        self.deliver_reactions(objects, springs);
+    }
+
+    /// The islands of several bodies, one after the other (each solve is parallel
+    /// inside).
+    fn solve_shared(
+        &mut self,
+        objects: &mut [Object],
+        springs: &ContactSprings,
+        dt: f32,
+        gravity: Vec3,
+        time: f32,
+        after: &(impl Fn(&Object) + Sync),
+    ) {
+        let islands = &self.islands;
         let mut members: Vec<Vec<Member<'_>>> = Vec::new();
         let mut leader: Vec<usize> = Vec::new();
         for (k, o) in objects.iter_mut().enumerate() {
@@ -148,6 +163,24 @@ impl Solver {
         for (k, o) in objects.iter().enumerate() {
             if islands.shared(k) {
                 after(o);
+            }
+        }
+    }
+
+    /// A tool (a prescribed side b) receives its springs' forces of this step's solves in
+    /// `phyxels.force`, spread as the springs read it: its next step sums them into its
+    /// reaction, as it does the forces the pipeline distributes.
+    fn deliver_reactions(&self, objects: &mut [Object], springs: &ContactSprings) {
+        for (k, scratch) in self.scratch.iter().enumerate() {
+            if self.islands.root(k) != Some(k) {
+                continue;
+            }
+            for (index, f) in scratch.given_reactions() {
+                let sp = &springs.springs[index];
+                if let (Some(b), Some(_)) = (sp.b, sp.given) {
+                    let tool = &mut objects[b.object as usize].phyxels;
+                    springs.spread(&b, f, |j, fj| tool.force.add(j, fj));
+                }
             }
         }
     }

@@ -41,8 +41,20 @@ pub struct SolveScratch {
     springs: Vec<Active>,
 }
 
+impl SolveScratch {
+    /// The springs of the last solve whose side b was given (a tool), each with its
+    /// index in the [`ContactSprings`] and its force on side b at the last iterate (N).
+    pub fn given_reactions(&self) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        self.springs
+            .iter()
+            .filter(|e| e.b.is_none())
+            .map(|e| (e.index as usize, -e.last_force))
+    }
+}
+
 /// Steps an island of implicit bodies by one backward-Euler step of `dt`, with the
-/// `springs` whose sides are all members or static (others are skipped), by Newton's
+/// `springs` of its members against members, static objects and tools (side b at its
+/// [`ContactSpring::given`](super::ContactSpring::given) velocity), by Newton's
 /// method with preconditioned CG. Each member's backend gets the [`SolveReport`].
 pub fn solve(
     members: &mut [Member<'_>],
@@ -82,24 +94,23 @@ pub fn solve(
         col.resize(total, Vec3::ZERO);
     }
     let slot = |object: u32| members.iter().position(|m| m.object == object as usize);
-    // The island's springs: side a a member, side b a member or static.
+    // The island's springs: side a a member, side b a member, static or a tool (a body
+    // outside every island: its motion is given).
     s.springs.clear();
     for (k, sp) in springs.springs.iter().enumerate() {
         let Some(ma) = slot(sp.a.object) else {
             continue;
         };
-        let mb = match sp.b {
-            Some(b) => match slot(b.object) {
-                Some(mb) => Some((mb, b)),
-                None => continue,
+        let (mb, given) = match sp.b {
+            None => (None, Vec3::ZERO),
+            Some(b) => match (slot(b.object), sp.given) {
+                (Some(mb), _) => (Some(side(&s.offset, mb, b)), Vec3::ZERO),
+                (None, Some(given)) => (None, given),
+                (None, None) => continue,
             },
-            None => None,
         };
-        s.springs.push(Active::new(
-            k as u32,
-            side(&s.offset, ma, sp.a),
-            mb.map(|(mb, b)| side(&s.offset, mb, b)),
-        ));
+        s.springs
+            .push(Active::new(k as u32, side(&s.offset, ma, sp.a), mb, given));
     }
     let mut momentum = 0.0f64;
     for (k, m) in members.iter_mut().enumerate() {
@@ -247,7 +258,7 @@ fn solve_cg(
         }
         for e in s.springs.iter().filter(|e| e.pushing) {
             let sp = &springs.springs[e.index as usize];
-            let f = e.tangent(sp, e.relative(&s.p, springs), dt);
+            let f = e.tangent(sp, e.relative_change(&s.p, springs), dt);
             spread(&mut s.ap, springs, members, &e.a, f);
             if let Some(b) = &e.b {
                 spread(&mut s.ap, springs, members, b, -f);

@@ -46,6 +46,10 @@ pub struct ContactSpring {
     pub a: SpringSide,
     /// `None` when the other side is a static object (it does not move).
     pub b: Option<SpringSide>,
+    /// Velocity of side b at the build when its motion is prescribed (a tool, m/s): the
+    /// solve takes it as given. `None` for a static side (at rest) and a side that
+    /// moves by its own dynamics.
+    pub given: Option<Vec3>,
 }
 
 /// The contact springs of the last step, over the whole world.
@@ -98,7 +102,7 @@ impl ContactSprings {
 
 /// Appends to `out` the springs of the patches whose pair joins a solve ([`Object::contact_in_solve`]) (the
 /// pipeline spreads none of their force: the solve applies it). A spring's side a is
-/// the patch's side a unless that one is static. The force `f = ½ k δ A` of a contact
+/// the patch's side a unless that one's motion is prescribed (static, a tool). The force `f = ½ k δ A` of a contact
 /// surfel ([`crate::contact::forces`]) changes by `½ k A` per metre of approach `δ` and by `c A` per
 /// m/s of approach speed (the dashpot acts on each side's half); its friction is the
 /// pair's μ. Its motion is read from, and its force spread to, the phyxels that take
@@ -121,7 +125,7 @@ pub fn build(
         }
         let p = contact_params(oa, ob, dt);
         // Side a pushes along −n (Φ's normal points from a into b).
-        let (first, second, flip) = if oa.is_static() {
+        let (first, second, flip) = if oa.is_prescribed() {
             (patch.b, patch.a, -1.0f32)
         } else {
             (patch.a, patch.b, 1.0)
@@ -165,6 +169,11 @@ pub fn build(
                 out.offsets.truncate(a.start as usize);
                 continue;
             }
+            let ob = &objects[second];
+            let given = b
+                .as_ref()
+                .filter(|_| ob.is_prescribed())
+                .map(|b| out.velocity(b, |j| ob.phyxels.vel.get(j)));
             out.springs.push(ContactSpring {
                 normal,
                 stiffness: 0.5 * p.stiffness * c.area,
@@ -174,6 +183,7 @@ pub fn build(
                 slip_speed: FRICTION_SLIP_SPEED,
                 a,
                 b,
+                given,
             });
         }
     }

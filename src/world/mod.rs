@@ -240,12 +240,13 @@ impl World {
                     )
                 })
         });
-        // Where every moving object is implicit, every contact joins an implicit solve
+        // Where every moving object is implicit or prescribed, every contact that moves
+        // something joins an implicit solve
         // as springs ([`Object::contact_in_solve`]): no contact bound.
         let all_implicit = self
             .objects
             .iter()
-            .all(|o| o.is_static() || o.is_implicit());
+            .all(|o| o.is_prescribed() || o.is_implicit());
         self.objects
             .iter()
             .map(|o| {
