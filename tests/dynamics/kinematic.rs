@@ -144,8 +144,8 @@ fn a_kinematic_tool_pushes_a_soft_ball() {
     );
 }
 
-/// A soft cube (0.1 m, E = 1e5 Pa, 10 phyxels across) on a static ground, a kinematic
-/// plate above it moving down at 1 cm/s; plate and ground at E = 1e9 Pa.
+/// A soft cube (0.1 m, E = 1e5 Pa, 10 phyxels across) 0.1 mm above a static ground, a
+/// kinematic plate 0.1 mm above it moving down at 1 cm/s; plate and ground at E = 1e9 Pa.
 fn squeezed_cube(with_plate: bool) -> String {
     let plate = r#"
 [[objects]]
@@ -153,7 +153,7 @@ name = "plate"
 backend = "kinematic"
 shape = { type = "box", size = [0.16, 0.02, 0.16] }
 spacing = 0.01
-position = [0.0, 0.061, 0.0]
+position = [0.0, 0.0601, 0.0]
 velocity = [0.0, -0.01, 0.0]
 material = { young = 1.0e9, poisson = 0.3 }
 "#;
@@ -167,7 +167,7 @@ name = "ground"
 static = true
 shape = {{ type = "box", size = [0.2, 0.02, 0.2] }}
 spacing = 0.01
-position = [0.0, -0.061, 0.0]
+position = [0.0, -0.0601, 0.0]
 material = {{ young = 1.0e9, poisson = 0.3 }}
 
 [[objects]]
@@ -210,11 +210,11 @@ fn a_tool_imposes_no_contact_bound_of_its_own() {
 /// every contact is a spring in the cube's solve, the plate's side at its given
 /// velocity). The default dt is the frame-rate step `solver::DEFAULT_DT` (no contact
 /// bound), every step converges to the solver's tolerance, and after 0.3 s (3 mm of
-/// plate travel, about 2 mm of squeeze) the plate's reaction (`Kinematic::reaction`:
-/// the solve's spring forces on it) pushes it up and agrees with the same run at
-/// dt = 1 ms within 2%: the step converges on the quasi-static force. Without the
-/// tool's motion in the springs' tangent the solve stalls (residuals of 3–20 times
-/// the tolerance's scale).
+/// plate travel into the settled cube) the plate's reaction (`Kinematic::reaction`: the
+/// solve's spring forces on it, at the end of its step) pushes it up and agrees with the
+/// same run at dt = 1 ms within 1% (the issue's target; measured 0.3%, while the force
+/// rises by 3.5% per step of 1/120 s). Without the tool's motion left out of the
+/// springs' tangent the solve stalls (residuals of 3–20 times the tolerance's scale).
 #[test]
 fn a_tool_pushes_an_implicit_body_at_a_frame_rate_step() {
     let reaction_after = |dt: Option<f32>| {
@@ -248,9 +248,9 @@ fn a_tool_pushes_an_implicit_body_at_a_frame_rate_step() {
     };
     let (frame_rate, fine) = (reaction_after(None), reaction_after(Some(1e-3)));
     println!("plate reaction: {frame_rate} at 1/120 s, {fine} at 1 ms");
-    assert!(fine.y > 0.5, "the plate is pushed up: {fine}");
+    assert!(fine.y > 5.0, "the plate is pushed up: {fine}");
     assert!(
-        (frame_rate.y - fine.y).abs() < 0.02 * fine.y,
+        (frame_rate.y - fine.y).abs() < 0.01 * fine.y,
         "{frame_rate} at 1/120 s against {fine} at 1 ms"
     );
 }
