@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # The real-time table (docs/PERFORMANCE.md, "Real time"): wall seconds per simulated
 # second of every built-in scene but `scale`, on `mls` and `mls-implicit`, on one and two
-# threads, over SIM seconds of simulated time (default 0.2) at the scene's default dt;
+# threads, over SIM seconds of simulated time (default 0.2) at the scene's default dt,
+# then the tool rows: the squeezed cube (benches/realtime/squeezed-cube.toml) on both
+# backends and the 1 kHz tool loop (benches/realtime/tool-1khz.toml, steps per second);
 # at most 1 is real time. Each cell is the median of RUNS runs (default 1), the one- and
 # two-thread runs alternated so that drift on a shared machine hits both alike. The
 # implicit set-up (the preconditioner's factor) is inside the run, as a user sees it.
@@ -42,6 +44,17 @@ for scene in $scenes; do
     done
 done
 
+# The tool rows, two threads.
+for backend in mls mls-implicit; do
+    dt=$("$bin" run benches/realtime/squeezed-cube.toml --backend "$backend" --steps 1 \
+        --json 2>/dev/null | python3 -c 'import json,sys; print(json.load(sys.stdin)["dt"])')
+    steps=$(python3 -c "import math; print(max(1, math.ceil($SIM / $dt)))")
+    "$bin" run benches/realtime/squeezed-cube.toml --backend "$backend" --steps "$steps" \
+        --json 2>/dev/null >"$out/cube.$backend.json"
+done
+"$bin" run benches/realtime/tool-1khz.toml --steps "$(python3 -c "print(max(1, round($SIM * 1000)))")" \
+    --json 2>/dev/null >"$out/tool.json"
+
 python3 - "$out" "$RUNS" $scenes <<'EOF'
 import json, os, statistics, sys
 out, runs, scenes = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
@@ -56,4 +69,14 @@ print("|---|---|---|---|---|")
 for s in scenes:
     cells = [ratio(s, b, t) for b in ("mls", "mls-implicit") for t in (1, 2)]
     print(f"| {s} | " + " | ".join(f"{c:.2f}" for c in cells) + " |")
+def cube(backend):
+    d = json.load(open(os.path.join(out, f"cube.{backend}.json")))
+    return d["wall_seconds"] / (d["steps"] * d["dt"]), d["dt"]
+print()
+print("| tool rows (2 threads) | `mls` | `mls-implicit` |")
+print("|---|---|---|")
+(m, mdt), (i, idt) = cube("mls"), cube("mls-implicit")
+print(f"| squeezed cube, s/s (dt) | {m:.2f} ({mdt:.2e} s) | {i:.2f} ({idt:.2e} s) |")
+t = json.load(open(os.path.join(out, "tool.json")))
+print(f"| tool at 1 kHz, steps/s | {t['steps_per_second']:.0f} | |")
 EOF

@@ -144,40 +144,13 @@ fn a_kinematic_tool_pushes_a_soft_ball() {
     );
 }
 
-/// A soft cube (0.1 m, E = 1e5 Pa, 10 phyxels across) 0.1 mm above a static ground, a
-/// kinematic plate 0.1 mm above it moving down at 1 cm/s; plate and ground at E = 1e9 Pa.
+/// The squeezed cube of the real-time table (`benches/realtime/squeezed-cube.toml`: a
+/// soft cube between a static ground and a kinematic plate, both at E = 1e9 Pa), with
+/// or without its plate (the last object).
 fn squeezed_cube(with_plate: bool) -> String {
-    let plate = r#"
-[[objects]]
-name = "plate"
-backend = "kinematic"
-shape = { type = "box", size = [0.16, 0.02, 0.16] }
-spacing = 0.01
-position = [0.0, 0.0601, 0.0]
-velocity = [0.0, -0.01, 0.0]
-material = { young = 1.0e9, poisson = 0.3 }
-"#;
-    format!(
-        r#"
-name = "squeezed-cube"
-gravity = [0.0, -9.81, 0.0]
-
-[[objects]]
-name = "ground"
-static = true
-shape = {{ type = "box", size = [0.2, 0.02, 0.2] }}
-spacing = 0.01
-position = [0.0, -0.0601, 0.0]
-material = {{ young = 1.0e9, poisson = 0.3 }}
-
-[[objects]]
-name = "cube"
-shape = {{ type = "box", size = [0.1, 0.1, 0.1] }}
-spacing = 0.01
-material = {{ young = 1.0e5, poisson = 0.3 }}
-{}"#,
-        if with_plate { plate } else { "" }
-    )
+    let text = include_str!("../../benches/realtime/squeezed-cube.toml");
+    let cut = text.find("# The plate").expect("the plate is marked");
+    if with_plate { text } else { &text[..cut] }.to_string()
 }
 
 /// A prescribed body imposes no stability bound through its contacts: the squeezed
