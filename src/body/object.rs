@@ -372,12 +372,18 @@ impl Object {
         self.refresh_implicit();
     }
 
+    /// True if this object's contacts may be springs in an implicit solve: it is implicit
+    /// or its motion is prescribed (static, a tool).
+    pub fn may_join_solve(&self) -> bool {
+        self.is_prescribed() || self.is_implicit()
+    }
+
     /// True if the contact between this object and `other` joins an implicit solve as
-    /// springs: each side is implicit or has its motion prescribed (static, a tool), and
-    /// one is implicit.
+    /// springs: both [`Object::may_join_solve`], and one is implicit.
     pub fn contact_in_solve(&self, other: &Object) -> bool {
-        let joins = |o: &Object| o.is_prescribed() || o.is_implicit();
-        joins(self) && joins(other) && !(self.is_prescribed() && other.is_prescribed())
+        self.may_join_solve()
+            && other.may_join_solve()
+            && !(self.is_prescribed() && other.is_prescribed())
     }
 
     /// Moves the surfels with the phyxels (uses the backend's gradient, or the core's

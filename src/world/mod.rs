@@ -243,10 +243,7 @@ impl World {
         // Where every moving object is implicit or prescribed, every contact that moves
         // something joins an implicit solve
         // as springs ([`Object::contact_in_solve`]): no contact bound.
-        let all_implicit = self
-            .objects
-            .iter()
-            .all(|o| o.is_prescribed() || o.is_implicit());
+        let all_implicit = self.objects.iter().all(Object::may_join_solve);
         self.objects
             .iter()
             .map(|o| {
