@@ -26,11 +26,15 @@ use super::*;
 use phyxel::dynamics::SolverStats;
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
 use phyxel::dynamics::implicit::{Implicit, SolveReport, SolveSettings};
+use phyxel::math::linalg::polar_rotation;
 use phyxel::solver::skyline::{Skyline, rcm_order};
 use phyxel::solver::{self, Member, SolveScratch};
 
 /// The backend's name in scenes and on the command line.
 pub const NAME: &str = "mls-implicit";
+
+/// Warm-started polar iterations (of four steps each) for the body's rotation per step.
+const ROTATION_FITS: usize = 4;
 
 /// The linearisation of the law at phyxel i: `J`, `σ` (Hooke of the elastic strain), the
 /// cofactor of `J` and the volume weight.
@@ -42,9 +46,16 @@ struct Linear {
     volume: f32,
 }
 
-/// The rest-state system `M + c K₀` (c = dt² + dt τ), factored.
+/// The rest-state system `M + c K₀` (c = dt² + dt τ), factored, and the same with a
+/// step's contact blocks added.
 struct Preconditioner {
+    /// `M + c K₀` assembled, not factored: the step's contact blocks are added to a copy.
+    system: Skyline,
     factor: Skyline,
+    /// The factor of `system` plus the step's contact blocks (rest frame), when
+    /// `with_contact`.
+    contact: Skyline,
+    with_contact: bool,
     /// Node at each position, and position of each node (RCM order).
     position: Vec<u32>,
     /// The `c` and `τ` it was built for.
@@ -55,6 +66,9 @@ struct Preconditioner {
 pub struct MlsImplicit {
     mls: MlsDynamics,
     pre: Option<Preconditioner>,
+    /// The body's rotation from rest at the step's start (the best fit of its phyxels):
+    /// the preconditioner is the rest-state system turned by it.
+    rotation: Quat,
     /// Newton tolerance on the relative residual (default [`NEWTON_TOLERANCE`]).
     pub tolerance: f32,
     /// Newton and CG iteration caps (defaults [`MAX_NEWTON`], [`MAX_CG`]).
@@ -83,6 +97,7 @@ impl MlsImplicit {
         Self {
             mls: MlsDynamics::new(phyxels, material),
             pre: None,
+            rotation: Quat::IDENTITY,
             tolerance: NEWTON_TOLERANCE,
             max_newton: MAX_NEWTON,
             max_cg: MAX_CG,
@@ -211,30 +226,66 @@ impl MlsImplicit {
                 }
             }
         }
+        let system = m.clone();
         m.factor().ok()?;
         Some(Preconditioner {
+            contact: m.clone(),
             factor: m,
+            system,
+            with_contact: false,
             position,
             built_for: (c as f32, tau),
         })
     }
 
-    /// `z = P⁻¹ r`: the rest-state factor, or the mass (Jacobi) without one.
+    /// The rotation from rest that best fits the phyxels (mass-weighted, about their
+    /// centres), warm-started from the last step's.
+    fn fit_rotation(&mut self, phyxels: &Phyxels) {
+        let (mut m, mut c, mut c0) = (0.0f32, Vec3::ZERO, Vec3::ZERO);
+        for j in 0..phyxels.len() {
+            let w = phyxels.mass[j];
+            m += w;
+            c += phyxels.pos.get(j) * w;
+            c0 += phyxels.rest.get(j) * w;
+        }
+        if m.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+            return;
+        }
+        let (c, c0) = (c / m, c0 / m);
+        let mut a = Mat3::ZERO;
+        for j in 0..phyxels.len() {
+            let (x, x0) = (phyxels.pos.get(j) - c, phyxels.rest.get(j) - c0);
+            a += Mat3::from_cols(x * x0.x, x * x0.y, x * x0.z) * phyxels.mass[j];
+        }
+        for _ in 0..ROTATION_FITS {
+            self.rotation = polar_rotation(a, self.rotation);
+        }
+    }
+
+    /// `z = R P⁻¹ Rᵀ r`: the rest-state factor (with the step's contact blocks) turned by
+    /// the body's rotation, or the mass (Jacobi) without one.
     fn precondition_into(&mut self, phyxels: &Phyxels, r: &[Vec3], z: &mut [Vec3]) {
         let free = |j: usize| phyxels.fixed[j] == 0;
+        let rot = Mat3::from_quat(self.rotation);
+        let back = rot.transpose();
         match &self.pre {
             Some(pre) => {
                 for (j, r) in r.iter().enumerate() {
                     let p = 3 * pre.position[j] as usize;
-                    let r = if free(j) { *r } else { Vec3::ZERO };
+                    let r = if free(j) { back * *r } else { Vec3::ZERO };
                     self.dofs[p..p + 3].copy_from_slice(&[r.x as f64, r.y as f64, r.z as f64]);
                 }
-                pre.factor.solve(&mut self.dofs);
+                let factor = if pre.with_contact {
+                    &pre.contact
+                } else {
+                    &pre.factor
+                };
+                factor.solve(&mut self.dofs);
                 for (j, z) in z.iter_mut().enumerate() {
                     let p = 3 * pre.position[j] as usize;
                     let d = &self.dofs[p..p + 3];
                     *z = if free(j) {
-                        Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)
+                        rot * Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)
                     } else {
                         Vec3::ZERO
                     };
@@ -323,6 +374,10 @@ impl Implicit for MlsImplicit {
         if self.pre.as_ref().is_none_or(|p| p.built_for != (c, tau)) {
             self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
         }
+        if let Some(pre) = self.pre.as_mut() {
+            pre.with_contact = false;
+        }
+        self.fit_rotation(phyxels);
         for j in 0..phyxels.len() {
             self.x0[j] = phyxels.pos.get(j);
             self.carry0[j] = phyxels.pos_carry.get(j);
@@ -384,6 +439,33 @@ impl Implicit for MlsImplicit {
 
     fn precondition(&mut self, phyxels: &Phyxels, r: &[Vec3], z: &mut [Vec3]) {
         self.precondition_into(phyxels, r, z);
+    }
+
+    /// Factors `M + c K₀ + Rᵀ B R` (the blocks turned to rest), or drops the contact
+    /// factor when there are none; a factor that fails keeps the body's own.
+    fn contact_blocks(&mut self, phyxels: &Phyxels, blocks: &[Mat3]) {
+        let rot = Mat3::from_quat(self.rotation);
+        let Some(pre) = self.pre.as_mut() else {
+            return;
+        };
+        pre.with_contact = false;
+        if blocks.iter().all(|b| *b == Mat3::ZERO) {
+            return;
+        }
+        pre.contact.copy_from(&pre.system);
+        for (j, b) in blocks.iter().enumerate() {
+            if phyxels.fixed[j] != 0 || *b == Mat3::ZERO {
+                continue;
+            }
+            let b = rot.transpose() * *b * rot;
+            let p = 3 * pre.position[j] as usize;
+            for a in 0..3 {
+                for e in 0..=a {
+                    pre.contact.add(p + a, p + e, b.col(e)[a] as f64);
+                }
+            }
+        }
+        pre.with_contact = pre.contact.factor().is_ok();
     }
 
     /// Positions by the compensated sum (as the explicit step's).

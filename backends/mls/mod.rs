@@ -13,7 +13,7 @@
 #[cfg(test)]
 mod tests;
 
-use glam::{Mat3, Vec3};
+use glam::{Mat3, Quat, Vec3};
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::gradient::MlsStencil;
 use phyxel::dynamics::{

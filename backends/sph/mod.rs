@@ -38,6 +38,7 @@ use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
 use phyxel::material::Material;
+pub use phyxel::math::linalg::polar_rotation;
 use phyxel::points::phyxels::Phyxels;
 use phyxel::spatial::grid::Grid;
 use rayon::prelude::*;
@@ -51,15 +52,6 @@ pub const TAIT_GAMMA: f32 = 7.0;
 
 /// CFL number: `dt ≤ CFL · h / c` (Monaghan 1992 uses 0.3–0.4).
 pub const CFL: f32 = 0.3;
-
-/// Largest quaternion iterations per step for the rotation of a phyxel (warm-started,
-/// usually one suffices).
-const POLAR_ITERATIONS: usize = 4;
-
-/// Rotation update (rad) below which the polar iteration stops. A rotation error δ
-/// changes the strain `sym(Rᵀ F) − I` only at second order (δ²), so 1e-4 is ample and
-/// f32 round-off (≈ 1e-7) never keeps the loop spinning.
-const POLAR_TOLERANCE: f32 = 1e-4;
 
 /// Current neighbours stored per phyxel between the density and the force pass (a
 /// cubic lattice has 26 within the support); a phyxel with more is searched again.
@@ -508,30 +500,6 @@ fn dev(m: Mat3) -> Mat3 {
 #[inline]
 fn frob2(m: Mat3) -> f32 {
     m.x_axis.length_squared() + m.y_axis.length_squared() + m.z_axis.length_squared()
-}
-
-/// Rotation of `a` (Müller, Bender, Chentanez, Macklin 2016, "A robust method to
-/// extract the rotational part of deformations"), warm-started from `q`.
-#[inline]
-pub fn polar_rotation(a: Mat3, mut q: Quat) -> Quat {
-    if !frob2(a).is_finite() {
-        return q;
-    }
-    for _ in 0..POLAR_ITERATIONS {
-        let r = Mat3::from_quat(q);
-        let num = r.x_axis.cross(a.x_axis) + r.y_axis.cross(a.y_axis) + r.z_axis.cross(a.z_axis);
-        let den =
-            (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis)).abs() + 1e-9;
-        let omega = num / den;
-        if omega.length_squared() < POLAR_TOLERANCE * POLAR_TOLERANCE {
-            break;
-        }
-        // Rotation by ≈ |ω| about ω (exact direction, angle 2 atan(|ω|/2)): no sin/cos,
-        // and the fixed point ω = 0 is the same.
-        let half = omega * 0.5;
-        q = (Quat::from_xyzw(half.x, half.y, half.z, 1.0) * q).normalize();
-    }
-    q
 }
 
 impl Dynamics for SphDynamics {

@@ -6,7 +6,7 @@
 
 use super::{SolverStats, StepContext};
 use crate::points::phyxels::Phyxels;
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 
 /// The operators of a backward-Euler step that [`crate::solver::solve`] drives. Each works on the
 /// body's own phyxels, with vectors of one entry per phyxel (no padding).
@@ -37,6 +37,13 @@ pub trait Implicit: Send {
 
     /// `z ≈ (M + c K)⁻¹ r`, symmetric positive definite; zero at fixed phyxels.
     fn precondition(&mut self, phyxels: &Phyxels, r: &[Vec3], z: &mut [Vec3]);
+
+    /// The contact springs' share of this step's system, lumped to one symmetric
+    /// positive semi-definite 3×3 block per phyxel (world frame; see
+    /// [`crate::solver::active`]), for [`Implicit::precondition`] to add: a stiff or
+    /// sticking contact is then no harder for CG than the body alone. Empty: no
+    /// contact. The default ignores it.
+    fn contact_blocks(&mut self, _phyxels: &Phyxels, _blocks: &[Mat3]) {}
 
     /// Ends the step at velocities `v` (those of the last residual): positions
     /// `xₙ + dt v`, velocities `v`, `phyxels.force` cleared, fixed phyxels held.

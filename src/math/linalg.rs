@@ -1,9 +1,10 @@
-//! Small dense linear algebra in f64: symmetric eigen-decompositions by cyclic Jacobi,
-//! the pseudo-inverse of a moment matrix, and the cofactor matrix of a deformation
-//! gradient. Used by the MLS fit, the contact surface's principal directions and the
-//! volume term.
+//! Small dense linear algebra: symmetric eigen-decompositions by cyclic Jacobi, the
+//! pseudo-inverse of a moment matrix, the cofactor matrix of a deformation gradient and
+//! the rotational part of a deformation. Used by the MLS fit, the contact surface's
+//! principal directions, the volume term, SPH's corotation and the implicit solve's
+//! preconditioner.
 
-use glam::{DMat3, DVec3, Mat3};
+use glam::{DMat3, DVec3, Mat3, Quat};
 
 /// Condition number above which a moment matrix counts as ill-conditioned; its smallest
 /// eigen-directions are then left out of the inverse (pseudo-inverse) instead of
@@ -148,6 +149,41 @@ pub fn sym_eigen(a: DMat3) -> ([f64; 3], DMat3) {
         DVec3::new(v[0][2], v[1][2], v[2][2]),
     );
     ([m[0][0], m[1][1], m[2][2]], vecs)
+}
+
+/// Largest quaternion iterations per call of [`polar_rotation`] (warm-started,
+/// usually one suffices).
+const POLAR_ITERATIONS: usize = 4;
+
+/// Rotation update (rad) below which the polar iteration stops. A rotation error δ
+/// changes the strain `sym(Rᵀ F) − I` only at second order (δ²), so 1e-4 is ample and
+/// f32 round-off (≈ 1e-7) never keeps the loop spinning.
+const POLAR_TOLERANCE: f32 = 1e-4;
+
+/// Rotation of `a` (Müller, Bender, Chentanez, Macklin 2016, "A robust method to
+/// extract the rotational part of deformations"), warm-started from `q`.
+#[inline]
+pub fn polar_rotation(a: Mat3, mut q: Quat) -> Quat {
+    if !(a.x_axis.length_squared() + a.y_axis.length_squared() + a.z_axis.length_squared())
+        .is_finite()
+    {
+        return q;
+    }
+    for _ in 0..POLAR_ITERATIONS {
+        let r = Mat3::from_quat(q);
+        let num = r.x_axis.cross(a.x_axis) + r.y_axis.cross(a.y_axis) + r.z_axis.cross(a.z_axis);
+        let den =
+            (r.x_axis.dot(a.x_axis) + r.y_axis.dot(a.y_axis) + r.z_axis.dot(a.z_axis)).abs() + 1e-9;
+        let omega = num / den;
+        if omega.length_squared() < POLAR_TOLERANCE * POLAR_TOLERANCE {
+            break;
+        }
+        // Rotation by ≈ |ω| about ω (exact direction, angle 2 atan(|ω|/2)): no sin/cos,
+        // and the fixed point ω = 0 is the same.
+        let half = omega * 0.5;
+        q = (Quat::from_xyzw(half.x, half.y, half.z, 1.0) * q).normalize();
+    }
+    q
 }
 
 #[cfg(test)]

@@ -19,7 +19,7 @@
 
 use super::newton::Member;
 use super::springs::{ContactSpring, ContactSprings, SpringSide};
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 
 /// Newton iterations over which friction follows the iterates' normal force.
 pub const FRICTION_UPDATES: u32 = 3;
@@ -153,6 +153,49 @@ impl Active {
         let plane = p - along * n;
         n * ((sp.stiffness * dt * dt + sp.damping * dt) * along)
             + (plane - self.slide * self.slide.dot(plane)) * (dt * self.drag)
+    }
+}
+
+impl Active {
+    /// The matrix [`Active::tangent`] applies, or `None` while the spring does not push.
+    pub fn tangent_matrix(&self, sp: &ContactSpring, dt: f32) -> Option<Mat3> {
+        if !self.pushing {
+            return None;
+        }
+        let outer = |a: Vec3| Mat3::from_cols(a * a.x, a * a.y, a * a.z);
+        let normal = outer(sp.normal);
+        let plane = Mat3::IDENTITY - normal - outer(self.slide);
+        Some(normal * (sp.stiffness * dt * dt + sp.damping * dt) + plane * (dt * self.drag))
+    }
+}
+
+/// Adds a side's share of a spring's tangent `t` to the per-phyxel `blocks`, lumped:
+/// phyxel j takes `wⱼ Gⱼᵀ t Gⱼ`, with `wⱼ Gⱼ = wⱼ (I + Cᵀ [rⱼ]ₓ)` its column of the
+/// side's reading ([`ContactSprings::velocity`]). The weights sum to one, so by Jensen's
+/// inequality the lumped blocks bound the side's rows `Σⱼₖ wⱼ wₖ Gⱼᵀ t Gₖ` from above,
+/// and stay in the 3×3 diagonal blocks a body's factor already holds. Fixed phyxels
+/// take nothing.
+pub(super) fn lump(
+    blocks: &mut [Mat3],
+    springs: &ContactSprings,
+    members: &[Member<'_>],
+    s: &Side,
+    t: Mat3,
+) {
+    let fixed = &members[s.member].phyxels.fixed;
+    let (weights, offsets) = springs.weights_of(&s.spring);
+    let ct = s.spring.couple.transpose();
+    for (&(j, w), &r) in weights.iter().zip(offsets) {
+        if fixed[j as usize] != 0 {
+            continue;
+        }
+        let cross = Mat3::from_cols(
+            Vec3::new(0.0, r.z, -r.y),
+            Vec3::new(-r.z, 0.0, r.x),
+            Vec3::new(r.y, -r.x, 0.0),
+        );
+        let g = Mat3::IDENTITY + ct * cross;
+        blocks[s.offset + j as usize] += g.transpose() * t * g * w;
     }
 }
 

@@ -2,7 +2,7 @@
 //! members' backward-Euler residuals and tangents ([`Implicit`]) plus the rows of the
 //! contact springs between them ([`super::active`]).
 
-use super::active::{Active, Side, spread};
+use super::active::{Active, Side, lump, spread};
 use super::springs::{ContactSprings, SpringSide};
 use crate::dynamics::StepContext;
 use crate::dynamics::implicit::{
@@ -10,11 +10,14 @@ use crate::dynamics::implicit::{
 };
 use crate::material::Material;
 use crate::points::phyxels::Phyxels;
-use glam::Vec3;
+use glam::{DVec3, Mat3, Vec3};
 
 /// CG stops at this fraction of the Newton residual (inexact Newton: the outer loop
 /// corrects the rest).
 const CG_FORCING: f64 = 0.05;
+
+/// Halvings of a Newton step that raised the residual, at most.
+const MAX_HALVINGS: u32 = 4;
 
 /// One body of an island.
 pub struct Member<'a> {
@@ -37,6 +40,8 @@ pub struct SolveScratch {
     p: Vec<Vec3>,
     ap: Vec<Vec3>,
     delta: Vec<Vec3>,
+    /// The springs' rows lumped per phyxel ([`Implicit::contact_blocks`]).
+    blocks: Vec<Mat3>,
     /// The island's springs and their state.
     springs: Vec<Active>,
 }
@@ -132,7 +137,7 @@ pub fn solve(
         e.approach0 = sp.normal.dot(e.relative(&s.v0, springs));
     }
     let (mut newton, mut cg, mut scale, mut floor) = (0u32, 0u32, 0.0f64, 0.0f64);
-    let (mut previous, mut stagnated) = (f64::INFINITY, false);
+    let (mut previous, mut stagnated, mut halvings) = (f64::INFINITY, false, 0);
     let mut rel;
     loop {
         // The residual: each member's, then the springs'.
@@ -171,7 +176,26 @@ pub fn solve(
             floor = (FLOOR_TOLERANCE * scale).max(MOMENTUM_FLOOR * momentum);
         }
         rel = norm / scale;
-        if rel <= settings.tolerance as f64 || newton >= settings.max_newton || !rel.is_finite() {
+        if rel <= settings.tolerance as f64 {
+            break;
+        }
+        // A Newton step that raised the residual of an island in contact (a spring that
+        // stopped or started pushing, a slip that turned across it) is halved, back
+        // towards the last iterate.
+        if newton > 0
+            && !s.springs.is_empty()
+            && (rel > previous || rel.is_nan())
+            && halvings < MAX_HALVINGS
+        {
+            halvings += 1;
+            for (v, d) in s.v.iter_mut().zip(s.delta.iter_mut()) {
+                *d *= 0.5;
+                *v -= *d;
+            }
+            continue;
+        }
+        halvings = 0;
+        if newton >= settings.max_newton || !rel.is_finite() {
             break;
         }
         // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE).
@@ -180,6 +204,9 @@ pub fn solve(
             break;
         }
         previous = rel;
+        if newton == 0 {
+            contact_blocks(members, springs, s, dt);
+        }
         for m in members.iter_mut() {
             m.dynamics
                 .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
@@ -190,6 +217,7 @@ pub fn solve(
         }
         newton += 1;
     }
+    remove_translation(members, s);
     for (k, m) in members.iter_mut().enumerate() {
         let r = s.offset[k]..s.offset[k + 1];
         let ctx = StepContext::new(dt, gravity, m.material);
@@ -210,6 +238,67 @@ pub fn solve(
         m.dynamics.record(&report);
     }
     report
+}
+
+/// Removes the last residual's share along the island's uniform translation: the
+/// internal forces and the springs between members do not change under it, so the
+/// correction `−Σ g / Σ m` is exact, and the island's momentum changes by its external
+/// impulse alone, whatever residual Newton stopped at. Not for an island held by
+/// anything outside it (a fixed phyxel, a spring to a static object or a tool).
+fn remove_translation(members: &[Member<'_>], s: &mut SolveScratch) {
+    let held = s.springs.iter().any(|e| e.b.is_none())
+        || members
+            .iter()
+            .any(|m| m.phyxels.fixed.iter().any(|&f| f != 0));
+    if held {
+        return;
+    }
+    let (mut sum, mut mass) = (DVec3::ZERO, 0.0f64);
+    for (k, m) in members.iter().enumerate() {
+        let at = s.offset[k];
+        for j in 0..m.phyxels.len() {
+            sum += s.g[at + j].as_dvec3();
+            mass += m.phyxels.mass[j] as f64;
+        }
+    }
+    if mass > 0.0 {
+        let dv = (-sum / mass).as_vec3();
+        for v in &mut s.v {
+            *v += dv;
+        }
+    }
+}
+
+/// Gives each member the springs' rows at the step's start, lumped per phyxel, for its
+/// preconditioner ([`Implicit::contact_blocks`]).
+fn contact_blocks(
+    members: &mut [Member<'_>],
+    springs: &ContactSprings,
+    s: &mut SolveScratch,
+    dt: f32,
+) {
+    let any = s.springs.iter().any(|e| e.pushing);
+    s.blocks.clear();
+    if any {
+        s.blocks.resize(s.v.len(), Mat3::ZERO);
+        for e in &s.springs {
+            let sp = &springs.springs[e.index as usize];
+            if let Some(t) = e.tangent_matrix(sp, dt) {
+                lump(&mut s.blocks, springs, members, &e.a, t);
+                if let Some(b) = &e.b {
+                    lump(&mut s.blocks, springs, members, b, t);
+                }
+            }
+        }
+    }
+    for (k, m) in members.iter_mut().enumerate() {
+        let blocks = if any {
+            &s.blocks[s.offset[k]..s.offset[k + 1]]
+        } else {
+            &[]
+        };
+        m.dynamics.contact_blocks(m.phyxels, blocks);
+    }
 }
 
 fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
