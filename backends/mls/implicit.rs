@@ -7,8 +7,11 @@
 //! `K = −∂f/∂x` the tangent stiffness of the MLS law at the current iterate. `K` is
 //! applied matrix-free through the stencil (`MlsImplicit::tangent`). The
 //! preconditioner is the same system at rest, `M + (dt² + dt τ) K₀`, assembled once per
-//! dt and factored by a skyline Cholesky in reverse Cuthill–McKee order. Near rest (and
-//! under small rotations) it is close to the true system, and CG needs a few iterations.
+//! dt and factored by a skyline Cholesky in reverse Cuthill–McKee order, turned by the
+//! body's best-fit rotation; when the contact springs' rows are a sizeable share of it
+//! ([`CONTACT_SHARE`]: a sticking contact's friction) they are added, lumped per phyxel,
+//! and the sum factored again (only when they have changed by [`REFACTOR_CHANGE`]).
+//! Near rest it is close to the true system, and CG needs a few iterations.
 //!
 //! The residual uses the exact forces of `MlsDynamics` (the SIMD lane kernel, plastic
 //! flow and Kelvin–Voigt viscosity included), so a converged step is the backward-Euler
@@ -33,6 +36,21 @@ use phyxel::solver::{self, Member, SolveScratch};
 /// The backend's name in scenes and on the command line.
 pub const NAME: &str = "mls-implicit";
 
+/// Relative change of the contact blocks (summed Frobenius norms) above which the
+/// contact factor is made again: a factor costs as much as hundreds of CG iterations
+/// on a large body, and one made for blocks within this change still preconditions
+/// well.
+const REFACTOR_CHANGE: f32 = 0.25;
+
+/// The contact blocks enter the factor only when their trace is at least this share of
+/// the body's own diagonal at the phyxels they touch. The lumped blocks overestimate the
+/// springs' coupling: a soft frictionless contact (`hertz`: 3%) converges faster
+/// without them, while a sticking contact's friction at a frame-rate step (`pile`: up
+/// to 80 times the body's own) is what CG otherwise spends hundreds of iterations on.
+/// (At dt = 1e-4 s, `incline`'s sticking block takes 4.9 CG iterations per Newton step
+/// with them against 4.2 without: docs/BACKENDS.md.)
+const CONTACT_SHARE: f64 = 0.25;
+
 /// Warm-started polar iterations (of four steps each) for the body's rotation per step.
 const ROTATION_FITS: usize = 4;
 
@@ -52,9 +70,10 @@ struct Preconditioner {
     /// `M + c K₀` assembled, not factored: the step's contact blocks are added to a copy.
     system: Skyline,
     factor: Skyline,
-    /// The factor of `system` plus the step's contact blocks (rest frame), when
-    /// `with_contact`.
+    /// The factor of `system` plus `blocks`, the contact blocks it was made with (rest
+    /// frame; empty: none made yet). The step uses it when `with_contact`.
     contact: Skyline,
+    blocks: Vec<Mat3>,
     with_contact: bool,
     /// Node at each position, and position of each node (RCM order).
     position: Vec<u32>,
@@ -86,6 +105,8 @@ pub struct MlsImplicit {
     linear: Vec<Linear>,
     plastic0: Vec<Mat3>,
     dofs: Vec<f64>,
+    /// The step's contact blocks turned to rest.
+    rest_blocks: Vec<Mat3>,
 }
 
 impl MlsImplicit {
@@ -114,6 +135,7 @@ impl MlsImplicit {
             linear: vec![Linear::default(); n],
             plastic0: Vec::new(),
             dofs: vec![0.0; 3 * n],
+            rest_blocks: Vec::with_capacity(n),
         }
     }
 
@@ -230,6 +252,7 @@ impl MlsImplicit {
         m.factor().ok()?;
         Some(Preconditioner {
             contact: m.clone(),
+            blocks: Vec::new(),
             factor: m,
             system,
             with_contact: false,
@@ -441,8 +464,9 @@ impl Implicit for MlsImplicit {
         self.precondition_into(phyxels, r, z);
     }
 
-    /// Factors `M + c K₀ + Rᵀ B R` (the blocks turned to rest), or drops the contact
-    /// factor when there are none; a factor that fails keeps the body's own.
+    /// Uses the factor of `M + c K₀ + Rᵀ B R` (the blocks turned to rest), refactored
+    /// only when the blocks have changed by more than [`REFACTOR_CHANGE`] since it was
+    /// made; no blocks: the body's own factor. A factor that fails keeps the body's own.
     fn contact_blocks(&mut self, phyxels: &Phyxels, blocks: &[Mat3]) {
         let rot = Mat3::from_quat(self.rotation);
         let Some(pre) = self.pre.as_mut() else {
@@ -452,12 +476,45 @@ impl Implicit for MlsImplicit {
         if blocks.iter().all(|b| *b == Mat3::ZERO) {
             return;
         }
+        let rest = &mut self.rest_blocks;
+        rest.clear();
+        rest.extend(blocks.iter().enumerate().map(|(j, b)| {
+            if phyxels.fixed[j] != 0 {
+                Mat3::ZERO
+            } else {
+                rot.transpose() * *b * rot
+            }
+        }));
+        {
+            let (mut contact, mut own) = (0.0f64, 0.0f64);
+            for (j, b) in rest.iter().enumerate() {
+                if *b != Mat3::ZERO {
+                    let p = 3 * pre.position[j] as usize;
+                    contact += (b.x_axis.x + b.y_axis.y + b.z_axis.z) as f64;
+                    own += (0..3).map(|a| pre.system.diagonal(p + a)).sum::<f64>();
+                }
+            }
+            if contact < CONTACT_SHARE * own {
+                return;
+            }
+        }
+        if pre.blocks.len() == rest.len() {
+            let norm = |m: Mat3| m.to_cols_array().iter().map(|x| x * x).sum::<f32>().sqrt();
+            let (mut change, mut size) = (0.0f32, 0.0f32);
+            for (new, old) in rest.iter().zip(&pre.blocks) {
+                change += norm(*new - *old);
+                size += norm(*new).max(norm(*old));
+            }
+            if change <= REFACTOR_CHANGE * size {
+                pre.with_contact = true;
+                return;
+            }
+        }
         pre.contact.copy_from(&pre.system);
-        for (j, b) in blocks.iter().enumerate() {
-            if phyxels.fixed[j] != 0 || *b == Mat3::ZERO {
+        for (j, b) in rest.iter().enumerate() {
+            if *b == Mat3::ZERO {
                 continue;
             }
-            let b = rot.transpose() * *b * rot;
             let p = 3 * pre.position[j] as usize;
             for a in 0..3 {
                 for e in 0..=a {
@@ -466,6 +523,10 @@ impl Implicit for MlsImplicit {
             }
         }
         pre.with_contact = pre.contact.factor().is_ok();
+        pre.blocks.clear();
+        if pre.with_contact {
+            pre.blocks.extend_from_slice(rest);
+        }
     }
 
     /// Positions by the compensated sum (as the explicit step's).

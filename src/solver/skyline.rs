@@ -140,6 +140,11 @@ impl Skyline {
         self.values.len()
     }
 
+    /// The entry (r, r).
+    pub fn diagonal(&self, r: usize) -> f64 {
+        self.values[self.start[r] + r - self.first[r]]
+    }
+
     /// Adds `v` at (r, c) of the lower triangle (`c ≤ r`, inside the envelope).
     #[inline]
     pub fn add(&mut self, r: usize, c: usize, v: f64) {
