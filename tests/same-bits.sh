@@ -18,7 +18,7 @@ strip() {
     python3 -c '
 import json, sys
 s = json.load(sys.stdin)
-for k in ("wall_seconds", "steps_per_second", "phase_seconds"):
+for k in ("wall_seconds", "steps_per_second", "phase_seconds", "backend_hint"):
     s.pop(k, None)
 print(json.dumps(s, sort_keys=True, indent=1))
 '

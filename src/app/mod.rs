@@ -2,6 +2,7 @@
 //! (`phyxel run --json`), the run's output folder, the validation suite (`phyxel validate`) and the software
 //! splat renderer. The engine does not depend on it.
 
+pub mod hint;
 pub mod out_dir;
 pub mod render;
 pub mod summary;

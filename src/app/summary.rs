@@ -123,6 +123,9 @@ pub struct BodySummary {
     /// Iterations and residuals of an implicit backend's solves (absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub solver: Option<crate::dynamics::SolverStats>,
+    /// The body sleeps at the end of the run (`World::sleep`; absent when awake).
+    #[serde(skip_serializing_if = "std::ops::Not::not")]
+    pub asleep: bool,
 }
 
 /// A body whose implicit solves stopped above their tolerance: a result that is not the
@@ -155,6 +158,10 @@ pub struct RunSummary {
     pub interrupted: bool,
     /// The last step's dt (s): the scene's, unless `dt_changes` lowered it.
     pub dt: f32,
+    /// Another built-in backend that would run the scene faster at the same accuracy
+    /// ([`super::hint`]; absent when none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backend_hint: Option<String>,
     /// Simulated time (s): the sum of the steps' dt.
     pub time: f64,
     /// Each lowering of dt after a rest renewal or a fracture made an object stiffer
@@ -221,6 +228,7 @@ pub fn run(
     mut progress: impl FnMut(u64) + Send,
 ) -> Result<(World, RunSummary), SceneError> {
     let mut world = scene.build(&opts.build)?;
+    let backend_hint = super::hint::backend_hint(&world);
     // After the build: a scene that fails to build clears nothing.
     if let Some(dir) = &opts.out {
         out_dir::prepare(dir, opts.overwrite)
@@ -324,6 +332,7 @@ pub fn run(
     let wall = t0.elapsed().as_secs_f64();
     let start = (momentum_initial, energy_initial);
     let mut summary = summarize(&world, scene, ran, wall, start, frames);
+    summary.backend_hint = backend_hint;
     summary.interrupted = interrupted;
     if let Some(dir) = &opts.out {
         let manifest = out_dir::Manifest {
@@ -425,6 +434,7 @@ pub fn summarize(
                 max_plastic_strain: d.max_plastic_strain,
                 elastic_energy: d.elastic_energy,
                 solver: d.solver,
+                asleep: o.is_asleep(),
             }
         })
         .collect();
@@ -447,6 +457,7 @@ pub fn summarize(
         steps,
         interrupted: false,
         dt: world.dt,
+        backend_hint: None,
         time: world.time,
         dt_changes: world.record.dt_changes.clone(),
         stable_dt: world.stable_dt().0,

@@ -65,6 +65,13 @@ pub struct Object {
     /// and grids for the object it computed them for, and an object replaced by another
     /// of the same id must not inherit them.
     serial: u64,
+    /// Asleep (`world::sleep`): not stepped or advected, and not tested for contact
+    /// with static objects or other sleeping bodies, until something moving touches it.
+    asleep: bool,
+    /// Seconds the body has been still (the sleep test's clock), and the phyxel
+    /// positions (with their compensation carry) it is measured from.
+    pub(crate) still_for: f32,
+    pub(crate) still_from: Vec<(glam::Vec3, glam::Vec3)>,
 }
 
 /// The next [`Object::serial`].
@@ -233,6 +240,9 @@ impl Object {
             parent: None,
             self_collision: None,
             connectivity: Connectivity::default(),
+            asleep: false,
+            still_for: 0.0,
+            still_from: Vec::new(),
             serial: NEXT_SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
         object.refresh_implicit();
@@ -346,6 +356,27 @@ impl Object {
     /// True for objects whose backend never moves them.
     pub fn is_static(&self) -> bool {
         self.dynamics.is_static()
+    }
+
+    /// True while the body sleeps (`World::sleep`): its state is kept, nothing steps it.
+    pub fn is_asleep(&self) -> bool {
+        self.asleep
+    }
+
+    /// Wakes the body: the next step moves it again (and restarts its still time). Call
+    /// it after writing a sleeping body's velocities or positions.
+    pub fn wake(&mut self) {
+        self.asleep = false;
+        self.still_for = 0.0;
+        self.still_from.clear();
+    }
+
+    /// Puts the body to sleep at rest: velocities and pending forces zero.
+    pub(crate) fn fall_asleep(&mut self) {
+        self.asleep = true;
+        self.still_for = 0.0;
+        self.phyxels.vel.fill_zero();
+        self.phyxels.force.fill_zero();
     }
 
     /// True for objects whose motion is prescribed ([`Dynamics::is_prescribed`]: static

@@ -179,6 +179,9 @@ pub(crate) fn run_scene(
 /// and tells that the run lowered its dt (`dt_changes`): the first change, and how many
 /// there were in all.
 pub(crate) fn note_run(prefix: &str, s: &RunSummary) {
+    if let Some(hint) = &s.backend_hint {
+        eprintln!("note: {prefix}{hint}");
+    }
     for w in &s.warnings {
         eprintln!("warning: {prefix}{w}");
     }

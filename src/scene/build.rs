@@ -29,6 +29,7 @@ impl Scene {
             .resampled_forces
             .unwrap_or(world.preset == Preset::Paper);
         world.pairs_in_order = self.pairs_in_order.unwrap_or(world.preset == Preset::Paper);
+        world.sleep = self.sleep.unwrap_or(true);
         world.record.warnings = warnings;
         if opts.dt.or(self.dt).is_none()
             && let Some(w) = contact_bound_warning(&world)

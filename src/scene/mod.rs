@@ -101,6 +101,10 @@ pub struct Scene {
     /// left (`World::pairs_in_order`); omitted: the preset's choice (`paper`: yes).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub pairs_in_order: Option<bool>,
+    /// Groups of bodies that have stayed still sleep until something moving touches
+    /// them (`World::sleep`); omitted: yes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sleep: Option<bool>,
     pub objects: Vec<ObjectSpec>,
 }
 

@@ -75,12 +75,15 @@ impl Solver {
         let n = objects.len();
         self.islands.find(objects, springs);
         self.scratch.resize_with(n, Default::default);
+        for scratch in &mut self.scratch {
+            scratch.forget_springs();
+        }
         let islands = &self.islands;
         objects
             .par_iter_mut()
             .zip(self.scratch.par_iter_mut())
             .enumerate()
-            .filter(|(k, (o, _))| !o.is_static() && !islands.shared(*k))
+            .filter(|(k, (o, _))| !o.is_static() && !o.is_asleep() && !islands.shared(*k))
             .for_each(|(k, (o, scratch))| {
                 o.apply_load(time);
                 let Object {
@@ -127,7 +130,7 @@ impl Solver {
         let mut members: Vec<Vec<Member<'_>>> = Vec::new();
         let mut leader: Vec<usize> = Vec::new();
         for (k, o) in objects.iter_mut().enumerate() {
-            if !islands.shared(k) {
+            if !islands.shared(k) || o.is_asleep() {
                 continue;
             }
             let r = islands.root(k).expect("a shared body is in an island");
@@ -161,7 +164,7 @@ impl Solver {
         }
         drop(members);
         for (k, o) in objects.iter().enumerate() {
-            if islands.shared(k) {
+            if islands.shared(k) && !o.is_asleep() {
                 after(o);
             }
         }

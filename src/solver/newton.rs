@@ -47,6 +47,12 @@ pub struct SolveScratch {
 }
 
 impl SolveScratch {
+    /// Forgets the last solve's springs: a body that does not solve this step (asleep,
+    /// or now in another body's island) must not hand their reactions on again.
+    pub fn forget_springs(&mut self) {
+        self.springs.clear();
+    }
+
     /// The springs of the last solve whose side b was given (a tool), each with its
     /// index in the [`ContactSprings`] and its force on side b at the last iterate (N).
     pub fn given_reactions(&self) -> impl Iterator<Item = (usize, Vec3)> + '_ {

@@ -43,6 +43,8 @@ pub(super) struct StepCache {
     pub solver: crate::solver::Solver,
     /// The surfaces and scratch of pairs handled in order (`World::pairs_in_order`).
     pub in_order: super::in_order::InOrderScratch,
+    /// The sleep test's groups.
+    pub sleep: super::sleep::SleepScratch,
 }
 
 /// Per object, the grids of the objects in a pair (rebuilt each step for moving objects,

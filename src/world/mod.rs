@@ -13,6 +13,7 @@ pub mod output;
 pub mod phase;
 mod preset;
 mod record;
+pub mod sleep;
 mod step;
 
 pub use guard::{NonFinite, RANGE_RESOLUTION};
@@ -80,6 +81,9 @@ pub struct World {
     /// false: independently and in parallel. Scene key `pairs_in_order`; `preset =
     /// "paper"` sets it.
     pub pairs_in_order: bool,
+    /// Let groups of bodies that have stayed still sleep until something moving touches
+    /// them ([`sleep`]). Default `true`; scene key `sleep`.
+    pub sleep: bool,
     /// The configuration the scene was built in (`Scene::build`; reported by
     /// `run --json`, it changes nothing in the step).
     pub preset: Preset,
@@ -201,6 +205,7 @@ impl World {
             render_contacts: false,
             resampled_forces: false,
             pairs_in_order: false,
+            sleep: true,
             preset: Preset::Default,
             steps: 0,
             time: 0.0,
@@ -314,6 +319,11 @@ impl World {
     /// just before a split can be inspected).
     pub fn step_until_topology(&mut self) {
         self.check_inputs();
+        if !self.sleep {
+            for o in self.objects.iter_mut().filter(|o| o.is_asleep()) {
+                o.wake();
+            }
+        }
         let mut t = std::mem::take(&mut self.record.times);
         self.cache.arena.reset();
         let mut blocks_current = false;
@@ -344,6 +354,16 @@ impl World {
         }
         self.record.times = t;
         let splits = self.record.splits.len() - before;
+        // (The pairs index the object list of this step's broad phase.)
+        if self.sleep && self.objects_unchanged() {
+            sleep::settle(
+                &mut self.objects,
+                &self.contact.pairs,
+                self.dt,
+                self.time,
+                &mut self.cache.sleep,
+            );
+        }
         if self.non_finite.is_none() {
             self.non_finite = self.find_non_finite();
         }

@@ -13,7 +13,7 @@ use super::cache::{
 };
 use super::guard::NonFinite;
 use super::phase::Phase;
-use super::{ContactState, RunRecord, World};
+use super::{ContactState, RunRecord, World, sleep};
 use crate::body::fracture::{self, Components};
 use crate::body::object::Object;
 use crate::contact;
@@ -77,6 +77,12 @@ pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
                 &mut w.non_finite,
                 &mut w.contact.pairs,
             );
+            // A woken body's pairs with other sleeping bodies were skipped: find the
+            // pairs again until nothing more wakes.
+            while sleep::wake_touched(&mut w.objects, &w.contact.pairs) {
+                let frozen = frozen(&w.objects, &w.cache.arena);
+                overlapping_pairs(&w.cache.boxes, &frozen, &mut w.contact.pairs);
+            }
             w.contact_owner.clear();
             w.contact_owner.extend(w.objects.iter().map(|o| o.serial()));
             work
@@ -176,7 +182,7 @@ fn check_counts(o: &Object) {
 fn advect(objects: &mut [Object], record: &mut RunRecord) -> u64 {
     objects
         .par_iter_mut()
-        .filter(|o| !o.is_static())
+        .filter(|o| !o.is_static() && !o.is_asleep())
         .for_each(|o| o.advect_surfels());
     // Now that the surfels have followed this step's motion.
     record.rest_renewals += objects
@@ -252,9 +258,18 @@ fn broad_phase(
         cache.crossing_warned = true;
         record.warnings.push(warning);
     }
-    let is_static = BumpVec::from_iter_in(objects.iter().map(|o| o.is_static()), &cache.arena);
-    overlapping_pairs(&cache.boxes, &is_static, pairs);
+    let frozen = frozen(objects, &cache.arena);
+    overlapping_pairs(&cache.boxes, &frozen, pairs);
     pairs.len() as u64
+}
+
+/// Per object, whether it does not move this step (static or asleep): pairs of two such
+/// objects are skipped.
+fn frozen<'a>(objects: &[Object], arena: &'a Bump) -> BumpVec<'a, bool> {
+    BumpVec::from_iter_in(
+        objects.iter().map(|o| o.is_static() || o.is_asleep()),
+        arena,
+    )
 }
 
 /// Surfel and phyxel grids of the objects in an overlapping pair (Teschner et al.
@@ -585,7 +600,10 @@ fn springs(
 #[inline(never)] // a named frame in flamegraphs
 fn self_collision(objects: &mut [Object], s: &Settings) -> u64 {
     let mut work = 0;
-    for o in objects.iter_mut().filter(|o| !o.is_static()) {
+    for o in objects
+        .iter_mut()
+        .filter(|o| !o.is_static() && !o.is_asleep())
+    {
         if let Some(sc) = &mut o.self_collision {
             work += o.phyxels.len() as u64;
             sc.apply(&mut o.phyxels, &o.material, s.dt);

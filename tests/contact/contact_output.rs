@@ -22,12 +22,13 @@ use std::path::Path;
 /// parts add up to its force, along and across its normal. The contact frame written
 /// for ParaView (`contacts_NNNNN.ply` and `.vtp`) holds the same contact surfels: read
 /// back, its forces sum to the reported total (to f32 rounding, 1e-4 relative) and its
-/// areas to the reported area.
+/// areas to the reported area. Sleeping is off: a sleeping pair reports no contact.
 #[test]
 fn a_resting_box_carries_its_weight() {
     let text = r#"
         name = "box-on-plane"
         gravity = [0.0, -9.81, 0.0]
+        sleep = false
         [[objects]]
         name = "ground"
         shape = { type = "plane", size = [0.4, 0.4] }

@@ -8,14 +8,17 @@ use phyxel::backends::mls::MlsImplicit;
 use phyxel::scene::{BuildOptions, Scene};
 
 /// `scene` built with every moving object on `mls-implicit`, stepped by `dt` (s).
+/// Sleeping is off: these tests count and judge every step's solve.
 fn implicit_world(scene: &Scene, dt: f32) -> World {
-    scene
+    let mut w = scene
         .build(&BuildOptions {
             backend: Some("mls-implicit".into()),
             dt: Some(dt),
             ..BuildOptions::default()
         })
-        .unwrap()
+        .unwrap();
+    w.sleep = false;
+    w
 }
 
 /// Steps two spheres flying at each other along x (objects 0 and 1) `steps` times:

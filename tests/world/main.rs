@@ -6,5 +6,6 @@
 mod common;
 
 mod model_only_what_needed;
+mod sleep;
 mod threads;
 mod world_cache;

@@ -207,6 +207,9 @@ impl Sim {
             let mut world = match sim.scene.build(&sim.build) {
                 Ok(w) => {
                     last_good = Some((sim.scene.clone(), sim.build.clone()));
+                    if let Some(hint) = phyxel::app::hint::backend_hint(&w) {
+                        eprintln!("note: {hint}");
+                    }
                     w
                 }
                 // A reloaded file or another backend that does not build: say so and go
