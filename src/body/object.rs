@@ -68,9 +68,11 @@ pub struct Object {
     /// Asleep (`world::sleep`): not stepped or advected, and not tested for contact
     /// with static objects or other sleeping bodies, until something moving touches it.
     asleep: bool,
-    /// Seconds the body has been still (the sleep test's clock), and the phyxel
-    /// positions (with their compensation carry) it is measured from.
+    /// Seconds the body has been still (the sleep test's clock), the clock at its last
+    /// passed displacement check, and the phyxel positions (with their compensation
+    /// carry) it is measured from.
     pub(crate) still_for: f32,
+    pub(crate) still_checked: f32,
     pub(crate) still_from: Vec<(glam::Vec3, glam::Vec3)>,
 }
 
@@ -242,6 +244,7 @@ impl Object {
             connectivity: Connectivity::default(),
             asleep: false,
             still_for: 0.0,
+            still_checked: 0.0,
             still_from: Vec::new(),
             serial: NEXT_SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
@@ -368,6 +371,7 @@ impl Object {
     pub fn wake(&mut self) {
         self.asleep = false;
         self.still_for = 0.0;
+        self.still_checked = 0.0;
         self.still_from.clear();
     }
 
@@ -375,6 +379,7 @@ impl Object {
     pub(crate) fn fall_asleep(&mut self) {
         self.asleep = true;
         self.still_for = 0.0;
+        self.still_checked = 0.0;
         self.phyxels.vel.fill_zero();
         self.phyxels.force.fill_zero();
     }

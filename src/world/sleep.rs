@@ -3,7 +3,8 @@
 //! something moving touches it ("model only what a scene needs").
 //!
 //! A body is still while every phyxel stays within [`SLEEP_SPEED`] times its
-//! [`still_time`] of where it was when its still time began (a smaller vibration, or a
+//! [`still_time`] of where it was when its still time began, checked [`SLEEP_SAMPLES`]
+//! times per still time (a smaller vibration, or a
 //! slower creep, counts as still); a group (bodies joined by overlapping boxes, static objects
 //! left out) falls asleep once every body in it has been still for its
 //! [`still_time`], none is a tool, and no load is still ramping. Its velocities are set
@@ -21,6 +22,11 @@ use crate::spatial::broad_phase::Pair;
 /// the `pile` box). A speed, not a length, so that lengths and times scaled alike (t ∝ L)
 /// give the same verdict, and a stiff body translating at 1 m/s is never still.
 pub const SLEEP_SPEED: f32 = 1.0e-3;
+
+/// Displacement checks per [`still_time`]: a body's phyxels are compared with where
+/// its still time began this often, not every step (a check costs as much as a tenth of
+/// a small body's step).
+pub const SLEEP_SAMPLES: f32 = 16.0;
 
 /// How long a body must stay still before it sleeps, in crossings of its own pressure
 /// wave (its size over its P-wave speed: 0.6 s for the `pile` box, 0.1 s for the stiff
@@ -74,7 +80,8 @@ pub(super) fn settle(
             continue;
         }
         let ramping = o.load != glam::Vec3::ZERO && time < o.load_ramp as f64;
-        let reach = SLEEP_SPEED * still_time(o);
+        let window = still_time(o);
+        let reach = SLEEP_SPEED * window;
         let (p, carry) = (&o.phyxels.pos, &o.phyxels.pos_carry);
         let n = o.phyxels.len();
         let anchor = &mut o.still_from;
@@ -82,7 +89,11 @@ pub(super) fn settle(
         if o.dynamics.is_prescribed() || ramping || anchor.len() != n {
             anchor.clear();
             anchor.extend((0..n).map(here));
-            o.still_for = 0.0;
+            (o.still_for, o.still_checked) = (0.0, 0.0);
+            continue;
+        }
+        o.still_for += dt;
+        if o.still_for - o.still_checked < window / SLEEP_SAMPLES {
             continue;
         }
         // (Far from the origin the motion of a step may sit in the carry alone.)
@@ -94,9 +105,9 @@ pub(super) fn settle(
             for (j, a) in anchor.iter_mut().enumerate() {
                 *a = here(j);
             }
-            o.still_for = 0.0;
+            (o.still_for, o.still_checked) = (0.0, 0.0);
         } else {
-            o.still_for += dt;
+            o.still_checked = o.still_for;
         }
     }
     // Union–find over the pairs of moving objects (static objects join nothing).
@@ -125,7 +136,7 @@ pub(super) fn settle(
     for (k, o) in objects.iter().enumerate() {
         if !o.is_static() {
             let r = root(group, k);
-            ready[r] &= o.is_asleep() || o.still_for >= still_time(o);
+            ready[r] &= o.is_asleep() || o.still_checked >= still_time(o);
         }
     }
     for (k, o) in objects.iter_mut().enumerate() {
