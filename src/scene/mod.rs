@@ -57,6 +57,7 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
     ("self-contact", include_str!("scenes/self-contact.toml")),
     ("plastic-pile", include_str!("scenes/plastic-pile.toml")),
+    ("pile-20", include_str!("scenes/pile-20.toml")),
 ];
 
 /// The scene `phyxel run` uses without an argument.

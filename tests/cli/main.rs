@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-const BUILTINS: [&str; 13] = [
+const BUILTINS: [&str; 14] = [
     "cantilever",
     "falling-sphere",
     "two-spheres",
@@ -20,6 +20,7 @@ const BUILTINS: [&str; 13] = [
     "plastic-fracture",
     "self-contact",
     "plastic-pile",
+    "pile-20",
 ];
 
 const PHASES: [&str; 12] = [
