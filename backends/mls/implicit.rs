@@ -40,7 +40,7 @@ pub const NAME: &str = "mls-implicit";
 /// contact factor is made again: a factor costs as much as hundreds of CG iterations
 /// on a large body, and one made for blocks within this change still preconditions
 /// well.
-const REFACTOR_CHANGE: f32 = 0.25;
+pub const REFACTOR_CHANGE: f32 = 0.25;
 
 /// The contact blocks enter the factor only when their trace is at least this share of
 /// the body's own diagonal at the phyxels they touch. The lumped blocks overestimate the
@@ -49,7 +49,7 @@ const REFACTOR_CHANGE: f32 = 0.25;
 /// to 80 times the body's own) is what CG otherwise spends hundreds of iterations on.
 /// (At dt = 1e-4 s, `incline`'s sticking block takes 4.9 CG iterations per Newton step
 /// with them against 4.2 without: docs/BACKENDS.md.)
-const CONTACT_SHARE: f64 = 0.25;
+pub const CONTACT_SHARE: f64 = 0.25;
 
 /// Warm-started polar iterations (of four steps each) for the body's rotation per step.
 const ROTATION_FITS: usize = 4;

@@ -644,6 +644,8 @@ impl PyBody {
                 o.name
             )));
         }
+        // What is written to a sleeping body takes effect: it moves again.
+        o.wake();
         f(o)
     }
 }
@@ -672,6 +674,13 @@ impl PyBody {
     #[getter]
     fn is_static(&self) -> PyResult<bool> {
         super::errors::shield(|| self.with(|o| o.is_static()))
+    }
+
+    /// True while the body sleeps (scene key `sleep`): nothing steps it
+    /// until something moving touches it; writing its phyxels wakes it.
+    #[getter]
+    fn asleep(&self) -> PyResult<bool> {
+        super::errors::shield(|| self.with(|o| o.is_asleep()))
     }
 
     /// Total mass (kg).

@@ -88,6 +88,41 @@ def test_written_velocities_move_the_body_next_step():
     assert np.allclose(b.phyxel_positions - x0, v * w.dt, atol=1e-6)
 
 
+def test_a_sleeping_body_is_left_alone_until_written():
+    """A soft box set down on a plane falls asleep within 2 s at 1/120 s (scene key
+    `sleep`, on by default): then its positions keep their bits over ten steps, and
+    writing its velocities wakes it, so the next step moves it by about v·dt."""
+    d = {
+        "name": "box-at-rest",
+        "gravity": [0.0, -9.81, 0.0],
+        "objects": [
+            {"name": "ground", "shape": {"type": "plane", "size": [0.4, 0.4]},
+             "spacing": 0.025, "static": True,
+             "material": {"young": 1.0e6, "friction": 0.5, "contact_damping": 4.0}},
+            {"name": "box", "shape": {"type": "box", "size": [0.1, 0.1, 0.1]},
+             "spacing": 0.025, "position": [0.0, 0.052, 0.0],
+             "material": {"young": 1.0e5, "damping": 0.01, "friction": 0.5,
+                          "contact_damping": 4.0}},
+        ],
+    }
+    w = phyxel.Scene.from_dict(d).build(backend="mls-implicit")
+    box = w["box"]
+    for _ in range(240):
+        w.step()
+        if box.asleep:
+            break
+    assert box.asleep
+    x0 = box.phyxel_positions
+    for _ in range(10):
+        w.step()
+    assert np.array_equal(box.phyxel_positions, x0)
+    box.phyxel_velocities = np.tile([0.0, 0.5, 0.0], (len(x0), 1))
+    assert not box.asleep
+    w.step()
+    rise = float(np.mean(box.phyxel_positions[:, 1] - x0[:, 1]))
+    assert 0.2 * 0.5 * w.dt < rise < 1.5 * 0.5 * w.dt
+
+
 def test_applied_forces_act_for_one_step():
     """F on every phyxel for one step changes each velocity by F dt / m (uniform field:
     no internal force; relative tolerance 1e-4)."""
