@@ -4,15 +4,14 @@
 //!
 //! A body is still while every phyxel stays within [`SLEEP_SPEED`] times its
 //! [`still_time`] of where it was when its still time began, checked [`SLEEP_SAMPLES`]
-//! times per still time (a smaller vibration, or a
-//! slower creep, counts as still); a group (bodies joined by overlapping boxes, static objects
-//! left out) falls asleep once every body in it has been still for its
-//! [`still_time`], none is a tool, and no load is still ramping. Its velocities are set
-//! to zero and its state is kept as it is. The broad phase wakes a sleeping body whose
-//! box overlaps an awake moving one (a tool, a body falling onto it), and with it every
-//! sleeping body it touches. Everything is decided in object order from the step's
-//! state, so it does not depend on the thread count. Scene key `sleep` (default on),
-//! [`crate::World::sleep`].
+//! times per still time (a smaller vibration, or a slower creep, counts as still). A
+//! group (bodies joined by overlapping boxes, static objects left out) falls asleep once
+//! every body in it has been still for its [`still_time`], none is a tool, and no load
+//! is still ramping. Its velocities are set to zero and its state is kept as it is.
+//! The broad phase wakes a sleeping body whose box overlaps an awake moving one (a
+//! tool, a body falling onto it), and with it every sleeping body it touches.
+//! Everything is decided in object order from the step's state, so it does not depend
+//! on the thread count. Scene key `sleep` (default on), [`crate::World::sleep`].
 
 use crate::body::object::Object;
 use crate::spatial::broad_phase::Pair;
