@@ -366,6 +366,11 @@ impl Object {
         self.asleep
     }
 
+    /// True for an object no step moves now: static, or asleep.
+    pub fn is_frozen(&self) -> bool {
+        self.is_static() || self.asleep
+    }
+
     /// Wakes the body: the next step moves it again (and restarts its still time). Call
     /// it after writing a sleeping body's velocities or positions.
     pub fn wake(&mut self) {

@@ -83,7 +83,7 @@ impl Solver {
             .par_iter_mut()
             .zip(self.scratch.par_iter_mut())
             .enumerate()
-            .filter(|(k, (o, _))| !o.is_static() && !o.is_asleep() && !islands.shared(*k))
+            .filter(|(k, (o, _))| !o.is_frozen() && !islands.shared(*k))
             .for_each(|(k, (o, scratch))| {
                 o.apply_load(time);
                 let Object {

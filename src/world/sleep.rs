@@ -50,8 +50,7 @@ pub fn still_time(o: &Object) -> f32 {
 pub(super) fn wake_touched(objects: &mut [Object], pairs: &[Pair]) -> bool {
     let mut woke = false;
     for p in pairs {
-        let moving = |o: &Object| !o.is_static() && !o.is_asleep();
-        let (a, b) = (moving(&objects[p.a]), moving(&objects[p.b]));
+        let (a, b) = (!objects[p.a].is_frozen(), !objects[p.b].is_frozen());
         for (k, other) in [(p.a, b), (p.b, a)] {
             if other && objects[k].is_asleep() {
                 objects[k].wake();
@@ -75,7 +74,7 @@ pub(super) fn settle(
 ) {
     let SleepScratch { group, ready } = scratch;
     for o in objects.iter_mut() {
-        if o.is_static() || o.is_asleep() {
+        if o.is_frozen() {
             continue;
         }
         let ramping = o.load != glam::Vec3::ZERO && time < o.load_ramp as f64;
@@ -139,7 +138,7 @@ pub(super) fn settle(
         }
     }
     for (k, o) in objects.iter_mut().enumerate() {
-        if !o.is_static() && !o.is_asleep() && ready[root(group, k)] {
+        if !o.is_frozen() && ready[root(group, k)] {
             o.fall_asleep();
         }
     }

@@ -182,7 +182,7 @@ fn check_counts(o: &Object) {
 fn advect(objects: &mut [Object], record: &mut RunRecord) -> u64 {
     objects
         .par_iter_mut()
-        .filter(|o| !o.is_static() && !o.is_asleep())
+        .filter(|o| !o.is_frozen())
         .for_each(|o| o.advect_surfels());
     // Now that the surfels have followed this step's motion.
     record.rest_renewals += objects
@@ -266,10 +266,7 @@ fn broad_phase(
 /// Per object, whether it does not move this step (static or asleep): pairs of two such
 /// objects are skipped.
 fn frozen<'a>(objects: &[Object], arena: &'a Bump) -> BumpVec<'a, bool> {
-    BumpVec::from_iter_in(
-        objects.iter().map(|o| o.is_static() || o.is_asleep()),
-        arena,
-    )
+    BumpVec::from_iter_in(objects.iter().map(Object::is_frozen), arena)
 }
 
 /// Surfel and phyxel grids of the objects in an overlapping pair (Teschner et al.
@@ -600,10 +597,7 @@ fn springs(
 #[inline(never)] // a named frame in flamegraphs
 fn self_collision(objects: &mut [Object], s: &Settings) -> u64 {
     let mut work = 0;
-    for o in objects
-        .iter_mut()
-        .filter(|o| !o.is_static() && !o.is_asleep())
-    {
+    for o in objects.iter_mut().filter(|o| !o.is_frozen()) {
         if let Some(sc) = &mut o.self_collision {
             work += o.phyxels.len() as u64;
             sc.apply(&mut o.phyxels, &o.material, s.dt);
