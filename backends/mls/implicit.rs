@@ -47,8 +47,8 @@ pub const REFACTOR_CHANGE: f32 = 0.25;
 /// springs' coupling: a soft frictionless contact (`hertz`: 3%) converges faster
 /// without them, while a sticking contact's friction at a frame-rate step (`pile`: up
 /// to 80 times the body's own) is what CG otherwise spends hundreds of iterations on.
-/// (At dt = 1e-4 s, `incline`'s sticking block takes 4.9 CG iterations per Newton step
-/// with them against 4.2 without: docs/BACKENDS.md.)
+/// (At dt = 1e-4 s, `incline`'s sticking block takes 10.0 CG iterations per step with
+/// them against 7.7 without: docs/BACKENDS.md.)
 pub const CONTACT_SHARE: f64 = 0.25;
 
 /// Warm-started polar iterations (of four steps each) for the body's rotation per step.
@@ -396,9 +396,6 @@ impl Implicit for MlsImplicit {
         let c = dt * dt + dt * tau;
         if self.pre.as_ref().is_none_or(|p| p.built_for != (c, tau)) {
             self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
-        }
-        if let Some(pre) = self.pre.as_mut() {
-            pre.with_contact = false;
         }
         self.fit_rotation(phyxels);
         for j in 0..phyxels.len() {

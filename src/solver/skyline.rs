@@ -134,12 +134,6 @@ impl Skyline {
         self.values.copy_from_slice(&other.values);
     }
 
-    /// Stored entries (the envelope's size: the factor's memory and, times the mean
-    /// row length, its work).
-    pub fn stored(&self) -> usize {
-        self.values.len()
-    }
-
     /// The entry (r, r).
     pub fn diagonal(&self, r: usize) -> f64 {
         self.values[self.start[r] + r - self.first[r]]
