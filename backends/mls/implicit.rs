@@ -27,8 +27,8 @@
 
 use super::*;
 use phyxel::dynamics::SolverStats;
+use phyxel::dynamics::implicit::{F32_UNIT_ROUNDOFF, Implicit, SolveReport, SolveSettings};
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
-use phyxel::dynamics::implicit::{Implicit, SolveReport, SolveSettings};
 use phyxel::math::linalg::polar_rotation;
 use phyxel::solver::skyline::{Skyline, rcm_order};
 use phyxel::solver::{self, Member, SolveScratch};
@@ -450,6 +450,16 @@ impl Implicit for MlsImplicit {
 
     fn linearise(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>) {
         self.linearise_law(phyxels, ctx.material);
+    }
+
+    /// The force kernel reads `(pos − rest) + pos_carry`: each term, and their sum,
+    /// is rounded to f32.
+    fn displacement_rounding(&self, phyxels: &Phyxels, out: &mut [Vec3]) {
+        for (j, r) in out.iter_mut().enumerate() {
+            let u = phyxels.pos.get(j) - phyxels.rest.get(j);
+            let carry = phyxels.pos_carry.get(j);
+            *r = (u.abs() + carry.abs() + (u + carry).abs()) * F32_UNIT_ROUNDOFF;
+        }
     }
 
     fn apply(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>, p: &[Vec3], ap: &mut [Vec3]) {

@@ -45,6 +45,17 @@ pub trait Implicit: Send {
     /// contact. The default ignores it.
     fn contact_blocks(&mut self, _phyxels: &Phyxels, _blocks: &[Mat3]) {}
 
+    /// The size of the f32 rounding (m) of the displacement each phyxel's forces are
+    /// computed from, per coordinate, at the last [`Implicit::residual`]: through the
+    /// stiffness it sets the residual's floor, below which Newton cannot go (the solver
+    /// tells a step stalled above it from one at it). The default is that of the
+    /// positions themselves, `|x| · 2⁻²⁴`.
+    fn displacement_rounding(&self, phyxels: &Phyxels, out: &mut [Vec3]) {
+        for (j, r) in out.iter_mut().enumerate() {
+            *r = phyxels.pos.get(j).abs() * F32_UNIT_ROUNDOFF;
+        }
+    }
+
     /// Ends the step at velocities `v` (those of the last residual): positions
     /// `xₙ + dt v`, velocities `v`, `phyxels.force` cleared, fixed phyxels held.
     fn commit(&mut self, phyxels: &mut Phyxels, ctx: &StepContext<'_>, v: &[Vec3]);
@@ -57,6 +68,9 @@ pub trait Implicit: Send {
         SolveSettings::default()
     }
 }
+
+/// f32's unit roundoff, `2⁻²⁴`: a value is rounded to within this fraction of itself.
+pub const F32_UNIT_ROUNDOFF: f32 = f32::EPSILON / 2.0;
 
 /// Newton stops when the residual's `M⁻¹` norm falls to this fraction of the step's
 /// scale: the largest of its first residual, its external impulse and
@@ -124,9 +138,16 @@ pub struct SolveReport {
     /// Final relative residual.
     pub residual: f32,
     pub tolerance: f32,
-    /// Accepted at the f32 floor ([`FLOOR_TOLERANCE`]) above the tolerance.
+    /// The residual's f32 rounding estimated from the backend's stiffness, relative as
+    /// `residual` (0 when not asked: only a step that stagnated above the tolerance is).
+    pub rounding: f32,
+    /// Stagnated above the tolerance, within [`ROUNDING_FACTOR`](crate::solver::ROUNDING_FACTOR) of `rounding`: converged
+    /// as far as f32 forces allow.
     pub at_floor: bool,
-    /// Stopped above the tolerance without reaching the floor.
+    /// Stagnated above the tolerance, more than [`ROUNDING_FACTOR`](crate::solver::ROUNDING_FACTOR) times `rounding`:
+    /// the solve stalled (counted in `unconverged` too).
+    pub stalled: bool,
+    /// Stopped above the tolerance, not at the floor.
     pub unconverged: bool,
     /// Contact springs in the solve.
     pub springs: u32,
@@ -148,6 +169,7 @@ impl SolverStats {
         self.last_residual = r.residual;
         self.tolerance = r.tolerance;
         self.at_floor += r.at_floor as u64;
+        self.stalled += r.stalled as u64;
         self.unconverged += r.unconverged as u64;
     }
 }

@@ -119,6 +119,9 @@ pub struct SolverStats {
     pub at_floor: u64,
     /// Steps whose solve stopped above the tolerance without reaching the floor.
     pub unconverged: u64,
+    /// Of those, the steps whose Newton iteration stagnated far above the rounding
+    /// estimate (`crate::solver::ROUNDING_FACTOR`): a stalled solve, not the f32 floor.
+    pub stalled: u64,
 }
 
 /// A dynamics backend for the phyxels of one object.

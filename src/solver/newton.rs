@@ -16,6 +16,12 @@ use glam::{DVec3, Mat3, Vec3};
 /// corrects the rest).
 const CG_FORCING: f64 = 0.05;
 
+/// A stagnated step is at the f32 floor when its residual is at most this multiple of
+/// the rounding estimate ([`rounding_floor`]): the estimate is of the positions'
+/// rounding alone, a typical size rather than a bound, and the forces' own arithmetic
+/// adds to it.
+pub const ROUNDING_FACTOR: f64 = 10.0;
+
 /// Halvings of a Newton step that raised the residual, at most.
 const MAX_HALVINGS: u32 = 4;
 
@@ -230,20 +236,104 @@ pub fn solve(
         m.dynamics.commit(m.phyxels, &ctx, &s.v[r]);
     }
     let tolerance = settings.tolerance as f64;
-    let converged = rel <= tolerance || stagnated;
+    // A stagnated step above the tolerance is at the floor only if the backend's
+    // rounding explains its residual; otherwise it has stalled, and says so.
+    let rounding = if stagnated && rel > tolerance {
+        rounding_floor(members, springs, s, dt, gravity) / scale
+    } else {
+        0.0
+    };
+    let at_floor = stagnated && rel > tolerance && rel <= ROUNDING_FACTOR * rounding;
+    let stalled = stagnated && rel > tolerance && !at_floor;
     let report = SolveReport {
         newton_iterations: newton,
         cg_iterations: cg,
         residual: rel as f32,
         tolerance: settings.tolerance,
-        at_floor: stagnated && converged && rel > tolerance,
-        unconverged: !converged,
+        rounding: rounding as f32,
+        at_floor,
+        stalled,
+        unconverged: !(rel <= tolerance || at_floor),
         springs: s.springs.len() as u32,
     };
     for m in members.iter_mut() {
         m.dynamics.record(&report);
     }
     report
+}
+
+/// `s.ap = A s.p`: the island's tangent (the members' `M + c K` and the pushing springs'
+/// rows) at the last linearisation.
+fn apply_island(
+    members: &mut [Member<'_>],
+    springs: &ContactSprings,
+    s: &mut SolveScratch,
+    dt: f32,
+    gravity: Vec3,
+) {
+    for (k, m) in members.iter_mut().enumerate() {
+        let r = s.offset[k]..s.offset[k + 1];
+        let ctx = StepContext::new(dt, gravity, m.material);
+        m.dynamics
+            .apply(m.phyxels, &ctx, &s.p[r.clone()], &mut s.ap[r]);
+    }
+    for e in s.springs.iter().filter(|e| e.pushing) {
+        let sp = &springs.springs[e.index as usize];
+        let f = e.tangent(sp, e.relative_change(&s.p, springs), dt);
+        spread(&mut s.ap, springs, members, &e.a, f);
+        if let Some(b) = &e.b {
+            spread(&mut s.ap, springs, members, b, -f);
+        }
+    }
+}
+
+/// The residual's f32 floor, `‖δg‖_{M⁻¹}`: what rounding the displacements the forces
+/// are computed from ([`Implicit::displacement_rounding`]) does to the residual through
+/// the island's stiffness, `δg = (A − M) δx / dt`, with `δx` of that size and a fixed
+/// pseudo-random sign per coordinate (rounding errors are not
+/// correlated, so neither are the signs). A solve that stagnates near this is at the
+/// forces' rounding; one that stagnates far above it has stalled.
+fn rounding_floor(
+    members: &mut [Member<'_>],
+    springs: &ContactSprings,
+    s: &mut SolveScratch,
+    dt: f32,
+    gravity: Vec3,
+) -> f64 {
+    for (k, m) in members.iter().enumerate() {
+        let r = s.offset[k]..s.offset[k + 1];
+        m.dynamics
+            .displacement_rounding(m.phyxels, &mut s.p[r.clone()]);
+        for (j, i) in r.enumerate() {
+            s.p[i] = if m.phyxels.fixed[j] == 0 {
+                s.p[i] / dt * rounding_signs(i)
+            } else {
+                Vec3::ZERO
+            };
+        }
+    }
+    apply_island(members, springs, s, dt, gravity);
+    let mut norm = 0.0f64;
+    for (k, m) in members.iter().enumerate() {
+        for j in 0..m.phyxels.len() {
+            let i = s.offset[k] + j;
+            if m.phyxels.fixed[j] == 0 {
+                let mass = m.phyxels.mass[j];
+                norm += (s.ap[i] - s.p[i] * mass).length_squared() as f64 / mass as f64;
+            }
+        }
+    }
+    norm.sqrt()
+}
+
+/// Three signs (±1) for entry `i`, from a fixed integer hash (SplitMix64's finaliser).
+fn rounding_signs(i: usize) -> Vec3 {
+    let mut h = (i as u64).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    h = (h ^ (h >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    h = (h ^ (h >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    h ^= h >> 31;
+    let sign = |bit: u64| if h >> bit & 1 == 0 { 1.0 } else { -1.0 };
+    Vec3::new(sign(0), sign(1), sign(2))
 }
 
 /// Removes the last residual's share along the island's uniform translation: the
@@ -345,20 +435,7 @@ fn solve_cg(
         }
     };
     let apply = |members: &mut [Member<'_>], s: &mut SolveScratch| {
-        for (k, m) in members.iter_mut().enumerate() {
-            let r = s.offset[k]..s.offset[k + 1];
-            let ctx = StepContext::new(dt, gravity, m.material);
-            m.dynamics
-                .apply(m.phyxels, &ctx, &s.p[r.clone()], &mut s.ap[r]);
-        }
-        for e in s.springs.iter().filter(|e| e.pushing) {
-            let sp = &springs.springs[e.index as usize];
-            let f = e.tangent(sp, e.relative_change(&s.p, springs), dt);
-            spread(&mut s.ap, springs, members, &e.a, f);
-            if let Some(b) = &e.b {
-                spread(&mut s.ap, springs, members, b, -f);
-            }
-        }
+        apply_island(members, springs, s, dt, gravity)
     };
     precondition(members, s);
     s.p.copy_from_slice(&s.z);

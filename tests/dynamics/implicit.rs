@@ -144,7 +144,10 @@ fn an_implicit_body_collides_with_an_explicit_one() {
 /// at every step; the spheres bounce (velocities reversed); the deepest penetration is
 /// at most one step's approach (2 v dt: the springs stop the approach within the step
 /// it is detected in), and no energy is gained (the rebound takes 76% of the incoming
-/// kinetic energy; docs/BACKENDS.md measures it against dt).
+/// kinetic energy; docs/BACKENDS.md measures it against dt). Every solve converges or
+/// stagnates; at most one (the impact's) stagnates above the rounding estimate (a stall,
+/// counted unconverged: 1 of 60 measured, at a residual of 0.7% of its scale), and under
+/// 1% of its scale.
 #[test]
 fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     let mut scene = Scene::builtin("two-spheres").unwrap();
@@ -169,7 +172,8 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     assert!(gain <= 0.0, "energy gain {gain}");
     for o in &world.objects {
         let s = o.dynamics_as::<MlsImplicit>().unwrap().solver_stats();
-        assert_eq!(s.unconverged, 0, "{s:?}");
+        assert_eq!(s.unconverged, s.stalled, "{s:?}");
+        assert!(s.stalled <= 1 && s.max_residual < 0.01, "{s:?}");
     }
 }
 
@@ -255,8 +259,12 @@ fn friction_at_a_frame_rate_step_sticks_and_slides() {
 /// way: at an impact found one step late it holds the penalty energy of the whole
 /// overlap, 6 J at the first one here, which the solve then dissipates.) The bodies come
 /// to rest (kinetic energy under 1e-3 of the start's total; 4e-4 measured), none sinks
-/// deeper than one phyxel spacing (2 cm), and at most 4% of the solves are unconverged
-/// (the capsule: 3 of 120, at its impacts, with residuals up to 8% of their scale).
+/// deeper than one phyxel spacing (2 cm). At most 4% of a body's solves stop at the
+/// iteration cap (the capsule: 3 of 120 measured, at its impacts); the rest converge or
+/// stagnate, and a stagnated step far above its rounding estimate is a stall, counted
+/// unconverged: about 40% of the steps here, with residuals up to 5% of their scale
+/// (docs/BACKENDS.md, "Convergence"); under 10% is asserted, against a solve stalling
+/// far from the step.
 #[test]
 fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
     let scene = Scene::builtin("pile").unwrap();
@@ -298,6 +306,11 @@ fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
     );
     for o in world.objects.iter().filter(|o| !o.is_static()) {
         let s = o.dynamics_as::<MlsImplicit>().unwrap().solver_stats();
-        assert!(s.unconverged * 25 <= s.steps, "{}: {s:?}", o.name);
+        assert!(
+            (s.unconverged - s.stalled) * 25 <= s.steps,
+            "{}: {s:?}",
+            o.name
+        );
+        assert!(s.max_residual < 0.1, "{}: {s:?}", o.name);
     }
 }
