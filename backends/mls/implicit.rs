@@ -599,6 +599,11 @@ impl Dynamics for MlsImplicit {
         self.mls.displacement_gradient()
     }
 
+    /// `mls`'s bound for the same body.
+    fn explicit_dt(&self, phyxels: &Phyxels, m: &Material) -> Option<f32> {
+        Some(self.mls.stable_dt(phyxels, m))
+    }
+
     fn fragment(&self, phyxels: &Phyxels, material: &Material) -> Option<Box<dyn Dynamics>> {
         Some(Box::new(MlsImplicit::new(phyxels, material)))
     }

@@ -143,6 +143,14 @@ pub trait Dynamics: std::any::Any + Send + Sync {
     /// picks `World::dt` from it sees it there).
     fn stable_dt(&self, phyxels: &Phyxels, material: &Material) -> f32;
 
+    /// The stable step (s) of this body's explicit counterpart (the same model stepped
+    /// by symplectic Euler), for a backend with no bound of its own; `None` without one.
+    /// `phyxel run` compares it with `dt` to say when stepping explicitly would be faster
+    /// ([`crate::app::hint`]).
+    fn explicit_dt(&self, _phyxels: &Phyxels, _material: &Material) -> Option<f32> {
+        None
+    }
+
     /// Displacement gradient `∇u` per phyxel (column b = ∂u/∂x_b), if the backend
     /// computes one. Without it, the core estimates one by MLS for surfel advection.
     fn displacement_gradient(&self) -> Option<&[Mat3]> {
