@@ -75,6 +75,9 @@ pub struct ContactSurfel {
     /// The object whose colliding surfel it came from (`a` or `b`); inserted surfels
     /// belong to `a`.
     pub object: usize,
+    /// That colliding surfel's index in its object ([`NO_SURFEL`] for an inserted
+    /// surfel): with the pair, it names the contact across steps.
+    pub surfel: u32,
     /// Area of Φ it stands for (m²).
     pub area: f32,
     /// Contact force on object a (N); object b receives the opposite.
@@ -88,6 +91,9 @@ pub struct ContactSurfel {
     /// Velocity of surface a relative to surface b at the anchors (m/s).
     pub velocity: Vec3,
 }
+
+/// [`ContactSurfel::surfel`] of a surfel inserted by resampling (no colliding surfel).
+pub const NO_SURFEL: u32 = u32::MAX;
 
 /// The contact surface of one pair and its forces.
 #[derive(Clone, Debug, Default, PartialEq)]

@@ -130,6 +130,7 @@ pub(super) fn fill_holes(
                     pos: x,
                     normal: n,
                     object,
+                    surfel: NO_SURFEL,
                     area: 0.0,
                     force: Vec3::ZERO,
                     anchor_a: x,

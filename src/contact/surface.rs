@@ -168,6 +168,7 @@ pub fn contact_surface(
             pos: x,
             normal: (p.lambda_a * a.normal - p.lambda_b * b.normal).try_normalize()?,
             object,
+            surfel: c.surfel,
             area: 0.0,
             force: Vec3::ZERO,
             anchor_a: if a.f <= 0.0 { anchor_a.0 } else { x },

@@ -6,10 +6,12 @@
 //! of it). Along the normal: the pipeline's force at the step's start plus its linear
 //! change over the step (`−k dt v_n − c Δv_n`), clamped to push only — one Newton step
 //! of the penalty force, the linearly implicit contact of Baraff and Witkin (1998).
-//! Along the tangent: the pipeline's regularised Coulomb law `T = −μ N v_t / max(|v_t|,
-//! v_s)` ([`ContactSpring::slip_speed`]) at the trial velocities, with the normal force
-//! of the same iterate. So friction never exceeds `μ N`, and a sticking contact's stiff
-//! viscous branch (`μ N / v_s`, far beyond explicit stability) holds at any dt.
+//! Along the tangent: a stick anchor (Cundall and Strack 1979, [`super::stick`]): the
+//! tangential spring `F_t = −k_t ξ`, `ξ = ξ₀ + dt v_t`, with `k_t` the normal spring's
+//! stiffness and `ξ₀` carried from the last step, returned to Coulomb's cone
+//! `|F_t| ≤ μ N` with the normal force of the same iterate. A sticking contact holds its
+//! elongation, so it does not creep, and its tangent is the spring's `k_t dt²`, no
+//! stiffer than the normal one's: CG sees nothing stiffer than a frictionless contact.
 //!
 //! A spring reads its contact surfel's velocity from, and spreads its force to, the
 //! phyxels of each side as the pipeline's distribution does (`contact::distribute`:
@@ -46,15 +48,14 @@ pub(super) struct Active {
     pub pushing: bool,
     /// The normal force friction scales with (N; see [`Active::force`]).
     pub friction_normal: f32,
-    /// Friction's tangent coefficient `μ N / max(|v_t|, v_s)` (N·s/m).
+    /// Friction's tangent coefficient `−∂F_t/∂v_t` across the slip (N·s/m): `k_t dt`
+    /// while sticking, `μ N dt / |ξ|` while sliding.
     pub drag: f32,
-    /// Unit slip direction whose stiffness the tangent leaves out (a sliding contact:
-    /// its friction does not change with the slip speed), or zero (the whole tangent
-    /// plane: sticking, or a slip that has reversed in this step).
+    /// Unit slip direction along which a sliding contact's friction does not change
+    /// (the tangent leaves it out), or zero while sticking.
     pub slide: Vec3,
-    /// The slip at the previous iterate, and whether it has reversed in this step.
-    pub last_slip: Vec3,
-    pub reversed: bool,
+    /// The anchor's elongation at the last iterate (m), on the cone while sliding.
+    pub stick: Vec3,
     /// Velocity of side b when it is no member of the island (static, or a tool's given
     /// motion: [`ContactSpring::given`]).
     pub given: Vec3,
@@ -74,8 +75,7 @@ impl Active {
             friction_normal: 0.0,
             drag: 0.0,
             slide: Vec3::ZERO,
-            last_slip: Vec3::ZERO,
-            reversed: false,
+            stick: Vec3::ZERO,
             given,
             last_force: Vec3::ZERO,
         }
@@ -98,19 +98,15 @@ impl Active {
     /// The spring's force on side a at relative velocity `rel` (N), and the state of
     /// its linearisation there.
     ///
-    /// The tangent of the friction is the exact derivative of `−μ N v_t / |v_t|` in the
-    /// tangent plane while sliding (its stiffness across the slip, none along it), so a
-    /// steady slide converges in one Newton step; once the slip reverses within a step
-    /// the tangent becomes the secant `μ N / |v_t|` over the whole plane, which cannot
-    /// overshoot through zero again (Newton with the exact tangent can jump between the
-    /// two slip directions forever).
+    /// Friction is the stick anchor's spring returned to the cone (see the module), and
+    /// its tangent the exact derivative of that return: `k_t dt²` over the tangent
+    /// plane while sticking, `μ N dt² / |ξ|` across the slip direction while sliding.
     ///
     /// Friction scales with the iterate's normal force over the first
     /// [`FRICTION_UPDATES`] Newton iterations, then with the last of those: the tangent
     /// leaves out how friction changes with the normal force (that term would not be
     /// symmetric), and a contact landing within the step, whose normal force changes
-    /// most, then still converges. A steady slide converges within those iterations,
-    /// with the end of step's normal force.
+    /// most, then still converges.
     pub fn force(&mut self, sp: &ContactSpring, rel: Vec3, dt: f32, iteration: u32) -> Vec3 {
         let now = sp.normal.dot(rel);
         let change = -sp.stiffness * dt * now - sp.damping * (now - self.approach0);
@@ -123,19 +119,24 @@ impl Active {
             self.friction_normal = total.max(0.0);
         }
         let normal = self.friction_normal;
+        self.slide = Vec3::ZERO;
+        self.stick = Vec3::ZERO;
         if sp.friction > 0.0 && self.pushing {
             let slip = rel - now * sp.normal;
-            let speed = slip.length();
-            let scale = sp.friction * normal / speed.max(sp.slip_speed);
-            f -= scale * slip;
-            self.drag = scale;
-            self.reversed |= slip.dot(self.last_slip) < 0.0;
-            self.slide = if speed > sp.slip_speed && !self.reversed {
-                slip / speed
+            let trial = sp.stick + slip * dt;
+            let (k, cap) = (sp.stiffness, sp.friction * normal);
+            let len = trial.length();
+            if k * len <= cap {
+                f -= k * trial;
+                self.drag = k * dt;
+                self.stick = trial;
             } else {
-                Vec3::ZERO
-            };
-            self.last_slip = slip;
+                let dir = trial / len;
+                f -= cap * dir;
+                self.drag = cap * dt / len;
+                self.slide = dir;
+                self.stick = dir * (cap / k);
+            }
         }
         self.last_force = f;
         f

@@ -21,10 +21,12 @@ mod islands;
 mod newton;
 pub mod skyline;
 pub mod springs;
+pub mod stick;
 
 pub use islands::Islands;
 pub use newton::{Member, ROUNDING_FACTOR, SolveScratch, solve};
 pub use springs::{ContactSpring, ContactSprings, SpringSide};
+pub use stick::{StickKey, StickMemory};
 
 use crate::body::object::Object;
 use crate::contact::ContactPatch;
@@ -39,8 +41,9 @@ use rayon::prelude::*;
 /// modes, and impacts shorter than a step, docs/BACKENDS.md), which `--dt` trades back.
 pub const DEFAULT_DT: f32 = 1.0 / 120.0;
 
-/// The solve's state between steps: the islands and each island's buffers (no
-/// allocation in the steady step). Nothing in it is a result: dropped, it is rebuilt.
+/// The solve's state between steps: the islands, each island's buffers (no allocation
+/// in the steady step) and the contacts' friction anchors ([`stick`]). Dropped, it is
+/// rebuilt, and the anchors start again from zero.
 #[derive(Default)]
 pub struct Solver {
     islands: Islands,
@@ -51,6 +54,8 @@ pub struct Solver {
     knn: Vec<(usize, f32)>,
     /// The springs of the step before, kept for their buffers.
     last_springs: ContactSprings,
+    /// The friction anchors of the last solves' springs.
+    stick: StickMemory,
 }
 
 impl Solver {
@@ -113,6 +118,23 @@ impl Solver {
             self.solve_shared(objects, springs, dt, gravity, time, &after);
         }
         self.deliver_reactions(objects, springs);
+        self.keep_sticks(springs);
+    }
+
+    /// The anchors of this step's solves become the memory the next springs read.
+    fn keep_sticks(&mut self, springs: &ContactSprings) {
+        for (k, scratch) in self.scratch.iter().enumerate() {
+            if self.islands.root(k) != Some(k) {
+                continue;
+            }
+            for (index, stick) in scratch.sticks() {
+                let sp = &springs.springs[index];
+                if sp.friction > 0.0 && stick != Vec3::ZERO {
+                    self.stick.push(sp.key, stick);
+                }
+            }
+        }
+        self.stick.commit();
     }
 
     /// The islands of several bodies, one after the other (each solve is parallel
@@ -216,6 +238,7 @@ impl Solver {
                 patches,
                 objects,
                 grids,
+                &self.stick,
                 dt,
                 springs,
                 &mut self.near,

@@ -59,6 +59,12 @@ impl SolveScratch {
         self.springs.clear();
     }
 
+    /// Each spring of the last solve, its index in the [`ContactSprings`] and its friction
+    /// anchor's elongation at the last iterate (m).
+    pub fn sticks(&self) -> impl Iterator<Item = (usize, Vec3)> + '_ {
+        self.springs.iter().map(|e| (e.index as usize, e.stick))
+    }
+
     /// The springs of the last solve whose side b was given (a tool), each with its
     /// index in the [`ContactSprings`] and its force on side b at the last iterate (N).
     pub fn given_reactions(&self) -> impl Iterator<Item = (usize, Vec3)> + '_ {

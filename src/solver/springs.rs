@@ -6,7 +6,8 @@
 use crate::body::object::Object;
 use crate::contact::distribute::{Couple, moments, spread_weights};
 use crate::contact::params::contact_params;
-use crate::contact::{ContactPatch, FRICTION_SLIP_SPEED};
+use super::stick::{StickKey, StickMemory};
+use crate::contact::{ContactPatch, NO_SURFEL};
 use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};
 
@@ -41,8 +42,12 @@ pub struct ContactSpring {
     pub force: f32,
     /// Coulomb coefficient μ of the pair (0: frictionless).
     pub friction: f32,
-    /// Slip speed below which friction is viscous, `μ N v_t / slip_speed` (m/s, > 0).
-    pub slip_speed: f32,
+    /// The friction anchor's elongation at the step's start (m): side a's tangential
+    /// displacement against b since the contact last stuck, in the contact's tangent
+    /// plane ([`super::stick`]; its tangential stiffness is `stiffness`).
+    pub stick: Vec3,
+    /// The contact across steps (its [`StickMemory`] entry).
+    pub key: StickKey,
     pub a: SpringSide,
     /// `None` when the other side is a static object (it does not move).
     pub b: Option<SpringSide>,
@@ -109,21 +114,23 @@ impl ContactSprings {
 /// its force in [`crate::contact::distribute()`], with the same normalised weights and couple.
 ///
 /// `grids[k]`: the phyxel grid of object k, built this step for its pairs.
+#[allow(clippy::too_many_arguments)]
 pub fn build(
     patches: &[ContactPatch],
     objects: &[Object],
     grids: &[Option<Grid>],
+    memory: &StickMemory,
     dt: f32,
     out: &mut ContactSprings,
     near: &mut Vec<(usize, f32)>,
     knn: &mut Vec<(usize, f32)>,
 ) {
     for patch in patches {
-        let (oa, ob) = (&objects[patch.a], &objects[patch.b]);
-        if !oa.contact_in_solve(ob) {
+        let (oa, ob_patch) = (&objects[patch.a], &objects[patch.b]);
+        if !oa.contact_in_solve(ob_patch) {
             continue;
         }
-        let p = contact_params(oa, ob, dt);
+        let p = contact_params(oa, ob_patch, dt);
         // Side a pushes along −n (Φ's normal points from a into b).
         let (first, second, flip) = if oa.is_prescribed() {
             (patch.b, patch.a, -1.0f32)
@@ -174,13 +181,27 @@ pub fn build(
                 .as_ref()
                 .filter(|_| ob.is_prescribed())
                 .map(|b| out.velocity(b, |j| ob.phyxels.vel.get(j)));
+            let key = StickKey {
+                a: oa.serial(),
+                b: ob_patch.serial(),
+                from_b: c.object == patch.b,
+                surfel: c.surfel,
+            };
+            // The anchor turns with the contact: its part along the new normal is gone.
+            let stick = if p.friction > 0.0 && c.surfel != NO_SURFEL {
+                let xi = memory.get(&key);
+                xi - normal * normal.dot(xi)
+            } else {
+                Vec3::ZERO
+            };
             out.springs.push(ContactSpring {
                 normal,
                 stiffness: 0.5 * p.stiffness * c.area,
                 damping: p.damping * c.area,
                 force: (flip * c.force).dot(normal).max(0.0),
                 friction: p.friction,
-                slip_speed: FRICTION_SLIP_SPEED,
+                stick,
+                key,
                 a,
                 b,
                 given,

@@ -1,0 +1,105 @@
+//! The friction anchors of the contact springs, carried from step to step: each contact
+//! surfel's tangential spring elongation ξ (the Cundall–Strack law of discrete-element
+//! codes, Cundall and Strack 1979), kept under a key that names the contact by its pair
+//! and its colliding surfel. A contact that sticks holds ξ = F_t / k_t with no creep; one
+//! that slides keeps ξ on Coulomb's cone, `k_t |ξ| = μ N` ([`super::active`]).
+//!
+//! A key names the pair by its objects' serials ([`Object::serial`]), so a fractured or
+//! replaced object starts its contacts afresh; a contact that is not in this step's
+//! solve (parted, asleep, or in explicit stepping) is forgotten, and starts again from
+//! ξ = 0.
+//!
+//! [`Object::serial`]: crate::body::object::Object::serial
+
+use glam::Vec3;
+
+/// A contact across steps: the serials of its patch's objects a and b, whether its
+/// colliding surfel is b's, and that surfel's index.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub struct StickKey {
+    pub a: u64,
+    pub b: u64,
+    pub from_b: bool,
+    pub surfel: u32,
+}
+
+/// The elongations of the last solve's springs, sorted by key.
+#[derive(Clone, Debug, Default)]
+pub struct StickMemory {
+    entries: Vec<(StickKey, Vec3)>,
+    /// The next memory, filled by [`StickMemory::push`] (kept for its buffer).
+    next: Vec<(StickKey, Vec3)>,
+}
+
+impl StickMemory {
+    /// The elongation (m) kept under `key`, or zero.
+    pub fn get(&self, key: &StickKey) -> Vec3 {
+        match self.entries.binary_search_by(|e| e.0.cmp(key)) {
+            Ok(i) => self.entries[i].1,
+            Err(_) => Vec3::ZERO,
+        }
+    }
+
+    /// Records an elongation for the next memory.
+    pub fn push(&mut self, key: StickKey, stick: Vec3) {
+        self.next.push((key, stick));
+    }
+
+    /// Makes the pushed elongations the memory (a key pushed twice keeps its last).
+    pub fn commit(&mut self) {
+        std::mem::swap(&mut self.entries, &mut self.next);
+        self.next.clear();
+        self.entries.sort_by(|x, y| x.0.cmp(&y.0));
+        self.entries.dedup_by(|later, earlier| {
+            let same = later.0 == earlier.0;
+            if same {
+                earlier.1 = later.1;
+            }
+            same
+        });
+    }
+
+    /// Contacts remembered.
+    pub fn len(&self) -> usize {
+        self.entries.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    pub fn clear(&mut self) {
+        self.entries.clear();
+        self.next.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn key(surfel: u32) -> StickKey {
+        StickKey {
+            a: 1,
+            b: 2,
+            from_b: false,
+            surfel,
+        }
+    }
+
+    /// What is committed is found by key, the last push of a key wins, and what is not
+    /// pushed again is forgotten at the next commit.
+    #[test]
+    fn memory_keeps_the_last_commit_only() {
+        let mut m = StickMemory::default();
+        m.push(key(7), Vec3::X);
+        m.push(key(3), Vec3::Y);
+        m.push(key(7), Vec3::Z);
+        m.commit();
+        assert_eq!((m.get(&key(7)), m.get(&key(3)), m.len()), (Vec3::Z, Vec3::Y, 2));
+        assert_eq!(m.get(&key(5)), Vec3::ZERO);
+        m.push(key(3), Vec3::X);
+        m.commit();
+        assert_eq!((m.get(&key(7)), m.get(&key(3))), (Vec3::ZERO, Vec3::X));
+    }
+}
