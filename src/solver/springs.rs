@@ -3,10 +3,10 @@
 //! built from the contact patches after the forces phase and read by the next step's
 //! solve ([`super::solve`]).
 
+use super::stick::{StickKey, StickMemory};
 use crate::body::object::Object;
 use crate::contact::distribute::{Couple, moments, spread_weights};
 use crate::contact::params::contact_params;
-use super::stick::{StickKey, StickMemory};
 use crate::contact::{ContactPatch, NO_SURFEL};
 use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};

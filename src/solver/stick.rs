@@ -49,7 +49,7 @@ impl StickMemory {
     pub fn commit(&mut self) {
         std::mem::swap(&mut self.entries, &mut self.next);
         self.next.clear();
-        self.entries.sort_by(|x, y| x.0.cmp(&y.0));
+        self.entries.sort_by_key(|e| e.0);
         self.entries.dedup_by(|later, earlier| {
             let same = later.0 == earlier.0;
             if same {
@@ -96,7 +96,10 @@ mod tests {
         m.push(key(3), Vec3::Y);
         m.push(key(7), Vec3::Z);
         m.commit();
-        assert_eq!((m.get(&key(7)), m.get(&key(3)), m.len()), (Vec3::Z, Vec3::Y, 2));
+        assert_eq!(
+            (m.get(&key(7)), m.get(&key(3)), m.len()),
+            (Vec3::Z, Vec3::Y, 2)
+        );
         assert_eq!(m.get(&key(5)), Vec3::ZERO);
         m.push(key(3), Vec3::X);
         m.commit();

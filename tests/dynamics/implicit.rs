@@ -230,17 +230,26 @@ fn a_stiff_box_rests_on_a_plane_at_a_frame_rate_step() {
 }
 
 /// Friction in the solve at a frame-rate step (dt = 1/120 s), on the `incline` block
-/// (validate's `incline`, 1 cm surfels). Stick (20°, μ = 0.5, tan θ < μ): the block
-/// creeps at the regularised law's `v_s tan θ / μ` = 7.3e-5 m/s (0.07 mm over the 1 s
-/// measured); bound 0.5 mm, against 2.5 mm/s of explicit friction at its bound.
+/// (validate's `incline`, 1 cm surfels, sleeping off). Stick: Coulomb's law holds a block
+/// below the friction angle still, and the stick anchors (`solver::stick`) carry the
+/// tangential spring's elongation across steps, so nothing creeps: over 2 s after a
+/// 0.5 s landing, under 1 µm/s on 20° with μ = 0.5 and on 12° with μ = 0.3 (0.2 and 0.4
+/// µm/s measured; the regularised viscous law this replaced crept at
+/// `v_s tan θ / μ`, 73 µm/s on 20°).
 /// Slide (30°, μ = 0.3): the acceleration fitted over 0.4 s is within 1% of
 /// `g (sin θ − μ cos θ)` = 2.356 m/s² (backward Euler is exact for a constant force;
 /// the 1% is the contact's rocking over the slope's surfels).
 #[test]
 fn friction_at_a_frame_rate_step_sticks_and_slides() {
     let dt = 1.0 / 120.0;
-    let (creep, _, _) = validate::incline(20.0, 0.5, dt, 0.5, 1.0, 0.01, "mls-implicit").unwrap();
-    assert!(creep.abs() < 5e-4, "creep {creep} m over 1 s");
+    for (angle, mu) in [(20.0, 0.5), (12.0, 0.3)] {
+        let (creep, _, _) =
+            validate::incline(angle, mu, dt, 0.5, 2.0, 0.01, "mls-implicit").unwrap();
+        assert!(
+            creep.abs() / 2.0 < 1e-6,
+            "{angle}°, μ {mu}: creep {creep} m over 2 s"
+        );
+    }
     let (_, a, _) = validate::incline(30.0, 0.3, dt, 0.1, 0.4, 0.01, "mls-implicit").unwrap();
     let th = 30f64.to_radians();
     let want = 9.81 * (th.sin() - 0.3 * th.cos());
@@ -259,12 +268,10 @@ fn friction_at_a_frame_rate_step_sticks_and_slides() {
 /// way: at an impact found one step late it holds the penalty energy of the whole
 /// overlap, 6 J at the first one here, which the solve then dissipates.) The bodies come
 /// to rest (kinetic energy under 1e-3 of the start's total; 4e-4 measured), none sinks
-/// deeper than one phyxel spacing (2 cm). At most 4% of a body's solves stop at the
-/// iteration cap (the capsule: 3 of 120 measured, at its impacts); the rest converge or
-/// stagnate, and a stagnated step far above its rounding estimate is a stall, counted
-/// unconverged: about 40% of the steps here, with residuals up to 5% of their scale
-/// (docs/BACKENDS.md, "Convergence"); under 10% is asserted, against a solve stalling
-/// far from the step.
+/// deeper than one phyxel spacing (2 cm), and at most 4% of a body's solves are
+/// unconverged (stopped at the iteration cap, or stalled: stagnated far above the
+/// rounding estimate; 6 of 480 body steps measured, with the stick anchors), each under
+/// 10% of its scale.
 #[test]
 fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
     let scene = Scene::builtin("pile").unwrap();
@@ -306,11 +313,7 @@ fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
     );
     for o in world.objects.iter().filter(|o| !o.is_static()) {
         let s = o.dynamics_as::<MlsImplicit>().unwrap().solver_stats();
-        assert!(
-            (s.unconverged - s.stalled) * 25 <= s.steps,
-            "{}: {s:?}",
-            o.name
-        );
+        assert!(s.unconverged * 25 <= s.steps, "{}: {s:?}", o.name);
         assert!(s.max_residual < 0.1, "{}: {s:?}", o.name);
     }
 }
