@@ -1,14 +1,24 @@
 //! Penalty and friction forces on the contact surfels (Keiser et al. 2004, §7), and the
 //! area each surfel stands for.
 
+use super::stick::{StickKey, StickMemory};
 use super::*;
 
-/// Friction regularisation speed (m/s): below it Coulomb friction is viscous
-/// (`μ F_n v_t / FRICTION_SLIP_SPEED`). Explicit integration of that stiff viscous term
-/// does not hold a sticking contact to this speed times `F_t/(μ F_n)`: a block on the 20°
-/// `incline` (μ = 0.5, where that bound is 0.07 mm/s) creeps at 0.24–0.35 mm/s at
-/// dt = 0.1 ms, in proportion to dt (docs/ACCURACY.md, "Known limits").
+/// Friction regularisation speed (m/s) of the law the stick springs replaced,
+/// `μ F_n v_t / max(|v_t|, FRICTION_SLIP_SPEED)`: kept for references to its creep.
 pub const FRICTION_SLIP_SPEED: f32 = 1.0e-4;
+
+/// What the friction of one patch carries across steps: the last step's elongations
+/// ([`StickMemory`]), the serials that name the pair in its keys, and the step.
+#[derive(Clone, Copy)]
+pub struct StickContext<'a> {
+    pub memory: &'a StickMemory,
+    /// [`Object::serial`](crate::body::object::Object::serial) of the patch's a and b.
+    pub a: u64,
+    pub b: u64,
+    /// The step (s): the elongation grows by `v_t dt`.
+    pub dt: f32,
+}
 
 /// Area each contact surfel stands for: `1 / Σ_j W(|x_i − x_j|)` with the normalised
 /// 2-D poly6 kernel of support 2 spacings (a kernel density estimate of surfels per m²,
@@ -55,7 +65,19 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScr
 /// along the contact normal, and the tangential part of `d` is sampling noise (rim
 /// surfels of a curved body) that would make a resting body drift; friction alone acts
 /// tangentially.
-pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchScratch) {
+///
+/// Friction is a stick spring (Cundall and Strack 1979; [`super::stick`]): the
+/// elongation `ξ = ξ₀ + v_t dt` from the last step's (turned into Φ's tangent plane)
+/// pulls back with `k_t ξ + c_t v_t`, the normal spring's stiffness `½ k A` and
+/// dashpot `c A` (so the stable step is unchanged), returned to Coulomb's cone
+/// `μ F_n`; on the cone the elongation is reset to `F_t / k_t`. A sticking contact
+/// holds its place instead of creeping at a regularised sticking speed.
+pub fn forces(
+    patch: &mut ContactPatch,
+    p: &ContactParams,
+    scratch: &mut PatchScratch,
+    stick: &StickContext<'_>,
+) {
     areas(&mut patch.surfels, p.force_spacing, scratch);
     let one_side = |d: Vec3, n: Vec3, v_rel: Vec3| -> Vec3 {
         let d = d.dot(n) * n;
@@ -67,19 +89,69 @@ pub fn forces(patch: &mut ContactPatch, p: &ContactParams, scratch: &mut PatchSc
         let approach = v_rel.dot(dn);
         // Spring plus dashpot, clamped to push only: a separating contact must not
         // stick through its damping term.
-        let pen = -(p.stiffness * len + p.damping * approach).max(0.0) * dn;
-        if p.friction > 0.0 {
-            let vt = v_rel - approach * dn;
-            let speed = vt.length();
-            let scale = p.friction * pen.length() / speed.max(FRICTION_SLIP_SPEED);
-            pen - scale * vt
-        } else {
-            pen
-        }
+        -(p.stiffness * len + p.damping * approach).max(0.0) * dn
     };
+    let b = patch.b;
     patch.surfels.par_iter_mut().for_each(|c| {
         let fa = one_side(c.anchor_a - c.pos, c.normal, c.velocity);
         let fb = one_side(c.anchor_b - c.pos, c.normal, -c.velocity);
-        c.force = 0.5 * (fa - fb) * c.area;
+        let normal = 0.5 * (fa - fb) * c.area;
+        c.force = normal;
+        c.stick = Vec3::ZERO;
+        let cap = p.friction * normal.length();
+        if cap <= 0.0 {
+            return;
+        }
+        let n = c.normal;
+        let slip = c.velocity - n * n.dot(c.velocity);
+        let last = if c.surfel == NO_SURFEL {
+            Vec3::ZERO
+        } else {
+            let key = StickKey {
+                a: stick.a,
+                b: stick.b,
+                from_b: c.object == b,
+                surfel: c.surfel,
+            };
+            stick.memory.get(&key)
+        };
+        let xi = last - n * n.dot(last) + slip * stick.dt;
+        let (k, damping) = (0.5 * p.stiffness * c.area, p.damping * c.area);
+        let pull = -(k * xi + damping * slip);
+        let size = pull.length();
+        if size <= cap {
+            c.force += pull;
+            c.stick = xi;
+        } else {
+            let f = pull * (cap / size);
+            c.force += f;
+            c.stick = if k > 0.0 { -f / k } else { Vec3::ZERO };
+        }
     });
+}
+
+/// Records the elongations of `patches`' contact surfels (those with a colliding
+/// surfel and friction) as the next step's memory; `serial(k)` names object k.
+pub fn keep_sticks(
+    patches: &[ContactPatch],
+    serial: impl Fn(usize) -> u64,
+    memory: &mut StickMemory,
+) {
+    for patch in patches {
+        let (a, b) = (serial(patch.a), serial(patch.b));
+        for c in patch
+            .surfels
+            .iter()
+            .filter(|c| c.surfel != NO_SURFEL && c.stick != Vec3::ZERO)
+        {
+            let key = StickKey {
+                a,
+                b,
+                from_b: c.object == patch.b,
+                surfel: c.surfel,
+            };
+            memory.push(key, c.stick);
+        }
+    }
+    memory.commit();
 }

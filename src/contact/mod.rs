@@ -38,10 +38,11 @@ pub mod implicit {
 pub mod params;
 pub mod report;
 mod resample;
+pub mod stick;
 mod surface;
 
 pub use distribute::{DistributeScratch, MIN_DISTRIBUTION_PHYXELS, distribute};
-pub use forces::{FRICTION_SLIP_SPEED, areas, forces};
+pub use forces::{FRICTION_SLIP_SPEED, StickContext, areas, forces, keep_sticks};
 pub use params::ContactParams;
 pub use report::{ContactPoint, PatchTotals};
 pub use resample::{anchor, resample};
@@ -90,6 +91,9 @@ pub struct ContactSurfel {
     pub anchor_b: Vec3,
     /// Velocity of surface a relative to surface b at the anchors (m/s).
     pub velocity: Vec3,
+    /// The friction spring's elongation after the forces (m): surface a's tangential
+    /// displacement against b since the contact last stuck ([`stick`]).
+    pub stick: Vec3,
 }
 
 /// [`ContactSurfel::surfel`] of a surfel inserted by resampling (no colliding surfel).

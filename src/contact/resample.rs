@@ -136,6 +136,7 @@ pub(super) fn fill_holes(
                     anchor_a: x,
                     anchor_b: x,
                     velocity: Vec3::ZERO,
+                    stick: Vec3::ZERO,
                 });
             }
         }

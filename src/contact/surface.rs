@@ -178,6 +178,7 @@ pub fn contact_surface(
             } else {
                 v_other - v_own
             },
+            stick: Vec3::ZERO,
         })
     };
     let n_a = det.a_in_b.len();

@@ -6,7 +6,7 @@
 //! of it). Along the normal: the pipeline's force at the step's start plus its linear
 //! change over the step (`−k dt v_n − c Δv_n`), clamped to push only — one Newton step
 //! of the penalty force, the linearly implicit contact of Baraff and Witkin (1998).
-//! Along the tangent: a stick anchor (Cundall and Strack 1979, [`super::stick`]): the
+//! Along the tangent: a stick anchor (Cundall and Strack 1979, [`crate::contact::stick`]): the
 //! tangential spring `F_t = −k_t ξ`, `ξ = ξ₀ + dt v_t`, with `k_t` the normal spring's
 //! stiffness and `ξ₀` carried from the last step, returned to Coulomb's cone
 //! `|F_t| ≤ μ N` with the normal force of the same iterate. A sticking contact holds its

@@ -21,15 +21,14 @@ mod islands;
 mod newton;
 pub mod skyline;
 pub mod springs;
-pub mod stick;
 
 pub use islands::Islands;
 pub use newton::{Member, ROUNDING_FACTOR, SolveScratch, solve};
 pub use springs::{ContactSpring, ContactSprings, SpringSide};
-pub use stick::{StickKey, StickMemory};
 
 use crate::body::object::Object;
 use crate::contact::ContactPatch;
+use crate::contact::stick::StickMemory;
 use crate::dynamics::StepContext;
 use crate::spatial::grid::Grid;
 use glam::Vec3;
@@ -42,7 +41,7 @@ use rayon::prelude::*;
 pub const DEFAULT_DT: f32 = 1.0 / 120.0;
 
 /// The solve's state between steps: the islands, each island's buffers (no allocation
-/// in the steady step) and the contacts' friction anchors ([`stick`]). Dropped, it is
+/// in the steady step) and the contacts' friction anchors ([`crate::contact::stick`]). Dropped, it is
 /// rebuilt, and the anchors start again from zero.
 #[derive(Default)]
 pub struct Solver {

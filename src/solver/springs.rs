@@ -3,10 +3,10 @@
 //! built from the contact patches after the forces phase and read by the next step's
 //! solve ([`super::solve`]).
 
-use super::stick::{StickKey, StickMemory};
 use crate::body::object::Object;
 use crate::contact::distribute::{Couple, moments, spread_weights};
 use crate::contact::params::contact_params;
+use crate::contact::stick::{StickKey, StickMemory};
 use crate::contact::{ContactPatch, NO_SURFEL};
 use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};
@@ -44,7 +44,7 @@ pub struct ContactSpring {
     pub friction: f32,
     /// The friction anchor's elongation at the step's start (m): side a's tangential
     /// displacement against b since the contact last stuck, in the contact's tangent
-    /// plane ([`super::stick`]; its tangential stiffness is `stiffness`).
+    /// plane ([`crate::contact::stick`]; its tangential stiffness is `stiffness`).
     pub stick: Vec3,
     /// The contact across steps (its [`StickMemory`] entry).
     pub key: StickKey,

@@ -35,6 +35,7 @@ pub use cache::{GRID_REGION_DEPTH_FACTOR, GRID_REGION_MARGIN};
 use crate::body::object::Object;
 use crate::contact::detect::PairDetection;
 use crate::contact::params::compliance;
+use crate::contact::stick::StickMemory;
 use crate::contact::{ContactPatch, ContactSurfel};
 use crate::solver::ContactSprings;
 use crate::spatial::broad_phase::Pair;
@@ -132,6 +133,9 @@ pub struct ContactState {
     /// a static object): written by `springs`, read by the next step's `dynamics`
     /// ([`crate::solver`]).
     pub springs: ContactSprings,
+    /// The friction springs' elongations of the patches' contact surfels
+    /// ([`crate::contact::stick`]): written by `forces`, read by the next step's.
+    pub stick: StickMemory,
 }
 
 impl ContactState {
@@ -141,6 +145,7 @@ impl ContactState {
         self.detections.clear();
         self.patches.clear();
         self.springs.clear();
+        self.stick.clear();
     }
 }
 

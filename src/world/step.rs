@@ -17,9 +17,10 @@ use super::{ContactState, RunRecord, World, sleep};
 use crate::body::fracture::{self, Components};
 use crate::body::object::Object;
 use crate::contact;
-use crate::contact::ContactPatch;
 use crate::contact::detect::{Candidates, PairDetection, Volume, colliding_surfels};
 use crate::contact::field::{grid_cell, radius_range};
+use crate::contact::stick::StickMemory;
+use crate::contact::{ContactPatch, StickContext};
 use crate::solver::{ContactSprings, Solver};
 use crate::spatial::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
 use bumpalo::Bump;
@@ -122,6 +123,7 @@ pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
             &mut w.cache,
             &mut w.record,
             &mut w.contact.patches,
+            &mut w.contact.stick,
         ),
         Phase::Distribute => distribute(&mut w.objects, &w.contact.patches, &mut w.cache),
         Phase::Springs => {
@@ -516,9 +518,11 @@ fn forces(
     cache: &mut StepCache,
     record: &mut RunRecord,
     patches: &mut [ContactPatch],
+    memory: &mut StickMemory,
 ) -> u64 {
     let view = SurfaceView::new(objects, &cache.grids);
     let (dt, on_resampled) = (s.dt, s.resampled_forces);
+    let last = &*memory;
     let with_friction: u64 = patches
         .par_iter_mut()
         .zip(cache.patch.par_iter_mut())
@@ -528,7 +532,13 @@ fn forces(
                 // Resampled Φ has the surfel spacing, whatever the carriers'.
                 p.force_spacing = p.spacing;
             }
-            contact::forces(patch, &p, scratch);
+            let stick = StickContext {
+                memory: last,
+                a: objects[patch.a].serial(),
+                b: objects[patch.b].serial(),
+                dt,
+            };
+            contact::forces(patch, &p, scratch, &stick);
             if p.friction > 0.0 {
                 patch.surfels.len() as u64
             } else {
@@ -537,6 +547,7 @@ fn forces(
         })
         .sum();
     record.friction_work += with_friction;
+    contact::keep_sticks(patches, |k| objects[k].serial(), memory);
     patches.iter().map(|p| p.surfels.len() as u64).sum()
 }
 

@@ -231,7 +231,7 @@ fn a_stiff_box_rests_on_a_plane_at_a_frame_rate_step() {
 
 /// Friction in the solve at a frame-rate step (dt = 1/120 s), on the `incline` block
 /// (validate's `incline`, 1 cm surfels, sleeping off). Stick: Coulomb's law holds a block
-/// below the friction angle still, and the stick anchors (`solver::stick`) carry the
+/// below the friction angle still, and the stick anchors (`contact::stick`) carry the
 /// tangential spring's elongation across steps, so nothing creeps: over 2 s after a
 /// 0.5 s landing, under 1 µm/s on 20° with μ = 0.5 and on 12° with μ = 0.3 (0.2 and 0.4
 /// µm/s measured; the regularised viscous law this replaced crept at

@@ -249,7 +249,7 @@ pub const INCLINE_SLIDE_TOLERANCE: f64 = 2e-4;
 
 /// Incline rows, the time step being the knob. Stick (20°, μ = 0.5, tan θ < μ): the
 /// explicit Coulomb force chatters around v = 0 and creeps in proportion to dt; in an
-/// implicit solve the stick anchors ([`crate::solver::stick`]) hold the block at any dt.
+/// implicit solve the stick anchors ([`crate::contact::stick`]) hold the block at any dt.
 /// The creep over the run (0.5 s; 0.1 s in quick mode) must stay below 1% of the 0.1 m
 /// block.
 /// Slide (30°, μ = 0.3): acceleration `g(sin θ − μ cos θ)` within

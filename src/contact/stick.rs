@@ -2,12 +2,14 @@
 //! surfel's tangential spring elongation ξ (the Cundall–Strack law of discrete-element
 //! codes, Cundall and Strack 1979), kept under a key that names the contact by its pair
 //! and its colliding surfel. A contact that sticks holds ξ = F_t / k_t with no creep; one
-//! that slides keeps ξ on Coulomb's cone, `k_t |ξ| = μ N` ([`super::active`]).
+//! that slides keeps ξ on Coulomb's cone, `k_t |ξ| = μ N`: in the pipeline's forces
+//! ([`super::forces`]) and in the implicit solve ([`crate::solver::active`]), each with
+//! its own memory.
 //!
 //! A key names the pair by its objects' serials ([`Object::serial`]), so a fractured or
 //! replaced object starts its contacts afresh; a contact that is not in this step's
-//! solve (parted, asleep, or in explicit stepping) is forgotten, and starts again from
-//! ξ = 0.
+//! patches (or solve) is forgotten, and starts again from ξ = 0, as does a force on
+//! resampled Φ (`World::resampled_forces`: its surfels have no colliding surfel).
 //!
 //! [`Object::serial`]: crate::body::object::Object::serial
 
@@ -23,7 +25,7 @@ pub struct StickKey {
     pub surfel: u32,
 }
 
-/// The elongations of the last solve's springs, sorted by key.
+/// The elongations of the last step's contacts, sorted by key.
 #[derive(Clone, Debug, Default)]
 pub struct StickMemory {
     entries: Vec<(StickKey, Vec3)>,
@@ -45,18 +47,14 @@ impl StickMemory {
         self.next.push((key, stick));
     }
 
-    /// Makes the pushed elongations the memory (a key pushed twice keeps its last).
+    /// Makes the pushed elongations the memory. Each contact is pushed once; a key
+    /// pushed twice keeps one of its values. (An unstable sort: it sorts in place, so
+    /// the steady step does not allocate.)
     pub fn commit(&mut self) {
         std::mem::swap(&mut self.entries, &mut self.next);
         self.next.clear();
-        self.entries.sort_by_key(|e| e.0);
-        self.entries.dedup_by(|later, earlier| {
-            let same = later.0 == earlier.0;
-            if same {
-                earlier.1 = later.1;
-            }
-            same
-        });
+        self.entries.sort_unstable_by_key(|e| e.0);
+        self.entries.dedup_by_key(|e| e.0);
     }
 
     /// Contacts remembered.
@@ -87,14 +85,13 @@ mod tests {
         }
     }
 
-    /// What is committed is found by key, the last push of a key wins, and what is not
-    /// pushed again is forgotten at the next commit.
+    /// What is committed is found by key, and what is not pushed again is forgotten at
+    /// the next commit.
     #[test]
     fn memory_keeps_the_last_commit_only() {
         let mut m = StickMemory::default();
-        m.push(key(7), Vec3::X);
-        m.push(key(3), Vec3::Y);
         m.push(key(7), Vec3::Z);
+        m.push(key(3), Vec3::Y);
         m.commit();
         assert_eq!(
             (m.get(&key(7)), m.get(&key(3)), m.len()),
