@@ -11,7 +11,8 @@
 //! The other way, `mls` wins for certain where its stable step (each body's
 //! [`Dynamics::explicit_dt`](crate::Dynamics::explicit_dt)) is at least
 //! 1/[`EXPLICIT_RATIO`] of `dt`: at most two of its steps per implicit step, each 10–100
-//! times cheaper (`incline` at dt = 1e-4 s: 4.3 against 15.8 wall s per simulated s).
+//! times cheaper (`plastic-fracture` at dt = 3e-4 s: 0.09 against 0.80 wall s per
+//! simulated s).
 //! Between that and the frame-rate step the cost of a backward-Euler step decides, and
 //! it varies too much for a rule: at 12–15 `mls` steps per implicit step
 //! `falling-sphere` and `self-contact` run 3–7 times faster on `mls`, while at 8–19

@@ -26,16 +26,16 @@ fn the_hint_names_the_implicit_backend_for_a_stiff_body_at_rest_only() {
     }
 }
 
-/// The other way: `incline` (its dt 1e-4 s, `mls` stable at about 6.6e-4 s) on
-/// `mls-implicit` gets the hint naming `--backend mls`; on `mls` it gets none; the
+/// The other way: `plastic-fracture` (its dt 3e-4 s, `mls` stable at about 1.6e-3 s)
+/// on `mls-implicit` gets the hint naming `--backend mls`; on `mls` it gets none; the
 /// frame-rate scenes (`falling-sphere`, `sphere-on-plane`, the cantilever: 12, 19 and
 /// 370 `mls` steps per implicit step) get none on `mls-implicit`.
 #[test]
 fn the_hint_names_the_explicit_backend_where_its_step_is_as_long() {
-    let incline = Scene::builtin("incline").unwrap();
-    let hint = backend_hint(&common::build(&incline, Some("mls-implicit"))).expect("a hint");
+    let scene = Scene::builtin("plastic-fracture").unwrap();
+    let hint = backend_hint(&common::build(&scene, Some("mls-implicit"))).expect("a hint");
     assert!(hint.contains("`--backend mls`"), "{hint}");
-    assert!(backend_hint(&common::build(&incline, Some("mls"))).is_none());
+    assert!(backend_hint(&common::build(&scene, Some("mls"))).is_none());
     for name in ["falling-sphere", "sphere-on-plane", "cantilever"] {
         let w = common::build(&Scene::builtin(name).unwrap(), Some("mls-implicit"));
         assert!(backend_hint(&w).is_none(), "{name} (dt {})", w.dt);
