@@ -104,17 +104,8 @@ pub fn forces(
         }
         let n = c.normal;
         let slip = c.velocity - n * n.dot(c.velocity);
-        let last = if c.surfel == NO_SURFEL {
-            Vec3::ZERO
-        } else {
-            let key = StickKey {
-                a: stick.a,
-                b: stick.b,
-                from_b: c.object == b,
-                surfel: c.surfel,
-            };
-            stick.memory.get(&key)
-        };
+        let last =
+            StickKey::of(stick.a, stick.b, b, c).map_or(Vec3::ZERO, |key| stick.memory.get(&key));
         let xi = last - n * n.dot(last) + slip * stick.dt;
         let (k, damping) = (0.5 * p.stiffness * c.area, p.damping * c.area);
         let pull = -(k * xi + damping * slip);
@@ -139,18 +130,10 @@ pub fn keep_sticks(
 ) {
     for patch in patches {
         let (a, b) = (serial(patch.a), serial(patch.b));
-        for c in patch
-            .surfels
-            .iter()
-            .filter(|c| c.surfel != NO_SURFEL && c.stick != Vec3::ZERO)
-        {
-            let key = StickKey {
-                a,
-                b,
-                from_b: c.object == patch.b,
-                surfel: c.surfel,
-            };
-            memory.push(key, c.stick);
+        for c in patch.surfels.iter().filter(|c| c.stick != Vec3::ZERO) {
+            if let Some(key) = StickKey::of(a, b, patch.b, c) {
+                memory.push(key, c.stick);
+            }
         }
     }
     memory.commit();

@@ -13,6 +13,7 @@
 //!
 //! [`Object::serial`]: crate::body::object::Object::serial
 
+use super::{ContactSurfel, NO_SURFEL};
 use glam::Vec3;
 
 /// A contact across steps: the serials of its patch's objects a and b, whether its
@@ -23,6 +24,20 @@ pub struct StickKey {
     pub b: u64,
     pub from_b: bool,
     pub surfel: u32,
+}
+
+impl StickKey {
+    /// The key of contact surfel `c` of a patch whose objects a and b have the serials
+    /// `a` and `b` and b the index `patch_b` ([`ContactPatch::b`](super::ContactPatch::b)); `None` for a surfel
+    /// with no colliding surfel.
+    pub fn of(a: u64, b: u64, patch_b: usize, c: &ContactSurfel) -> Option<Self> {
+        (c.surfel != NO_SURFEL).then_some(Self {
+            a,
+            b,
+            from_b: c.object == patch_b,
+            surfel: c.surfel,
+        })
+    }
 }
 
 /// The elongations of the last step's contacts, sorted by key.

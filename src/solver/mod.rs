@@ -127,9 +127,8 @@ impl Solver {
                 continue;
             }
             for (index, stick) in scratch.sticks() {
-                let sp = &springs.springs[index];
-                if sp.friction > 0.0 && stick != Vec3::ZERO {
-                    self.stick.push(sp.key, stick);
+                if let Some(key) = springs.springs[index].key.filter(|_| stick != Vec3::ZERO) {
+                    self.stick.push(key, stick);
                 }
             }
         }

@@ -4,10 +4,10 @@
 //! solve ([`super::solve`]).
 
 use crate::body::object::Object;
+use crate::contact::ContactPatch;
 use crate::contact::distribute::{Couple, moments, spread_weights};
 use crate::contact::params::contact_params;
 use crate::contact::stick::{StickKey, StickMemory};
-use crate::contact::{ContactPatch, NO_SURFEL};
 use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};
 
@@ -46,8 +46,9 @@ pub struct ContactSpring {
     /// displacement against b since the contact last stuck, in the contact's tangent
     /// plane ([`crate::contact::stick`]; its tangential stiffness is `stiffness`).
     pub stick: Vec3,
-    /// The contact across steps (its [`StickMemory`] entry).
-    pub key: StickKey,
+    /// The contact across steps (its [`StickMemory`] entry; `None`: a resampled
+    /// surfel, which keeps none).
+    pub key: Option<StickKey>,
     pub a: SpringSide,
     /// `None` when the other side is a static object (it does not move).
     pub b: Option<SpringSide>,
@@ -181,18 +182,14 @@ pub fn build(
                 .as_ref()
                 .filter(|_| ob.is_prescribed())
                 .map(|b| out.velocity(b, |j| ob.phyxels.vel.get(j)));
-            let key = StickKey {
-                a: oa.serial(),
-                b: ob_patch.serial(),
-                from_b: c.object == patch.b,
-                surfel: c.surfel,
-            };
-            // The anchor turns with the contact: its part along the new normal is gone.
-            let stick = if p.friction > 0.0 && c.surfel != NO_SURFEL {
-                let xi = memory.get(&key);
-                xi - normal * normal.dot(xi)
-            } else {
-                Vec3::ZERO
+            let key = StickKey::of(oa.serial(), ob_patch.serial(), patch.b, c);
+            // The spring turns with the contact: its part along the new normal is gone.
+            let stick = match key.filter(|_| p.friction > 0.0) {
+                Some(key) => {
+                    let xi = memory.get(&key);
+                    xi - normal * normal.dot(xi)
+                }
+                None => Vec3::ZERO,
             };
             out.springs.push(ContactSpring {
                 normal,
