@@ -107,11 +107,13 @@ fn distribution(c: &mut Criterion) {
                 pos: centre + r * dir,
                 normal: dir,
                 object: 0,
+                surfel: phyxel::contact::NO_SURFEL,
                 area: 1.0,
                 force: -dir,
                 anchor_a: Vec3::ZERO,
                 anchor_b: Vec3::ZERO,
                 velocity: Vec3::ZERO,
+                stick: Vec3::ZERO,
             }
         })
         .collect();
