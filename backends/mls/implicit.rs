@@ -104,7 +104,7 @@ pub struct MlsImplicit {
     dp: Vec<Mat3>,
     linear: Vec<Linear>,
     plastic0: Vec<Mat3>,
-    dofs: Vec<f64>,
+    dofs: Vec<f32>,
     /// The step's contact blocks turned to rest.
     rest_blocks: Vec<Mat3>,
 }
@@ -296,19 +296,19 @@ impl MlsImplicit {
                 for (j, r) in r.iter().enumerate() {
                     let p = 3 * pre.position[j] as usize;
                     let r = if free(j) { back * *r } else { Vec3::ZERO };
-                    self.dofs[p..p + 3].copy_from_slice(&[r.x as f64, r.y as f64, r.z as f64]);
+                    self.dofs[p..p + 3].copy_from_slice(&r.to_array());
                 }
                 let factor = if pre.with_contact {
                     &pre.contact
                 } else {
                     &pre.factor
                 };
-                factor.solve(&mut self.dofs);
+                factor.solve_f32(&mut self.dofs);
                 for (j, z) in z.iter_mut().enumerate() {
                     let p = 3 * pre.position[j] as usize;
                     let d = &self.dofs[p..p + 3];
                     *z = if free(j) {
-                        rot * Vec3::new(d[0] as f32, d[1] as f32, d[2] as f32)
+                        rot * Vec3::new(d[0], d[1], d[2])
                     } else {
                         Vec3::ZERO
                     };
