@@ -176,16 +176,7 @@ pub fn solve(
                 spread(&mut s.g, springs, members, b, f);
             }
         }
-        let mut norm = 0.0f64;
-        for (k, m) in members.iter().enumerate() {
-            let at = s.offset[k];
-            for j in 0..m.phyxels.len() {
-                if m.phyxels.fixed[j] == 0 {
-                    norm += s.g[at + j].length_squared() as f64 / m.phyxels.mass[j] as f64;
-                }
-            }
-        }
-        let norm = norm.sqrt();
+        let norm = inverse_mass_norm(members, &s.offset, |i, _| s.g[i]);
         if newton == 0 {
             // Relative to the step's momentum change, its impulses or a share of its
             // momentum, whichever is largest: near equilibrium the first residual is
@@ -320,13 +311,22 @@ fn rounding_floor(
         }
     }
     apply_island(members, springs, s, dt, gravity);
+    inverse_mass_norm(members, &s.offset, |i, mass| s.ap[i] - s.p[i] * mass)
+}
+
+/// `‖x‖_{M⁻¹}` over the island's free phyxels, `x` given per island entry `i` (with its
+/// phyxel's mass): the residual's norm.
+fn inverse_mass_norm(
+    members: &[Member<'_>],
+    offset: &[usize],
+    x: impl Fn(usize, f32) -> Vec3,
+) -> f64 {
     let mut norm = 0.0f64;
     for (k, m) in members.iter().enumerate() {
         for j in 0..m.phyxels.len() {
-            let i = s.offset[k] + j;
             if m.phyxels.fixed[j] == 0 {
                 let mass = m.phyxels.mass[j];
-                norm += (s.ap[i] - s.p[i] * mass).length_squared() as f64 / mass as f64;
+                norm += x(offset[k] + j, mass).length_squared() as f64 / mass as f64;
             }
         }
     }
