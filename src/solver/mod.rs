@@ -61,8 +61,8 @@ impl Solver {
     /// Steps every moving object of `objects` by `dt` under `gravity`, its load at time
     /// `time` (s) and `phyxels.force`: explicit bodies by their backend's step, implicit
     /// ones by islands joined by `springs` (the last step's), each island in one solve.
-    /// Bodies alone in their island and explicit ones run in parallel; islands of
-    /// several bodies one after another (each solve is parallel inside). `after` runs
+    /// Bodies alone in their island and explicit ones run in parallel, then the islands
+    /// of several bodies in parallel. `after` runs
     /// on each object once it has stepped.
     pub fn step(
         &mut self,
@@ -135,8 +135,8 @@ impl Solver {
         self.stick.commit();
     }
 
-    /// The islands of several bodies, one after the other (each solve is parallel
-    /// inside).
+    /// The islands of several bodies, in parallel (each solve is parallel inside, over
+    /// its members).
     fn solve_shared(
         &mut self,
         objects: &mut [Object],
@@ -179,10 +179,23 @@ impl Solver {
                 material,
             });
         }
-        for (group, &l) in members.iter_mut().zip(&leader) {
-            solve(group, springs, dt, gravity, &mut self.scratch[l]);
+        // Each island with its leader's buffers, the islands in parallel.
+        let mut jobs: Vec<(usize, Vec<Member<'_>>)> = leader.into_iter().zip(members).collect();
+        jobs.sort_unstable_by_key(|(l, _)| *l);
+        let mut paired = Vec::with_capacity(jobs.len());
+        let (mut rest, mut base) = (&mut self.scratch[..], 0);
+        for (l, group) in jobs {
+            let (scratch, tail) = std::mem::take(&mut rest)[l - base..]
+                .split_first_mut()
+                .expect("an island's leader is an object");
+            rest = tail;
+            base = l + 1;
+            paired.push((scratch, group));
         }
-        drop(members);
+        paired.par_iter_mut().for_each(|(scratch, group)| {
+            solve(group, springs, dt, gravity, scratch);
+        });
+        drop(paired);
         for (k, o) in objects.iter().enumerate() {
             if islands.shared(k) && !o.is_asleep() {
                 after(o);

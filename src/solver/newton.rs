@@ -137,9 +137,12 @@ pub fn solve(
             .push(Active::new(k as u32, side(&s.offset, ma, sp.a), mb, given));
     }
     let mut momentum = 0.0f64;
-    for (k, m) in members.iter_mut().enumerate() {
+    each_member(members, &s.offset, &[] as &[Vec3], &mut [], &|m, _, _| {
         m.dynamics
             .begin(m.phyxels, &StepContext::new(dt, gravity, m.material));
+        0.0
+    });
+    for (k, m) in members.iter_mut().enumerate() {
         let at = s.offset[k];
         for j in 0..m.phyxels.len() {
             let v = m.phyxels.vel.get(j);
@@ -160,14 +163,10 @@ pub fn solve(
     let mut rel;
     loop {
         // The residual: each member's, then the springs'.
-        let mut external = 0.0f64;
-        for (k, m) in members.iter_mut().enumerate() {
-            let r = s.offset[k]..s.offset[k + 1];
+        let external = each_member(members, &s.offset, &s.v, &mut s.g, &|m, v, g| {
             let ctx = StepContext::new(dt, gravity, m.material);
-            external += m
-                .dynamics
-                .residual(m.phyxels, &ctx, &s.v[r.clone()], &mut s.g[r]);
-        }
+            m.dynamics.residual(m.phyxels, &ctx, v, g)
+        });
         for e in s.springs.iter_mut() {
             let sp = &springs.springs[e.index as usize];
             let f = e.force(sp, e.relative(&s.v, springs), dt, newton) * dt;
@@ -217,10 +216,11 @@ pub fn solve(
         if newton == 0 {
             contact_blocks(members, springs, s, dt);
         }
-        for m in members.iter_mut() {
+        each_member(members, &s.offset, &[] as &[Vec3], &mut [], &|m, _, _| {
             m.dynamics
                 .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
-        }
+            0.0
+        });
         cg += solve_cg(members, springs, s, settings.max_cg, dt, gravity);
         for (v, d) in s.v.iter_mut().zip(&s.delta) {
             *v += *d;
@@ -228,11 +228,11 @@ pub fn solve(
         newton += 1;
     }
     remove_translation(members, s);
-    for (k, m) in members.iter_mut().enumerate() {
-        let r = s.offset[k]..s.offset[k + 1];
+    each_member(members, &s.offset, &s.v, &mut [], &|m, v, _| {
         let ctx = StepContext::new(dt, gravity, m.material);
-        m.dynamics.commit(m.phyxels, &ctx, &s.v[r]);
-    }
+        m.dynamics.commit(m.phyxels, &ctx, v);
+        0.0
+    });
     let tolerance = settings.tolerance as f64;
     // A stagnated step above the tolerance is at the floor only if the backend's
     // rounding explains its residual; otherwise it has stalled, and says so.
@@ -260,6 +260,48 @@ pub fn solve(
     report
 }
 
+/// Runs `f` on every member with its rows of `input` and `output` (either may be
+/// empty: then each member gets an empty slice), the members split into halves of the
+/// rows by `rayon::join`, and sums what `f` returns in that fixed tree: the same bits on any
+/// number of threads. An island's members are independent between the springs' rows,
+/// so a heap of bodies preconditions, applies and refactors in parallel.
+fn each_member<T, F>(
+    members: &mut [Member<'_>],
+    offset: &[usize],
+    input: &[T],
+    output: &mut [Vec3],
+    f: &F,
+) -> f64
+where
+    T: Sync,
+    F: Fn(&mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
+{
+    match members.len() {
+        0 => 0.0,
+        1 => f(&mut members[0], input, output),
+        n => {
+            // Halves of the rows rather than of the members: bodies differ in size.
+            let half = (offset[0] + offset[n]) / 2;
+            let mid = offset[1..n].partition_point(|&o| o < half) + 1;
+            let mid = if mid < n && half - offset[mid - 1] < offset[mid] - half {
+                mid - 1
+            } else {
+                mid
+            }
+            .clamp(1, n - 1);
+            let cut = offset[mid] - offset[0];
+            let (ml, mr) = members.split_at_mut(mid);
+            let (il, ir) = input.split_at(cut.min(input.len()));
+            let (ol, or) = output.split_at_mut(cut.min(output.len()));
+            let (l, r) = rayon::join(
+                || each_member(ml, &offset[..=mid], il, ol, f),
+                || each_member(mr, &offset[mid..], ir, or, f),
+            );
+            l + r
+        }
+    }
+}
+
 /// `s.ap = A s.p`: the island's tangent (the members' `M + c K` and the pushing springs'
 /// rows) at the last linearisation.
 fn apply_island(
@@ -269,12 +311,11 @@ fn apply_island(
     dt: f32,
     gravity: Vec3,
 ) {
-    for (k, m) in members.iter_mut().enumerate() {
-        let r = s.offset[k]..s.offset[k + 1];
+    each_member(members, &s.offset, &s.p, &mut s.ap, &|m, p, ap| {
         let ctx = StepContext::new(dt, gravity, m.material);
-        m.dynamics
-            .apply(m.phyxels, &ctx, &s.p[r.clone()], &mut s.ap[r]);
-    }
+        m.dynamics.apply(m.phyxels, &ctx, p, ap);
+        0.0
+    });
     for e in s.springs.iter().filter(|e| e.pushing) {
         let sp = &springs.springs[e.index as usize];
         let f = e.tangent(sp, e.relative_change(&s.p, springs), dt);
@@ -394,14 +435,11 @@ fn contact_blocks(
             }
         }
     }
-    for (k, m) in members.iter_mut().enumerate() {
-        let blocks = if any {
-            &s.blocks[s.offset[k]..s.offset[k + 1]]
-        } else {
-            &[]
-        };
+    let blocks: &[Mat3] = if any { &s.blocks } else { &[] };
+    each_member(members, &s.offset, blocks, &mut [], &|m, blocks, _| {
         m.dynamics.contact_blocks(m.phyxels, blocks);
-    }
+        0.0
+    });
 }
 
 fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
@@ -435,11 +473,10 @@ fn solve_cg(
         return 0;
     }
     let precondition = |members: &mut [Member<'_>], s: &mut SolveScratch| {
-        for (k, m) in members.iter_mut().enumerate() {
-            let r = s.offset[k]..s.offset[k + 1];
-            m.dynamics
-                .precondition(m.phyxels, &s.r[r.clone()], &mut s.z[r]);
-        }
+        each_member(members, &s.offset, &s.r, &mut s.z, &|m, r, z| {
+            m.dynamics.precondition(m.phyxels, r, z);
+            0.0
+        });
     };
     let apply = |members: &mut [Member<'_>], s: &mut SolveScratch| {
         apply_island(members, springs, s, dt, gravity)
