@@ -78,3 +78,40 @@ fn quick_suite_within_tolerance_and_converging() {
     // are noise (docs/ACCURACY.md records the measured time).
     println!("quick suite took {took:.1} s (budget 120 s)");
 }
+
+/// `uniaxial_stress`, the squeeze case's reference, against two closed forms: without
+/// the volume term the law is Saint-Venant–Kirchhoff, whose uniaxial nominal stress is
+/// `E λ(λ² − 1)/2` exactly (1e-6 relative: the Lamé constants are f32); with it, the small-strain slope is the Young's
+/// modulus of Lamé λ + k_v and μ, `μ(3λ′ + 2μ)/(λ′ + μ)` (a central difference at
+/// ±1e-5, 1e-4 relative).
+#[test]
+fn uniaxial_stress_matches_closed_forms() {
+    use phyxel::material::Material;
+    let svk = Material {
+        volume_stiffness: 0.0,
+        ..Material::default()
+    };
+    for stretch in [0.9, 0.96, 1.0, 1.05] {
+        let want = svk.young as f64 * stretch * (stretch * stretch - 1.0) / 2.0;
+        let got = validate::uniaxial_stress(&svk, stretch);
+        assert!(
+            (got - want).abs() <= 1e-6 * svk.young as f64,
+            "stretch {stretch}: {got} vs {want}"
+        );
+    }
+    let m = Material::default();
+    let (lambda, mu) = m.lame();
+    let (l, mu) = ((lambda + m.k_volume()) as f64, mu as f64);
+    let young = mu * (3.0 * l + 2.0 * mu) / (l + mu);
+    let h = 1e-5;
+    let slope = (validate::uniaxial_stress(&m, 1.0 + h) - validate::uniaxial_stress(&m, 1.0 - h))
+        / (2.0 * h);
+    assert!(
+        (slope / young - 1.0).abs() < 1e-4,
+        "small-strain slope {slope} vs {young}"
+    );
+    assert!(
+        young > m.young as f64 * 1.01,
+        "the volume term stiffens: {young}"
+    );
+}

@@ -1,0 +1,204 @@
+//! Displacement-controlled cases, the tool's view: a frictionless block squeezed by a
+//! kinematic plate (the plate's force against its travel), and a block pushed sideways
+//! by a kinematic tool until it slips (the break-away force against μN).
+
+use super::*;
+use crate::dynamics::kinematic::Kinematic;
+
+/// The nominal (first Piola–Kirchhoff) axial stress (Pa, negative in compression) of
+/// `m`'s elastic law under uniaxial stress at axial stretch `stretch`, the lateral faces
+/// free: the MLS backends' energy `s(λ/2 (tr ε)² + μ tr ε²) + k_v/2 (det F − 1)²` with
+/// Green's strain ε (s = 1, or 4 for the paper's strain), `F = diag(t, stretch, t)` and
+/// the lateral stretch t solving `∂W/∂t = 0` (bisection). At small strain this is
+/// `E′ (stretch − 1)` with `E′` the Young's modulus of Lamé λ + k_v and μ (the volume
+/// term stiffens it: 1.4% at the default k_v = 0.1 E, ν = 0.3).
+pub fn uniaxial_stress(m: &Material, stretch: f64) -> f64 {
+    let (lambda, mu) = m.lame();
+    let (lambda, mu) = (lambda as f64, mu as f64);
+    let s = if m.strain == crate::material::StrainForm::Paper {
+        4.0
+    } else {
+        1.0
+    };
+    let kv = m.k_volume() as f64;
+    let l = stretch;
+    let ey = 0.5 * (l * l - 1.0);
+    // Second Piola–Kirchhoff stress along an axis with Green strain `e`, and the
+    // volume term's pressure-like factor.
+    let s_axis = |t: f64, e: f64| {
+        let tr = ey + 2.0 * 0.5 * (t * t - 1.0);
+        s * (lambda * tr + 2.0 * mu * e)
+    };
+    let lateral = |t: f64| s_axis(t, 0.5 * (t * t - 1.0)) + kv * (l * t * t - 1.0) * l;
+    let (mut lo, mut hi) = (0.5f64, 1.5f64);
+    for _ in 0..80 {
+        let mid = 0.5 * (lo + hi);
+        if lateral(mid) > 0.0 {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let t = 0.5 * (lo + hi);
+    l * s_axis(t, ey) + kv * (l * t * t - 1.0) * t * t
+}
+
+/// What [`squeeze`] measured.
+#[derive(Clone, Copy, Debug)]
+pub struct Squeeze {
+    /// The plate's force against its own travel (N/m), least squares over the window.
+    pub tool_slope: f64,
+    /// The plate's force against the cube's own shortening (N/m): the shortening
+    /// between its top and bottom phyxel layers, scaled to the cube's height.
+    pub body_slope: f64,
+    /// The reference slope (N/m): the secant of [`uniaxial_stress`] × A over the
+    /// cube's strains at the window's ends.
+    pub reference: f64,
+    /// The small-strain slope E·A/L (N/m).
+    pub linear: f64,
+    /// Largest penetration of the run (m).
+    pub max_penetration: f64,
+    pub run: RunInfo,
+}
+
+/// Edge of the squeezed cube (m).
+pub const SQUEEZE_EDGE: f64 = 0.1;
+
+/// A frictionless elastic cube (edge [`SQUEEZE_EDGE`], E = 1e5 Pa, ν = 0.3, `across`
+/// phyxels along an edge), weightless, 0.1 mm above a static ground and 0.1 mm below a
+/// kinematic plate moving down at 1 cm/s, the plate and ground at E = 1e9 Pa (rigid
+/// parts). Over 0.4 s (4 mm of travel), the plate's reaction against its travel and
+/// against the cube's shortening, fitted from 1.5 mm of travel on; `dt` None: the
+/// backend's default step.
+pub fn squeeze(across: u32, backend: &str, dt: Option<f32>) -> Result<Squeeze, String> {
+    let edge = SQUEEZE_EDGE as f32;
+    let spacing = edge / across as f32;
+    let gap = 1e-4f32;
+    let y_ground = -0.5 * edge - gap - 0.01;
+    let y_plate = 0.5 * edge + gap + 0.01;
+    let text = format!(
+        r#"name = "squeeze"
+gravity = [0.0, 0.0, 0.0]
+
+[[objects]]
+name = "ground"
+static = true
+shape = {{ type = "box", size = [0.2, 0.02, 0.2] }}
+spacing = 0.01
+position = [0.0, {y_ground}, 0.0]
+material = {{ young = 1.0e9, poisson = 0.3 }}
+
+[[objects]]
+name = "cube"
+shape = {{ type = "box", size = [{edge}, {edge}, {edge}] }}
+spacing = {spacing}
+material = {{ young = 1.0e5, poisson = 0.3 }}
+
+[[objects]]
+name = "plate"
+backend = "kinematic"
+shape = {{ type = "box", size = [0.16, 0.02, 0.16] }}
+spacing = 0.01
+position = [0.0, {y_plate}, 0.0]
+velocity = [0.0, -0.01, 0.0]
+material = {{ young = 1.0e9, poisson = 0.3 }}
+"#
+    );
+    let mut scene = Scene::parse(&text, "squeeze").map_err(|e| e.to_string())?;
+    scene.dt = dt;
+    let mut w = build(&scene, &opts(backend))?;
+    let material = w.objects[1].material.clone();
+    let rest = &w.objects[1].phyxels.rest;
+    let (lo, hi) = (0..rest.len())
+        .map(|j| rest.get(j).y)
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), y| {
+            (a.min(y), b.max(y))
+        });
+    let layer = |want: f32| -> Vec<usize> {
+        (0..rest.len())
+            .filter(|&j| (rest.get(j).y - want).abs() < 0.25 * spacing)
+            .collect()
+    };
+    let (bottom, top) = (layer(lo), layer(hi));
+    let h0 = (hi - lo) as f64;
+    let mean_y = |w: &World, set: &[usize]| {
+        let p = &w.objects[1].phyxels.pos;
+        set.iter().map(|&j| p.get(j).y as f64).sum::<f64>() / set.len() as f64
+    };
+    let plate0 = w.objects[2].phyxels.centre_of_mass()[1];
+    let steps = (0.4 / w.dt as f64).round() as usize;
+    let mut pts: Vec<(f64, f64, f64)> = Vec::new();
+    let info = timed(&mut w, steps, |w| {
+        let travel = plate0 - w.objects[2].phyxels.centre_of_mass()[1];
+        let shortening = 1.0 - (mean_y(w, &top) - mean_y(w, &bottom)) / h0;
+        let force = w.objects[2]
+            .dynamics_as::<Kinematic>()
+            .map_or(0.0, |k| k.reaction().y as f64);
+        pts.push((travel, shortening * SQUEEZE_EDGE, force));
+        true
+    });
+    let window: Vec<&(f64, f64, f64)> = pts.iter().filter(|p| p.0 >= 1.5e-3).collect();
+    if window.len() < 3 {
+        return Err(format!(
+            "squeeze: {} steps in the fitting window (dt {})",
+            window.len(),
+            info.dt
+        ));
+    }
+    let max_penetration = w.record.max_penetration as f64;
+    let tool_slope = slope(&window.iter().map(|p| (p.0, p.2)).collect::<Vec<_>>());
+    let body_slope = slope(&window.iter().map(|p| (p.1, p.2)).collect::<Vec<_>>());
+    let area = SQUEEZE_EDGE * SQUEEZE_EDGE;
+    let force = |d: f64| -area * uniaxial_stress(&material, 1.0 - d / SQUEEZE_EDGE);
+    let (d1, d2) = (window[0].1, window[window.len() - 1].1);
+    let reference = (force(d2) - force(d1)) / (d2 - d1);
+    Ok(Squeeze {
+        tool_slope,
+        body_slope,
+        reference,
+        linear: material.young as f64 * area / SQUEEZE_EDGE,
+        max_penetration,
+        run: info,
+    })
+}
+
+/// Squeeze rows: the plate's force against its travel, at three resolutions, against
+/// the continuum's uniaxial response of the same law ([`uniaxial_stress`]; over this
+/// squeeze the law is 4.8–5% softer than E·A/L, so the small-strain slope is not the
+/// reference). The note carries the cube's own slope (the body alone, whose error is
+/// under 1.3% from 8 across) and E·A/L; the rest of the error is the two contact
+/// layers' compliance, and falls with the spacing ([`squeeze_tolerance`]).
+pub fn case_squeeze(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
+    let across: &[u32] = if quick { &[4, 6, 8] } else { &[6, 8, 10] };
+    sweep_by("squeeze", backend, squeeze_tolerance, across, |n| {
+        let s = squeeze(n, backend, None)?;
+        Ok(Point {
+            measured: s.tool_slope,
+            reference: s.reference,
+            run: s.run,
+            note: format!(
+                "{n} across; body alone {:.0} N/m ({:+.1}%); E·A/L {:.0} N/m; deepest overlap {:.2} mm",
+                s.body_slope,
+                100.0 * (s.body_slope / s.reference - 1.0),
+                s.linear,
+                1e3 * s.max_penetration
+            ),
+            rel_error: None,
+        })
+    })
+}
+
+/// Tolerance of `squeeze` at `across` phyxels along the edge (relative error of the
+/// plate's slope): a regression bound about 1.25 times the error measured on both MLS
+/// backends (33.3–33.7% at 4 across, 19.5–19.8% at 6, 9.9–10.1% at 8, 8.5% at 10),
+/// all of it but the body's 0.3–1.2% in the contact layers (the plate's penalty
+/// springs are softer than the cube near its faces). The aim, 3% at 10 across, is
+/// docs/ACCURACY.md's known limit.
+pub fn squeeze_tolerance(across: u32) -> f64 {
+    match across {
+        ..=4 => 0.42,
+        5..=6 => 0.25,
+        7..=8 => 0.13,
+        _ => 0.11,
+    }
+}
