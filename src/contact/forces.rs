@@ -70,7 +70,10 @@ pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScr
 /// elongation `ξ = ξ₀ + v_t dt` from the last step's (turned into Φ's tangent plane)
 /// pulls back with `k_t ξ + c_t v_t`, the normal spring's stiffness `½ k A` and
 /// dashpot `c A` (so the stable step is unchanged), returned to Coulomb's cone
-/// `μ F_n`; on the cone the elongation is reset to `F_t / k_t`. A sticking contact
+/// `μ F_n`; on the cone the elongation is reset so that spring and dashpot together
+/// give the cone's force, `ξ = −(F_t + c_t v_t)/k_t`, as DEM codes do (reset to
+/// `−F_t / k_t`, a contact vibrating at the cone slips a little each time its dashpot
+/// pushes it over, and a block ratchets down a slope it sticks to). A sticking contact
 /// holds its place instead of creeping at a regularised sticking speed.
 pub fn forces(
     patch: &mut ContactPatch,
@@ -116,17 +119,23 @@ pub fn forces(
         } else {
             let f = pull * (cap / size);
             c.force += f;
-            c.stick = if k > 0.0 { -f / k } else { Vec3::ZERO };
+            c.stick = if k > 0.0 {
+                -(f + damping * slip) / k
+            } else {
+                Vec3::ZERO
+            };
         }
     });
 }
 
 /// Records the elongations of `patches`' contact surfels (those with a colliding
-/// surfel and friction) as the next step's memory; `serial(k)` names object k.
+/// surfel and an anchor) as the next step's memory, after a step of `dt` (s);
+/// `serial(k)` names object k.
 pub fn keep_sticks(
     patches: &[ContactPatch],
     serial: impl Fn(usize) -> u64,
     memory: &mut StickMemory,
+    dt: f32,
 ) {
     for patch in patches {
         let (a, b) = (serial(patch.a), serial(patch.b));
@@ -136,5 +145,5 @@ pub fn keep_sticks(
             }
         }
     }
-    memory.commit();
+    memory.commit(dt);
 }

@@ -7,9 +7,10 @@
 //! its own memory.
 //!
 //! A key names the pair by its objects' serials ([`Object::serial`]), so a fractured or
-//! replaced object starts its contacts afresh; a contact that is not in this step's
-//! patches (or solve) is forgotten, and starts again from ξ = 0, as does a force on
-//! resampled Φ (`World::resampled_forces`: its surfels have no colliding surfel).
+//! replaced object starts its contacts afresh; a contact that has not been in the
+//! patches (or solve) for a frame ([`GRACE`]) is forgotten, and starts again from ξ = 0,
+//! as does a force on resampled Φ (`World::resampled_forces`: its surfels have no
+//! colliding surfel).
 //!
 //! [`Object::serial`]: crate::body::object::Object::serial
 
@@ -40,36 +41,95 @@ impl StickKey {
     }
 }
 
-/// The elongations of the last step's contacts, sorted by key.
+/// How long (s) a contact's elongation outlives the contact: one step at the frame
+/// rate ([`crate::solver::DEFAULT_DT`]). A contact surfel at the rim of a resting or
+/// sliding patch leaves and re-enters the contact set as the bodies vibrate by less
+/// than its overlap; forgetting its anchor each time would restart its friction from
+/// zero and reload it at `v_t dt` per step, so the shorter the step the weaker the
+/// friction. Kept across gaps shorter than a frame, the anchors are what a step of a
+/// frame (which cannot see such gaps) has: explicit and implicit stepping agree.
+pub const GRACE: f32 = crate::solver::DEFAULT_DT;
+
+/// One remembered contact: its elongation (m) and how long (s) it has been absent.
+#[derive(Clone, Copy, Debug)]
+struct Entry {
+    key: StickKey,
+    stick: Vec3,
+    absent: f32,
+}
+
+/// The elongations of the recent steps' contacts, sorted by key.
 #[derive(Clone, Debug, Default)]
 pub struct StickMemory {
-    entries: Vec<(StickKey, Vec3)>,
+    entries: Vec<Entry>,
     /// The next memory, filled by [`StickMemory::push`] (kept for its buffer).
-    next: Vec<(StickKey, Vec3)>,
+    next: Vec<Entry>,
+    /// The merge of the two (kept for its buffer).
+    merged: Vec<Entry>,
 }
 
 impl StickMemory {
     /// The elongation (m) kept under `key`, or zero.
     pub fn get(&self, key: &StickKey) -> Vec3 {
-        match self.entries.binary_search_by(|e| e.0.cmp(key)) {
-            Ok(i) => self.entries[i].1,
+        match self.entries.binary_search_by(|e| e.key.cmp(key)) {
+            Ok(i) => self.entries[i].stick,
             Err(_) => Vec3::ZERO,
         }
     }
 
-    /// Records an elongation for the next memory.
+    /// Records a present contact's elongation for the next memory (zero: it holds no
+    /// anchor, and forgets any it had).
     pub fn push(&mut self, key: StickKey, stick: Vec3) {
-        self.next.push((key, stick));
+        self.next.push(Entry {
+            key,
+            stick,
+            absent: 0.0,
+        });
     }
 
-    /// Makes the pushed elongations the memory. Each contact is pushed once; a key
-    /// pushed twice keeps one of its values. (An unstable sort: it sorts in place, so
-    /// the steady step does not allocate.)
-    pub fn commit(&mut self) {
-        std::mem::swap(&mut self.entries, &mut self.next);
+    /// Makes the pushed elongations the memory, after a step of `dt` (s), with the
+    /// remembered contacts not pushed again kept while they have been absent for less
+    /// than [`GRACE`]. Each contact is pushed once; a key pushed twice keeps one of its
+    /// values. (Unstable sorts and kept buffers: the steady step does not allocate.)
+    pub fn commit(&mut self, dt: f32) {
+        self.next.sort_unstable_by_key(|e| e.key);
+        self.next.dedup_by_key(|e| e.key);
+        let (old, new, merged) = (&self.entries, &self.next, &mut self.merged);
+        merged.clear();
+        let carry = |merged: &mut Vec<Entry>, e: &Entry| {
+            if e.absent + dt < GRACE {
+                merged.push(Entry {
+                    absent: e.absent + dt,
+                    ..*e
+                });
+            }
+        };
+        let (mut i, mut j) = (0, 0);
+        while i < old.len() || j < new.len() {
+            match (old.get(i), new.get(j)) {
+                (Some(o), Some(n)) if o.key == n.key => {
+                    merged.push(*n);
+                    i += 1;
+                    j += 1;
+                }
+                (Some(o), Some(n)) if o.key < n.key => {
+                    carry(merged, o);
+                    i += 1;
+                }
+                (Some(o), None) => {
+                    carry(merged, o);
+                    i += 1;
+                }
+                (_, Some(n)) => {
+                    merged.push(*n);
+                    j += 1;
+                }
+                (None, None) => break,
+            }
+        }
+        merged.retain(|e| e.stick != Vec3::ZERO);
+        std::mem::swap(&mut self.entries, &mut self.merged);
         self.next.clear();
-        self.entries.sort_unstable_by_key(|e| e.0);
-        self.entries.dedup_by_key(|e| e.0);
     }
 
     /// Contacts remembered.
@@ -84,6 +144,7 @@ impl StickMemory {
     pub fn clear(&mut self) {
         self.entries.clear();
         self.next.clear();
+        self.merged.clear();
     }
 }
 
@@ -100,21 +161,36 @@ mod tests {
         }
     }
 
-    /// What is committed is found by key, and what is not pushed again is forgotten at
-    /// the next commit.
+    /// What is committed is found by key; what is not pushed again is kept while absent
+    /// for less than a frame, then forgotten; a zero pushed forgets at once.
     #[test]
-    fn memory_keeps_the_last_commit_only() {
+    fn memory_keeps_absent_contacts_for_a_frame() {
         let mut m = StickMemory::default();
         m.push(key(7), Vec3::Z);
         m.push(key(3), Vec3::Y);
-        m.commit();
+        m.commit(1e-3);
         assert_eq!(
             (m.get(&key(7)), m.get(&key(3)), m.len()),
             (Vec3::Z, Vec3::Y, 2)
         );
         assert_eq!(m.get(&key(5)), Vec3::ZERO);
         m.push(key(3), Vec3::X);
-        m.commit();
-        assert_eq!((m.get(&key(7)), m.get(&key(3))), (Vec3::ZERO, Vec3::X));
+        m.commit(1e-3);
+        assert_eq!((m.get(&key(7)), m.get(&key(3))), (Vec3::Z, Vec3::X));
+        // Key 7 absent since the second commit: gone once absent for GRACE or more.
+        let steps = (GRACE / 1e-3).ceil() as usize;
+        for _ in 1..steps {
+            m.push(key(3), Vec3::X);
+            m.commit(1e-3);
+        }
+        assert_eq!((m.get(&key(7)), m.len()), (Vec3::ZERO, 1));
+        m.push(key(3), Vec3::ZERO);
+        m.commit(1e-3);
+        assert!(m.is_empty());
+        // At the frame step itself nothing outlives its contact.
+        m.push(key(1), Vec3::X);
+        m.commit(GRACE);
+        m.commit(GRACE);
+        assert!(m.is_empty());
     }
 }

@@ -117,11 +117,11 @@ impl Solver {
             self.solve_shared(objects, springs, dt, gravity, time, &after);
         }
         self.deliver_reactions(objects, springs);
-        self.keep_sticks(springs);
+        self.keep_sticks(springs, dt);
     }
 
     /// The anchors of this step's solves become the memory the next springs read.
-    fn keep_sticks(&mut self, springs: &ContactSprings) {
+    fn keep_sticks(&mut self, springs: &ContactSprings, dt: f32) {
         for (k, scratch) in self.scratch.iter().enumerate() {
             if self.islands.root(k) != Some(k) {
                 continue;
@@ -132,7 +132,7 @@ impl Solver {
                 }
             }
         }
-        self.stick.commit();
+        self.stick.commit(dt);
     }
 
     /// The islands of several bodies, in parallel (each solve is parallel inside, over

@@ -547,7 +547,7 @@ fn forces(
         })
         .sum();
     record.friction_work += with_friction;
-    contact::keep_sticks(patches, |k| objects[k].serial(), memory);
+    contact::keep_sticks(patches, |k| objects[k].serial(), memory, dt);
     patches.iter().map(|p| p.surfels.len() as u64).sum()
 }
 
