@@ -138,6 +138,11 @@ pub const CASES: &[(&str, &str, bool)] = &[
         true,
     ),
     (
+        "break-away",
+        "MLS backends: a 1 kg block on the ground (μ = 0.5) pushed sideways at 1 cm/s by a frictionless kinematic plate: the plate's force while the block slides (N) vs μ m g",
+        false,
+    ),
+    (
         "newtons-cradle",
         "momentum of the last of five spheres (kg·m/s) vs the incoming momentum (ideal elastic cradle)",
         false,
@@ -174,7 +179,7 @@ pub fn applies(case: &str, backend: &str) -> bool {
     match case {
         "mls-consistency" => backend == "mls",
         "energy-free-body" | "energy-initial" => backend != "sph",
-        "squeeze" => backend.starts_with("mls"),
+        "squeeze" | "break-away" => backend.starts_with("mls"),
         _ => true,
     }
 }
@@ -427,6 +432,7 @@ pub const RUNNERS: &[(&[&str], CaseFn)] = &[
     (&["energy-initial"], case_energy_initial),
     (&["newtons-cradle"], case_cradle),
     (&["squeeze"], case_squeeze),
+    (&["break-away"], case_break_away),
 ];
 
 /// Checks a `--case` prefix before anything runs: not empty (which would select every

@@ -202,3 +202,120 @@ pub fn squeeze_tolerance(across: u32) -> f64 {
         _ => 0.11,
     }
 }
+
+/// What [`break_away`] measured.
+#[derive(Clone, Copy, Debug)]
+pub struct BreakAway {
+    /// The tool's mean force along its motion while the block slides from 1 to 3 mm
+    /// (N): the force at which it breaks away and keeps sliding (Coulomb's law has one μ).
+    pub sliding: f64,
+    /// The tool's largest force before the block has moved 1 mm (N). An elastic block
+    /// slips from its pushed edge on before it slides as a whole (partial slip), so this
+    /// is below μ m g.
+    pub peak: f64,
+    /// μ m g (N).
+    pub reference: f64,
+    pub run: RunInfo,
+}
+
+/// A 0.1 m elastic block (E = 1e5 Pa, τ = 1 ms, `across` phyxels along an edge, 1 kg)
+/// resting on a static ground (E = 1e9) with μ = 0.5 between them, pushed sideways at
+/// 1 cm/s by a frictionless kinematic plate that starts 1 mm from it, over 0.55 s. The
+/// material damping stops the block's bounce on the ground (docs/ACCURACY.md, "Known
+/// limits": the contact dashpot does not).
+pub fn break_away(across: u32, backend: &str, dt: Option<f32>) -> Result<BreakAway, String> {
+    let edge = SQUEEZE_EDGE as f32;
+    let spacing = edge / across as f32;
+    let gap = 1e-4f32;
+    let y_ground = -0.5 * edge - gap - 0.01;
+    let x_pusher = -0.5 * edge - 1e-3 - 0.01;
+    let text = format!(
+        r#"name = "break-away"
+gravity = [0.0, -9.81, 0.0]
+sleep = false
+
+[[objects]]
+name = "ground"
+static = true
+shape = {{ type = "box", size = [0.4, 0.02, 0.2] }}
+spacing = 0.01
+position = [0.0, {y_ground}, 0.0]
+material = {{ young = 1.0e9, poisson = 0.3, friction = 0.5 }}
+
+[[objects]]
+name = "block"
+shape = {{ type = "box", size = [{edge}, {edge}, {edge}] }}
+spacing = {spacing}
+material = {{ young = 1.0e5, poisson = 0.3, friction = 0.5, damping = 1.0e-3 }}
+
+[[objects]]
+name = "pusher"
+backend = "kinematic"
+shape = {{ type = "box", size = [0.02, 0.06, 0.12] }}
+spacing = 0.01
+position = [{x_pusher}, 0.0, 0.0]
+velocity = [0.01, 0.0, 0.0]
+material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
+"#
+    );
+    let mut scene = Scene::parse(&text, "break-away").map_err(|e| e.to_string())?;
+    scene.dt = dt;
+    let mut w = build(&scene, &opts(backend))?;
+    let mass = w.objects[1]
+        .phyxels
+        .mass
+        .iter()
+        .map(|&m| m as f64)
+        .sum::<f64>();
+    let x0 = com(&w, 1).x;
+    let steps = (0.55 / w.dt as f64).round() as usize;
+    let (mut peak, mut sum, mut n) = (0.0f64, 0.0f64, 0usize);
+    let info = timed(&mut w, steps, |w| {
+        let moved = com(w, 1).x - x0;
+        let force = w.objects[2]
+            .dynamics_as::<Kinematic>()
+            .map_or(0.0, |k| -k.reaction().x as f64);
+        if moved < 1e-3 {
+            peak = peak.max(force);
+        } else if moved < 3e-3 {
+            sum += force;
+            n += 1;
+        }
+        true
+    });
+    if n == 0 {
+        return Err(format!(
+            "break-away: the block did not slide 1 mm (dt {})",
+            info.dt
+        ));
+    }
+    Ok(BreakAway {
+        peak,
+        sliding: sum / n as f64,
+        reference: 0.5 * mass * 9.81,
+        run: info,
+    })
+}
+
+/// Break-away rows: the tool's force while the block slides against μ m g, at three
+/// resolutions, within [`BREAK_AWAY_TOLERANCE`].
+pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
+    let across: &[u32] = if quick { &[4, 6, 8] } else { &[6, 8, 10] };
+    sweep("break-away", backend, BREAK_AWAY_TOLERANCE, across, |n| {
+        let b = break_away(n, backend, None)?;
+        Ok(Point {
+            measured: b.sliding,
+            reference: b.reference,
+            run: b.run,
+            note: format!("{n} across; largest before 1 mm of sliding {:.3} N", b.peak),
+            rel_error: None,
+        })
+    })
+}
+
+/// Tolerance of `break-away` (relative error of the sliding force): a regression bound
+/// about 1.5 times the largest error measured. The force is low on both MLS backends
+/// (`mls` 2.2–6.7%, `mls-implicit` 4.6% at 4 across falling to 1.0% at 10), by the
+/// contact surfels of the sliding patch that are below Coulomb's cone; the aim, 2%, is
+/// docs/ACCURACY.md's known limit.
+pub const BREAK_AWAY_TOLERANCE: f64 = 0.10;
