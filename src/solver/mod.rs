@@ -259,3 +259,13 @@ impl Solver {
         self.last_springs = last;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    /// The friction anchors outlive a contact for one default step: at it, explicit and
+    /// implicit stepping remember the same contacts (`contact::stick::GRACE`).
+    #[test]
+    fn stick_grace_is_the_default_step() {
+        assert_eq!(crate::contact::stick::GRACE, super::DEFAULT_DT);
+    }
+}
