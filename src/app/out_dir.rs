@@ -149,12 +149,18 @@ pub struct Manifest<'a> {
     pub scene: &'a str,
     /// Steps run.
     pub steps: u64,
-    /// Steps between frames.
+    /// Steps between frames (the last frame is the last step's, wherever it falls).
     pub every: u64,
+    /// The time step at the run's end (s).
+    pub dt: f32,
     /// The run was stopped (Ctrl-C) before its last step.
     pub interrupted: bool,
     /// The state stayed finite (false: the run stopped where it did not).
     pub finite: bool,
+    /// The frames' file extension (`ply` or `vtp`).
+    pub format: &'a str,
+    /// Each frame's simulated time (s), by frame number.
+    pub times: &'a [f64],
     /// Every file the run wrote, in order.
     pub frames: &'a [String],
 }

@@ -247,10 +247,12 @@ pub fn run(
     if let Some(p) = &mut png {
         p.camera = p.camera.or(scene.camera);
     }
-    // Every file written into `out`, for the manifest.
+    // Every file written into `out`, and each frame's simulated time, for the manifest.
     let mut written: Vec<String> = Vec::new();
+    let mut times: Vec<f64> = Vec::new();
     let mut frame = |world: &World, k: u64| -> Result<(), SceneError> {
         if let Some(dir) = &write_frames {
+            times.push(world.time);
             let err =
                 |e: String| SceneError(format!("writing frame {k} to {}: {e}", dir.display()));
             let surface = output::write_frame_as(world, dir, k, phyxels, opts.format)
@@ -326,6 +328,12 @@ pub fn run(
         }
         Ok(())
     })?;
+    // The last state, when the steps (or an interrupt) ended between frames; not a
+    // state that went non-finite.
+    if write_frames.is_some() && ran % every != 0 && world.non_finite.is_none() {
+        frame(&world, frames)?;
+        frames += 1;
+    }
     if let Some((mut out, path)) = contacts {
         std::io::Write::flush(&mut out).map_err(|e| contacts_err(path, e))?;
     }
@@ -339,8 +347,11 @@ pub fn run(
             scene: &scene.name,
             steps: ran,
             every,
+            dt: world.dt,
             interrupted,
             finite: summary.finite,
+            format: opts.format.extension(),
+            times: &times,
             frames: &written,
         };
         out_dir::write_manifest(dir, &manifest)

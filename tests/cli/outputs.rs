@@ -418,3 +418,40 @@ fn ctrl_c_finishes_the_frame_prints_the_summary_and_exits_130() {
         assert!(ply_is_whole(&dir.path().join(f)), "{f} is truncated");
     }
 }
+
+/// The last step is always written: 25 steps of a scene writing every 10 give frames
+/// 0, 1, 2 (steps 0, 10, 20) and 3 (step 25). The manifest names the time step, the
+/// frames' format and each frame's simulated time (s): 0, 10 dt, 20 dt and 25 dt
+/// (within f32's rounding of the summed time).
+#[test]
+fn the_last_step_is_a_frame_and_the_manifest_has_times() {
+    let dir = TempPath::new("last-frame");
+    let v = run_json(&[
+        "run",
+        "falling-sphere",
+        "--steps",
+        "25",
+        "--json",
+        "--out",
+        dir.arg(),
+    ]);
+    assert_eq!(field(&v, "frames_written"), 4, "frames_written");
+    assert!(dir.path().join("surfels_00003.ply").is_file());
+    let (_, m) = manifest(dir.path());
+    let dt = field(&m, "dt").as_f64().expect("dt in the manifest");
+    assert_eq!(field(&v, "dt").as_f64().unwrap(), dt);
+    assert_eq!(field(&m, "format"), "ply");
+    let times: Vec<f64> = field(&m, "times")
+        .as_array()
+        .expect("times in the manifest")
+        .iter()
+        .map(|t| t.as_f64().unwrap())
+        .collect();
+    assert_eq!(times.len(), 4, "{times:?}");
+    for (t, steps) in times.iter().zip([0.0, 10.0, 20.0, 25.0]) {
+        assert!(
+            (t - steps * dt).abs() <= 1e-6 * (steps * dt).max(1e-9),
+            "{times:?} vs dt {dt}"
+        );
+    }
+}
