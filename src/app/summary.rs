@@ -330,7 +330,7 @@ pub fn run(
     })?;
     // The last state, when the steps (or an interrupt) ended between frames; not a
     // state that went non-finite.
-    if write_frames.is_some() && ran % every != 0 && world.non_finite.is_none() {
+    if write_frames.is_some() && !ran.is_multiple_of(every) && world.non_finite.is_none() {
         frame(&world, frames)?;
         frames += 1;
     }
