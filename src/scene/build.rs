@@ -1,7 +1,7 @@
 //! Building a world from a scene: each object sampled and given its backend, the
 //! overlap check, the warnings, and the time step.
 
-use super::check::{phyxel_estimate, sample_count};
+use super::check::{phyxel_estimate, sample_count, units_hint};
 use super::warnings::{
     Footprint, flat_warning, footprint, load_above, mass_warning, surface_warning, weight_warning,
 };
@@ -396,7 +396,8 @@ impl ObjectSpec {
                 };
                 return Err(format!(
                     "{key} = {value}: gives about {n:.2e} {what}, more than the limit of \
-                     {limit} per object (a coarser spacing, or a count: `{what} = N`)"
+                     {limit} per object (a coarser spacing, or a count: `{what} = N`){}",
+                    units_hint(shape)
                 ));
             }
         }

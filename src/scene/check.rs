@@ -179,8 +179,9 @@ impl ObjectSpec {
                 "spacing",
                 format!(
                     "spacing = {}: gives about {n:.2e} phyxels, more than the limit of \
-                     {MAX_PHYXELS} per object (a coarser spacing, or a count: `phyxels = N`)",
-                    o.spacing
+                     {MAX_PHYXELS} per object (a coarser spacing, or a count: `phyxels = N`){}",
+                    o.spacing,
+                    units_hint(&o.shape)
                 ),
             );
         }
@@ -461,3 +462,26 @@ pub(super) fn static_keys(o: &ObjectSpec) -> Result<(), (&'static str, String)> 
     }
     Ok(())
 }
+
+/// Meshes are read in metres: one that spans more than [`MESH_UNITS_HINT`] metres was
+/// most likely drawn in millimetres or centimetres, and its `scale` is the fix the user
+/// needs (empty for anything else).
+pub(super) fn units_hint(shape: &Shape) -> String {
+    let Shape::Mesh { scale, .. } = shape else {
+        return String::new();
+    };
+    let span = 2.0 * shape.half_extents().max_element();
+    if span.is_nan() || span <= MESH_UNITS_HINT {
+        return String::new();
+    }
+    format!(
+        "; the mesh spans {span} m at scale = {scale}: if its units are millimetres, \
+         scale = {:e} makes it {} m (centimetres: {:e})",
+        scale * 1e-3,
+        span * 1e-3,
+        scale * 1e-2
+    )
+}
+
+/// Span (m) above which a mesh's size error suggests its units ([`units_hint`]).
+const MESH_UNITS_HINT: f32 = 10.0;

@@ -544,3 +544,42 @@ fn error_out_directory_names_the_flag() {
         &["--out /proc/phyxel-out", "cannot create the directory"],
     );
 }
+
+/// A mesh drawn in millimetres (a cube 100 units across, read as 100 m) with a 1 cm
+/// spacing gives far too many phyxels: the error names the count and points at the
+/// mesh's `scale`, with the value that reads it as millimetres (1e-3).
+#[test]
+fn a_mesh_in_millimetres_points_at_scale() {
+    let dir = TempPath::new("mm-mesh");
+    std::fs::create_dir_all(dir.path()).unwrap();
+    let mut obj = String::new();
+    for i in 0..8 {
+        let c = |bit: usize| if i >> bit & 1 == 1 { 50.0 } else { -50.0 };
+        obj.push_str(&format!("v {} {} {}\n", c(0), c(1), c(2)));
+    }
+    // Outward-wound faces of the cube (vertex k has x, y, z from its bits 0, 1, 2).
+    for f in [
+        [1, 3, 4, 2],
+        [5, 6, 8, 7],
+        [1, 2, 6, 5],
+        [3, 7, 8, 4],
+        [1, 5, 7, 3],
+        [2, 4, 8, 6],
+    ] {
+        obj.push_str(&format!(
+            "f {} {} {}\nf {} {} {}\n",
+            f[0], f[1], f[2], f[0], f[2], f[3]
+        ));
+    }
+    std::fs::write(dir.path().join("part.obj"), obj).unwrap();
+    let scene = dir.path().join("mm.toml");
+    std::fs::write(
+        &scene,
+        "[[objects]]\nshape = { type = \"mesh\", path = \"part.obj\" }\nspacing = 0.01\n",
+    )
+    .unwrap();
+    expect_error(
+        &["run", scene.to_str().unwrap(), "--steps", "1"],
+        &["phyxels", "spans 100 m", "scale = 1e-3"],
+    );
+}
