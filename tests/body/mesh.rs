@@ -1,4 +1,4 @@
-//! Mesh shapes: OBJ and PLY (ASCII and binary) meshes generated here, loaded through scene
+//! Mesh shapes: OBJ, PLY and STL (ASCII and binary) meshes generated here, loaded through scene
 //! files, sampled into phyxels and surfels; and every bad input gives a clear error.
 
 use glam::Vec3;
@@ -142,6 +142,50 @@ fn write_ply_binary(path: &Path, (v, f): &Raw) {
     std::fs::write(path, b).unwrap();
 }
 
+/// A triangle's unit normal from its winding (what STL writers store).
+fn facet_normal(v: &[Vec3], t: &[u32; 3]) -> Vec3 {
+    let [a, b, c] = t.map(|i| v[i as usize]);
+    (b - a).cross(c - a).normalize_or_zero()
+}
+
+/// ASCII STL: every triangle with its normal and its three corners repeated.
+fn write_stl_ascii(path: &Path, (v, f): &Raw) {
+    let mut s = String::from("solid generated\n");
+    for t in f {
+        let n = facet_normal(v, t);
+        writeln!(
+            s,
+            "  facet normal {:e} {:e} {:e}\n    outer loop",
+            n.x, n.y, n.z
+        )
+        .unwrap();
+        for i in t {
+            let p = v[*i as usize];
+            writeln!(s, "      vertex {:e} {:e} {:e}", p.x, p.y, p.z).unwrap();
+        }
+        s.push_str("    endloop\n  endfacet\n");
+    }
+    s.push_str("endsolid generated\n");
+    std::fs::write(path, s).unwrap();
+}
+
+/// Binary STL: an 80-byte header, the triangle count, then per triangle its normal, its
+/// three corners (little-endian f32) and a 2-byte attribute.
+fn write_stl_binary(path: &Path, (v, f): &Raw) {
+    let mut b = vec![b' '; 80];
+    b.write_all(&(f.len() as u32).to_le_bytes()).unwrap();
+    for t in f {
+        let corners = t.map(|i| v[i as usize]);
+        for p in std::iter::once(facet_normal(v, t)).chain(corners) {
+            for c in p.to_array() {
+                b.write_all(&c.to_le_bytes()).unwrap();
+            }
+        }
+        b.write_all(&[0, 0]).unwrap();
+    }
+    std::fs::write(path, b).unwrap();
+}
+
 /// A scene file in `dir` with one mesh object (file name relative to the scene).
 fn scene_with(dir: &Path, file: &str, spacing: f32, surfel: f32) -> PathBuf {
     let p = dir.join("scene.toml");
@@ -160,8 +204,9 @@ fn within(count: usize, target: f32, tol: f32) -> bool {
     (count as f32 - target).abs() <= tol * target
 }
 
-/// One icosphere (R = 0.1 m, 5120 faces) written as OBJ, ASCII PLY and binary PLY
-/// samples the analytic sphere in each format: phyxel count (spacing 1 cm) within 5% of
+/// One icosphere (R = 0.1 m, 5120 faces) written as OBJ, ASCII and binary PLY, and
+/// ASCII and binary STL (corners repeated per triangle) samples the analytic sphere in
+/// each format: phyxel count (spacing 1 cm) within 5% of
 /// `(4/3)πR³/spacing³`, every phyxel inside (|x| < R); surfel count (spacing 4 mm) within
 /// 5% of `4πR²/spacing²`, every surfel within 1% of R (1 mm) of the sphere (the flat
 /// facets sag up to 0.11% of R inside it), its normal within about 18° of the radial
@@ -176,6 +221,8 @@ fn icosphere_in_every_format_samples_a_sphere() {
         ("ico.obj", write_obj as fn(&Path, &Raw)),
         ("ico_ascii.ply", write_ply_ascii),
         ("ico_bin.ply", write_ply_binary),
+        ("ico_ascii.stl", write_stl_ascii),
+        ("ico_bin.stl", write_stl_binary),
     ] {
         write(&dir.0.join(file), &mesh);
         let scene = Scene::load(&scene_with(&dir.0, file, spacing, surfel)).unwrap();
@@ -395,10 +442,17 @@ fn bad_meshes_give_clear_errors() {
         .build(&BuildOptions::default())
         .expect("a clean OBJ with names, groups and comments loads");
 
+    std::fs::write(d.join("mesh.step"), "ISO-10303-21;\n").unwrap();
+    let e = scene_error(d, "mesh.step");
+    assert!(
+        e.contains("mesh.step") && e.contains("unknown mesh format"),
+        "{e}"
+    );
+    // A truncated STL names the file and the format.
     std::fs::write(d.join("mesh.stl"), "solid\n").unwrap();
     let e = scene_error(d, "mesh.stl");
     assert!(
-        e.contains("mesh.stl") && e.contains("unknown mesh format"),
+        e.contains("mesh.stl") && e.contains("cannot read STL (truncated, or not STL)"),
         "{e}"
     );
     // No extension: said so, not as an unknown format "'.'".

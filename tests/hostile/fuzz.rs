@@ -1,10 +1,10 @@
 //! Fuzzing the inputs, on stable Rust: property-based mutation of seed files (proptest)
-//! against four targets, each of which must return `Ok` or an error message, never
+//! against five targets, each of which must return `Ok` or an error message, never
 //! panic:
 //!
 //! - `scene`: `Scene::parse`, then `Scene::build` under a 64 MiB memory budget, then
 //!   two steps;
-//! - `obj` and `ply`: the mesh readers and their checks (`Surface::load`);
+//! - `obj`, `ply` and `stl`: the mesh readers and their checks (`Surface::load`);
 //! - `frame`: `render`'s PLY reader (`io::import::read_frame`), then a 32 × 24 render.
 //!
 //! Seeds live in `tests/fuzz/corpus/<target>/`; every input that ever failed is kept
@@ -291,6 +291,7 @@ fn run_target(target: &str, bytes: &[u8]) {
         "scene" => scene_target(bytes),
         "obj" => mesh_target(bytes, "obj"),
         "ply" => mesh_target(bytes, "ply"),
+        "stl" => mesh_target(bytes, "stl"),
         "frame" => frame_target(bytes),
         _ => panic!("unknown target {target}"),
     }
@@ -299,7 +300,7 @@ fn run_target(target: &str, bytes: &[u8]) {
 /// Every seed and every kept crash, through its target.
 #[test]
 fn corpus_and_crashes_replay() {
-    for target in ["scene", "obj", "ply", "frame"] {
+    for target in ["scene", "obj", "ply", "stl", "frame"] {
         for seed in corpus(target) {
             run_target(target, &seed);
         }
@@ -371,6 +372,11 @@ fn fuzz_obj_meshes() {
 #[test]
 fn fuzz_ply_meshes() {
     fuzz("ply");
+}
+
+#[test]
+fn fuzz_stl_meshes() {
+    fuzz("stl");
 }
 
 #[test]

@@ -1,5 +1,6 @@
-//! Reading mesh files: OBJ (through `tobj`, with a strict check of the statements) and
-//! ASCII or binary PLY (triangles, or points with normals).
+//! Reading mesh files: OBJ (through `tobj`, with a strict check of the statements),
+//! ASCII or binary PLY (triangles, or points with normals) and ASCII or binary STL
+//! (through `stl_io`).
 
 use super::*;
 
@@ -120,6 +121,27 @@ pub(super) fn load_obj(path: &Path) -> Result<Raw, String> {
                 .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
         );
     }
+    Ok((vertices, triangles))
+}
+
+/// An STL file's triangles, its corners welded where they are bit-identical (STL
+/// repeats each corner in every triangle; a closed mesh written by any tool repeats
+/// them exactly).
+pub(super) fn load_stl(path: &Path) -> Result<Raw, String> {
+    let name = path.display();
+    let mut file = std::fs::File::open(path).map_err(|e| format!("{name}: {e}"))?;
+    let mesh = stl_io::read_stl(&mut file)
+        .map_err(|e| format!("{name}: cannot read STL (truncated, or not STL): {e}"))?;
+    let vertices = mesh
+        .vertices
+        .iter()
+        .map(|v| Vec3::new(v[0], v[1], v[2]))
+        .collect();
+    let triangles = mesh
+        .faces
+        .iter()
+        .map(|f| f.vertices.map(|i| i as u32))
+        .collect();
     Ok((vertices, triangles))
 }
 

@@ -2,7 +2,7 @@
 //! sampled area-weighted over the triangles.
 
 use super::cloud::thin_to;
-use super::load::{Loaded, load_obj, load_ply};
+use super::load::{Loaded, load_obj, load_ply, load_stl};
 use super::*;
 
 /// A closed, consistently outward-oriented triangle mesh, centred on its bounding box.
@@ -31,6 +31,7 @@ impl TriMesh {
             .unwrap_or_default();
         let (vertices, triangles) = match ext.as_str() {
             "obj" => load_obj(path)?,
+            "stl" => load_stl(path)?,
             "ply" => match load_ply(path)? {
                 Loaded::Mesh(raw) => raw,
                 Loaded::Points(..) => {
@@ -41,12 +42,12 @@ impl TriMesh {
             },
             "" => {
                 return Err(format!(
-                    "{name}: no file extension, so no mesh format: name it .obj or .ply"
+                    "{name}: no file extension, so no mesh format: name it .obj, .ply or .stl"
                 ));
             }
             _ => {
                 return Err(format!(
-                    "{name}: unknown mesh format '.{ext}' (supported: .obj, .ply)"
+                    "{name}: unknown mesh format '.{ext}' (supported: .obj, .ply, .stl)"
                 ));
             }
         };

@@ -46,7 +46,7 @@ pub enum Shape {
         #[serde(deserialize_with = "crate::io::arrays::exact_array")]
         size: [f32; 2],
     },
-    /// A closed triangle mesh from an OBJ or PLY file, `path` relative to the scene file,
+    /// A closed triangle mesh from an OBJ, PLY or STL file, `path` relative to the scene file,
     /// scaled by `scale` and centred on its bounding box (see [`crate::body::mesh`]). Loaded by
     /// [`Shape::load_mesh`] (done by `Scene::load` and `ObjectSpec::build`).
     Mesh {
@@ -118,7 +118,7 @@ impl Shape {
                 ref path, scale, ..
             } => {
                 if path.is_empty() {
-                    return Err("path = \"\": must name an .obj or .ply file".into());
+                    return Err("path = \"\": must name an .obj, .ply or .stl file".into());
                 }
                 positive("scale", scale)
             }
