@@ -15,7 +15,7 @@ pub const MANIFEST: &str = "phyxel-manifest.json";
 /// digits), the manifest, or one of these being written when a run was killed
 /// (`.NAME.PID-N.tmp`, [`crate::io::atomic`]).
 pub fn is_run_file(name: &str) -> bool {
-    if name == MANIFEST {
+    if name == MANIFEST || name == COLLECTION {
         return true;
     }
     if let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp"))
@@ -165,6 +165,28 @@ pub struct Manifest<'a> {
     pub frames: &'a [String],
 }
 
+/// The ParaView collection of a `--format vtk` run: every frame's `.vtp` files with
+/// their simulated time, so that ParaView opens one file and plays the series in time.
+pub const COLLECTION: &str = "frames.pvd";
+
+/// Writes [`COLLECTION`] into `dir`: frame k's surfels (part 0) and contacts (part 1)
+/// at `times[k]` (s), whole or not at all.
+pub fn write_collection(dir: &Path, times: &[f64]) -> std::io::Result<()> {
+    let mut text = String::from(
+        "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
+         byte_order=\"LittleEndian\">\n<Collection>\n",
+    );
+    for (k, t) in times.iter().enumerate() {
+        for (part, kind) in ["surfels", "contacts"].iter().enumerate() {
+            text.push_str(&format!(
+                "<DataSet timestep=\"{t:e}\" group=\"\" part=\"{part}\" file=\"{kind}_{k:05}.vtp\"/>\n"
+            ));
+        }
+    }
+    text.push_str("</Collection>\n</VTKFile>\n");
+    crate::io::atomic::write(&dir.join(COLLECTION), text.as_bytes())
+}
+
 /// Writes the manifest into `dir`, whole or not at all.
 pub fn write_manifest(dir: &Path, manifest: &Manifest) -> std::io::Result<()> {
     let text = serde_json::to_string_pretty(manifest).map_err(std::io::Error::other)?;
@@ -184,6 +206,7 @@ mod tests {
             "contacts_00003.vtp",
             "phyxels_00002.ply",
             "phyxel-manifest.json",
+            "frames.pvd",
             ".surfels_00001.ply.4242-0.tmp",
         ] {
             assert!(is_run_file(name), "{name}");

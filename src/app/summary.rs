@@ -343,6 +343,16 @@ pub fn run(
     summary.backend_hint = backend_hint;
     summary.interrupted = interrupted;
     if let Some(dir) = &opts.out {
+        if opts.format == crate::io::frame::Format::Vtk && !times.is_empty() {
+            out_dir::write_collection(dir, &times).map_err(|e| {
+                SceneError(format!(
+                    "writing {} to {}: {e}",
+                    out_dir::COLLECTION,
+                    dir.display()
+                ))
+            })?;
+            written.push(out_dir::COLLECTION.into());
+        }
         let manifest = out_dir::Manifest {
             scene: &scene.name,
             steps: ran,

@@ -107,8 +107,9 @@ fn vtk_export_has_the_same_point_data() {
 }
 
 /// `phyxel run falling-sphere --steps 10 --format vtk --out DIR` writes the first two
-/// frames as complete `.vtp` files (a `PolyData` VTKFile, closed by `</VTKFile>`) and no
-/// `surfels_00000.ply`; `--format obj` is refused.
+/// frames as complete `.vtp` files (a `PolyData` VTKFile, closed by `</VTKFile>`), no
+/// `surfels_00000.ply`, and `frames.pvd` naming them (tests/python/test_frame_readers.py
+/// opens it with pyvista); `--format obj` is refused.
 #[test]
 fn run_format_vtk_writes_vtp_frames() {
     let dir = TempDir::new("import", "runvtk");
@@ -133,6 +134,14 @@ fn run_format_vtk_writes_vtp_frames() {
         assert!(text.trim_end().ends_with("</VTKFile>"));
     }
     assert!(!dir.0.join("surfels_00000.ply").exists());
+    // The collection names each frame's files at its time (frame 1: step 10).
+    let pvd = std::fs::read_to_string(dir.0.join("frames.pvd")).unwrap();
+    assert!(pvd.contains("type=\"Collection\""), "{pvd}");
+    assert!(
+        pvd.contains("part=\"0\" file=\"surfels_00001.vtp\"")
+            && pvd.contains("part=\"1\" file=\"contacts_00001.vtp\""),
+        "{pvd}"
+    );
     let o = Command::new(env!("CARGO_BIN_EXE_phyxel"))
         .args(["run", "falling-sphere", "--format", "obj"])
         .output()
