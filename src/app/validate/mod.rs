@@ -279,7 +279,11 @@ fn timed_mut(
         phyxels: world
             .objects
             .iter()
-            .filter(|o| !o.is_static())
+            .filter(|o| {
+                !o.is_static()
+                    && o.dynamics_as::<crate::dynamics::kinematic::Kinematic>()
+                        .is_none()
+            })
             .map(|o| o.phyxels.len())
             .sum(),
         surfels: world.objects.iter().map(|o| o.surfels.len()).sum(),

@@ -61,6 +61,11 @@ pub struct Squeeze {
     pub run: RunInfo,
 }
 
+/// Phyxels along the block's edge at the three resolutions of a tool case.
+fn across(quick: bool) -> &'static [u32] {
+    if quick { &[4, 6, 8] } else { &[6, 8, 10] }
+}
+
 /// Edge of the squeezed cube (m).
 pub const SQUEEZE_EDGE: f64 = 0.1;
 
@@ -169,8 +174,7 @@ material = {{ young = 1.0e9, poisson = 0.3 }}
 /// under 1.3% from 8 across) and E·A/L; the rest of the error is the two contact
 /// layers' compliance, and falls with the spacing ([`squeeze_tolerance`]).
 pub fn case_squeeze(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
-    let across: &[u32] = if quick { &[4, 6, 8] } else { &[6, 8, 10] };
-    sweep_by("squeeze", backend, squeeze_tolerance, across, |n| {
+    sweep_by("squeeze", backend, squeeze_tolerance, across(quick), |n| {
         let s = squeeze(n, backend, None)?;
         Ok(Point {
             measured: s.tool_slope,
@@ -300,17 +304,22 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
 /// Break-away rows: the tool's force while the block slides against μ m g, at three
 /// resolutions, within [`BREAK_AWAY_TOLERANCE`].
 pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
-    let across: &[u32] = if quick { &[4, 6, 8] } else { &[6, 8, 10] };
-    sweep("break-away", backend, BREAK_AWAY_TOLERANCE, across, |n| {
-        let b = break_away(n, backend, None)?;
-        Ok(Point {
-            measured: b.sliding,
-            reference: b.reference,
-            run: b.run,
-            note: format!("{n} across; largest before 1 mm of sliding {:.3} N", b.peak),
-            rel_error: None,
-        })
-    })
+    sweep(
+        "break-away",
+        backend,
+        BREAK_AWAY_TOLERANCE,
+        across(quick),
+        |n| {
+            let b = break_away(n, backend, None)?;
+            Ok(Point {
+                measured: b.sliding,
+                reference: b.reference,
+                run: b.run,
+                note: format!("{n} across; largest before 1 mm of sliding {:.3} N", b.peak),
+                rel_error: None,
+            })
+        },
+    )
 }
 
 /// Tolerance of `break-away` (relative error of the sliding force): a regression bound
