@@ -282,13 +282,9 @@ where
         n => {
             // Halves of the rows rather than of the members: bodies differ in size.
             let half = (offset[0] + offset[n]) / 2;
-            let mid = offset[1..n].partition_point(|&o| o < half) + 1;
-            let mid = if mid < n && half - offset[mid - 1] < offset[mid] - half {
-                mid - 1
-            } else {
-                mid
-            }
-            .clamp(1, n - 1);
+            let mid = (1..n)
+                .min_by_key(|&k| offset[k].abs_diff(half))
+                .expect("two members or more");
             let cut = offset[mid] - offset[0];
             let (ml, mr) = members.split_at_mut(mid);
             let (il, ir) = input.split_at(cut.min(input.len()));
