@@ -169,7 +169,7 @@ material = {{ young = 1.0e9, poisson = 0.3 }}
 
 /// Squeeze rows: the plate's force against its travel, at three resolutions, against
 /// the continuum's uniaxial response of the same law ([`uniaxial_stress`]; over this
-/// squeeze the law is 4.8–5% softer than E·A/L, so the small-strain slope is not the
+/// squeeze the law is 3.6–5% softer than E·A/L, so the small-strain slope is not the
 /// reference). The note carries the cube's own slope (the body alone, whose error is
 /// under 1.3% from 8 across) and E·A/L; the rest of the error is the two contact
 /// layers' compliance, and falls with the spacing ([`squeeze_tolerance`]).
