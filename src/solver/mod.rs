@@ -62,8 +62,7 @@ impl Solver {
     /// `time` (s) and `phyxels.force`: explicit bodies by their backend's step, implicit
     /// ones by islands joined by `springs` (the last step's), each island in one solve.
     /// Bodies alone in their island and explicit ones run in parallel, then the islands
-    /// of several bodies in parallel. `after` runs
-    /// on each object once it has stepped.
+    /// of several bodies in parallel. `after` runs on each object once it has stepped.
     pub fn step(
         &mut self,
         objects: &mut [Object],
@@ -147,22 +146,14 @@ impl Solver {
         after: &(impl Fn(&Object) + Sync),
     ) {
         let islands = &self.islands;
-        let mut members: Vec<Vec<Member<'_>>> = Vec::new();
-        let mut leader: Vec<usize> = Vec::new();
+        // Each island's members under its root (an object index: its buffers' too).
+        let mut groups: Vec<Vec<Member<'_>>> = (0..objects.len()).map(|_| Vec::new()).collect();
         for (k, o) in objects.iter_mut().enumerate() {
             if !islands.shared(k) || o.is_asleep() {
                 continue;
             }
             let r = islands.root(k).expect("a shared body is in an island");
             o.apply_load(time);
-            let at = match leader.iter().position(|&l| l == r) {
-                Some(at) => at,
-                None => {
-                    leader.push(r);
-                    members.push(Vec::new());
-                    members.len() - 1
-                }
-            };
             let Object {
                 dynamics,
                 phyxels,
@@ -172,30 +163,21 @@ impl Solver {
             let dynamics = dynamics
                 .implicit()
                 .expect("Solver::step: a backend's implicit() changed within the step");
-            members[at].push(Member {
+            groups[r].push(Member {
                 object: k,
                 dynamics,
                 phyxels,
                 material,
             });
         }
-        // Each island with its leader's buffers, the islands in parallel.
-        let mut jobs: Vec<(usize, Vec<Member<'_>>)> = leader.into_iter().zip(members).collect();
-        jobs.sort_unstable_by_key(|(l, _)| *l);
-        let mut paired = Vec::with_capacity(jobs.len());
-        let (mut rest, mut base) = (&mut self.scratch[..], 0);
-        for (l, group) in jobs {
-            let (scratch, tail) = std::mem::take(&mut rest)[l - base..]
-                .split_first_mut()
-                .expect("an island's leader is an object");
-            rest = tail;
-            base = l + 1;
-            paired.push((scratch, group));
-        }
-        paired.par_iter_mut().for_each(|(scratch, group)| {
-            solve(group, springs, dt, gravity, scratch);
-        });
-        drop(paired);
+        self.scratch
+            .par_iter_mut()
+            .zip(groups.par_iter_mut())
+            .filter(|(_, group)| !group.is_empty())
+            .for_each(|(scratch, group)| {
+                solve(group, springs, dt, gravity, scratch);
+            });
+        drop(groups);
         for (k, o) in objects.iter().enumerate() {
             if islands.shared(k) && !o.is_asleep() {
                 after(o);
