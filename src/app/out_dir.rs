@@ -3,6 +3,7 @@
 //! later frames beside its own), the clearing of them when overwriting, and the
 //! manifest that lists what the run wrote.
 
+use crate::io::frame::Format;
 use serde::Serialize;
 use std::path::Path;
 
@@ -177,9 +178,10 @@ pub fn write_collection(dir: &Path, times: &[f64]) -> std::io::Result<()> {
          byte_order=\"LittleEndian\">\n<Collection>\n",
     );
     for (k, t) in times.iter().enumerate() {
-        for (part, kind) in ["surfels", "contacts"].iter().enumerate() {
+        let files = crate::world::output::frame_files(k as u64, false, Format::Vtk);
+        for (part, file) in files.iter().enumerate() {
             text.push_str(&format!(
-                "<DataSet timestep=\"{t:e}\" group=\"\" part=\"{part}\" file=\"{kind}_{k:05}.vtp\"/>\n"
+                "<DataSet timestep=\"{t:e}\" group=\"\" part=\"{part}\" file=\"{file}\"/>\n"
             ));
         }
     }

@@ -42,8 +42,8 @@ impl StickKey {
 }
 
 /// How long (s) a contact's elongation outlives the contact: one frame at 120 Hz, the
-/// implicit solve's default step (`solver::DEFAULT_DT`, which a test keeps equal). A contact surfel at the rim of a resting or
-/// sliding patch leaves and re-enters the contact set as the bodies vibrate by less
+/// implicit solve's default step (`solver::DEFAULT_DT`, which a test keeps equal). A
+/// contact surfel at the rim of a resting or sliding patch leaves and re-enters the contact set as the bodies vibrate by less
 /// than its overlap; forgetting its anchor each time would restart its friction from
 /// zero and reload it at `v_t dt` per step, so the shorter the step the weaker the
 /// friction. Kept across gaps shorter than a frame, the anchors are what a step of a
