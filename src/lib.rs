@@ -53,6 +53,7 @@ pub mod dynamics;
 pub mod io;
 pub mod material;
 pub mod math;
+pub mod par;
 pub mod points;
 pub mod scene;
 pub mod solver;

@@ -30,6 +30,7 @@ use phyxel::dynamics::SolverStats;
 use phyxel::dynamics::implicit::{F32_UNIT_ROUNDOFF, Implicit, SolveReport, SolveSettings};
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
 use phyxel::math::linalg::polar_rotation;
+use phyxel::par::POINT_TASK;
 use phyxel::solver::skyline::{Skyline, rcm_order};
 use phyxel::solver::{self, Member, SolveScratch};
 
@@ -330,19 +331,23 @@ impl MlsImplicit {
     fn linearise_law(&mut self, phyxels: &Phyxels, material: &Material) {
         let law = Law::new(material, 0.0, 0.0);
         let (grad, plastic) = (&self.mls.grad, &self.mls.plastic);
-        self.linear.par_iter_mut().enumerate().for_each(|(i, l)| {
-            let j = Mat3::IDENTITY + grad[i];
-            let mut e = law.strain(grad[i]);
-            if let Some(ep) = plastic.get(i) {
-                e -= *ep;
-            }
-            *l = Linear {
-                j,
-                sigma: law.hooke(e),
-                cof: cofactor(j),
-                volume: phyxels.volume[i],
-            };
-        });
+        self.linear
+            .par_iter_mut()
+            .with_min_len(POINT_TASK)
+            .enumerate()
+            .for_each(|(i, l)| {
+                let j = Mat3::IDENTITY + grad[i];
+                let mut e = law.strain(grad[i]);
+                if let Some(ep) = plastic.get(i) {
+                    e -= *ep;
+                }
+                *l = Linear {
+                    j,
+                    sigma: law.hooke(e),
+                    cof: cofactor(j),
+                    volume: phyxels.volume[i],
+                };
+            });
     }
 
     /// `ap = A p = M p + c K p` with `K` the tangent stiffness at the last
@@ -361,31 +366,38 @@ impl MlsImplicit {
         let s = Self::strain_scale(material);
         let kv = material.k_volume();
         let linear = &self.linear;
-        self.dp.par_iter_mut().enumerate().for_each(|(i, dp)| {
-            let l = &linear[i];
-            let dj = st.gradient_of(i, |j| w[j]);
-            let dc = law.strain_rate(l.j, dj);
-            let mut d = (dj * l.sigma + l.j * law.hooke(dc)) * s;
-            if kv > 0.0 {
-                let cof_dj = (0..3).map(|k| l.cof.col(k).dot(dj.col(k))).sum::<f32>();
-                d += l.cof * (kv * cof_dj);
-            }
-            *dp = d * (-l.volume);
-        });
+        self.dp
+            .par_iter_mut()
+            .with_min_len(POINT_TASK)
+            .enumerate()
+            .for_each(|(i, dp)| {
+                let l = &linear[i];
+                let dj = st.gradient_of(i, |j| w[j]);
+                let dc = law.strain_rate(l.j, dj);
+                let mut d = (dj * l.sigma + l.j * law.hooke(dc)) * s;
+                if kv > 0.0 {
+                    let cof_dj = (0..3).map(|k| l.cof.col(k).dot(dj.col(k))).sum::<f32>();
+                    d += l.cof * (kv * cof_dj);
+                }
+                *dp = d * (-l.volume);
+            });
         let (in_off, incoming, dp) = (&self.mls.in_off, &self.mls.incoming, &self.dp);
         let fixed = &phyxels.fixed;
         let mass = &phyxels.mass;
-        ap.par_iter_mut().enumerate().for_each(|(j, out)| {
-            if fixed[j] != 0 {
-                *out = Vec3::ZERO;
-                return;
-            }
-            let mut df = dp[j] * st.d_self[j];
-            for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
-                df += dp[i as usize] * st.d[k as usize];
-            }
-            *out = w[j] * mass[j] - df * c;
-        });
+        ap.par_iter_mut()
+            .with_min_len(POINT_TASK)
+            .enumerate()
+            .for_each(|(j, out)| {
+                if fixed[j] != 0 {
+                    *out = Vec3::ZERO;
+                    return;
+                }
+                let mut df = dp[j] * st.d_self[j];
+                for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
+                    df += dp[i as usize] * st.d[k as usize];
+                }
+                *out = w[j] * mass[j] - df * c;
+            });
     }
 }
 

@@ -19,11 +19,13 @@ use super::Law;
 use glam::Mat3;
 use phyxel::columns::{LANES, Vec3s, load8, store8};
 use phyxel::dynamics::gradient::MlsStencil;
+use phyxel::par::POINT_TASK;
 use phyxel::spatial::gather::Rows;
 use wide::f32x8;
 
-/// Groups handled serially by one rayon task.
-const GROUP_GRAIN: usize = 16;
+/// Groups handled serially by one rayon task: a pass splits only into halves of at least
+/// [`POINT_TASK`] phyxels.
+const GROUP_GRAIN: usize = 2 * POINT_TASK / LANES;
 
 /// Stress `P` of a phyxel as 16 floats (9 used): two aligned lane rows.
 pub type StressRow = [f32; 16];

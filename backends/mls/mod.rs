@@ -22,6 +22,7 @@ use phyxel::dynamics::{
 use phyxel::material::{Material, StrainForm};
 use phyxel::math::kernel::poly6_shape;
 use phyxel::math::linalg::cofactor;
+use phyxel::par::POINT_TASK;
 use phyxel::points::phyxels::Phyxels;
 use phyxel::spatial::gather::RowBuffer;
 use rayon::prelude::*;
@@ -39,8 +40,6 @@ pub const NAME: &str = "mls";
 /// Power iterations for the largest stencil frequency (converges to within a few
 /// percent from below; the stable step keeps a margin for that).
 const POWER_ITERATIONS: usize = 60;
-/// Phyxels per task of the stiffness product (and the least a body needs to be split).
-const STIFFNESS_TASK: usize = 512;
 
 /// Fraction of the symplectic-Euler limit `2/ω_max` used as the stable bound: covers the
 /// power iteration's under-estimate and stiffening at finite strain.
@@ -203,7 +202,7 @@ impl MlsDynamics {
         let kv = material.k_volume();
         // Small bodies in one task: 120 parallel calls per body (the power iteration)
         // cost more to dispatch than to compute (5,000 small spheres: seconds).
-        let min_len = STIFFNESS_TASK;
+        let min_len = POINT_TASK;
         stress
             .par_iter_mut()
             .with_min_len(min_len)
@@ -292,6 +291,7 @@ impl MlsDynamics {
         self.disp.resize(n, Vec3::ZERO);
         self.disp
             .par_iter_mut()
+            .with_min_len(POINT_TASK)
             .enumerate()
             // As `lanes::pack_state`: exact `pos − rest`, plus the position sum's carry.
             .for_each(|(i, u)| {
@@ -302,6 +302,7 @@ impl MlsDynamics {
             self.vel.resize(n, Vec3::ZERO);
             self.vel
                 .par_iter_mut()
+                .with_min_len(POINT_TASK)
                 .enumerate()
                 .for_each(|(i, v)| *v = phyxels.vel.get(i));
         }
@@ -315,6 +316,7 @@ impl MlsDynamics {
             self.max_plastic = self
                 .plastic
                 .par_iter()
+                .with_min_len(POINT_TASK)
                 .map(|&ep| frobenius(ep))
                 .reduce(|| 0.0, f32::max);
             // Flow has reached the cap: renew the rest state so that it can go on.
@@ -376,12 +378,16 @@ impl MlsDynamics {
         let st = &self.stencil;
         let pf = &self.stress_force;
         let (in_off, incoming) = (&self.in_off, &self.incoming);
-        self.gathered.par_iter_mut().enumerate().for_each(|(j, f)| {
-            *f = pf[j] * st.d_self[j];
-            for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
-                *f += pf[i as usize] * st.d[k as usize];
-            }
-        });
+        self.gathered
+            .par_iter_mut()
+            .with_min_len(POINT_TASK)
+            .enumerate()
+            .for_each(|(j, f)| {
+                *f = pf[j] * st.d_self[j];
+                for &(i, k) in &incoming[in_off[j] as usize..in_off[j + 1] as usize] {
+                    *f += pf[i as usize] * st.d[k as usize];
+                }
+            });
         self.internal.par_set_from(&self.gathered, |&f| f);
     }
 

@@ -30,6 +30,7 @@ use crate::body::object::Object;
 use crate::contact::ContactPatch;
 use crate::contact::stick::StickMemory;
 use crate::dynamics::StepContext;
+use crate::par;
 use crate::spatial::grid::Grid;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -82,11 +83,14 @@ impl Solver {
             scratch.forget_springs();
         }
         let islands = &self.islands;
+        let alone = |k: usize, o: &Object| !o.is_frozen() && !islands.shared(k);
+        let grain = par::grain(objects.iter().enumerate().map(|(k, o)| alone(k, o)));
         objects
             .par_iter_mut()
             .zip(self.scratch.par_iter_mut())
+            .with_min_len(grain)
             .enumerate()
-            .filter(|(k, (o, _))| !o.is_frozen() && !islands.shared(*k))
+            .filter(|(k, (o, _))| alone(*k, o))
             .for_each(|(k, (o, scratch))| {
                 o.apply_load(time);
                 let Object {
@@ -170,9 +174,11 @@ impl Solver {
                 material,
             });
         }
+        let grain = par::grain(groups.iter().map(|g| !g.is_empty()));
         self.scratch
             .par_iter_mut()
             .zip(groups.par_iter_mut())
+            .with_min_len(grain)
             .filter(|(_, group)| !group.is_empty())
             .for_each(|(scratch, group)| {
                 solve(group, springs, dt, gravity, scratch);

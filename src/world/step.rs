@@ -21,6 +21,7 @@ use crate::contact::detect::{Candidates, PairDetection, Volume, colliding_surfel
 use crate::contact::field::{grid_cell, radius_range};
 use crate::contact::stick::StickMemory;
 use crate::contact::{ContactPatch, StickContext};
+use crate::par;
 use crate::solver::{ContactSprings, Solver};
 use crate::spatial::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
 use bumpalo::Bump;
@@ -182,14 +183,19 @@ fn check_counts(o: &Object) {
 /// shape gets it (counted in `record.rest_renewals`).
 #[inline(never)] // a named frame in flamegraphs
 fn advect(objects: &mut [Object], record: &mut RunRecord) -> u64 {
+    let grain = par::grain(objects.iter().map(|o| !o.is_frozen()));
     objects
         .par_iter_mut()
+        .with_min_len(grain)
         .filter(|o| !o.is_frozen())
         .for_each(|o| o.advect_surfels());
     // Now that the surfels have followed this step's motion.
+    let renews = |o: &Object| !o.is_static() && o.dynamics.wants_new_rest();
+    let grain = par::grain(objects.iter().map(renews));
     record.rest_renewals += objects
         .par_iter_mut()
-        .filter(|o| !o.is_static() && o.dynamics.wants_new_rest())
+        .with_min_len(grain)
+        .filter(|o| renews(o))
         .map(|o| {
             o.renew_rest();
             1u64
@@ -303,15 +309,18 @@ fn grids(
     // sort is serial, so this is where the cores share the phase. The far grid and
     // the grid of all surfels are only reset here: they are built if and when a
     // query needs them.
+    let builds = |k: usize, g: &Option<_>| needed[k] && (g.is_none() || !objects[k].is_static());
+    let grain = par::grain(grids.surfel.iter().enumerate().map(|(k, g)| builds(k, g)));
     grids
         .surfel
         .par_iter_mut()
         .zip(grids.phyxel.par_iter_mut())
         .zip(grids.surface.par_iter_mut())
+        .with_min_len(grain)
         .enumerate()
         .map(|(k, ((g, pg), sg))| {
             let o = &objects[k];
-            if !(needed[k] && (g.is_none() || !o.is_static())) {
+            if !builds(k, g) {
                 return 0;
             }
             sg.radius_range = radius_range(&o.surfels.radius[..o.surfels.len()]);
@@ -568,11 +577,18 @@ fn distribute(objects: &mut [Object], patches: &[ContactPatch], cache: &mut Step
     );
     let in_solve = &in_solve[..];
     let grids = &cache.grids.phyxel;
+    let takes = |k: usize, o: &Object| {
+        !o.is_static()
+            && (patches.iter().zip(in_solve))
+                .any(|(p, in_solve)| !in_solve && (p.a == k || p.b == k))
+    };
+    let grain = par::grain(objects.iter().enumerate().map(|(k, o)| takes(k, o)));
     objects
         .par_iter_mut()
         .zip(cache.distribute.par_iter_mut())
+        .with_min_len(grain)
         .enumerate()
-        .filter(|(_, (o, _))| !o.is_static())
+        .filter(|(k, (o, _))| takes(*k, o))
         .for_each(|(k, (o, scratch))| {
             let h = o.distribution_radius();
             for (patch, _) in patches.iter().zip(in_solve.iter()).filter(|e| !*e.1) {
@@ -634,8 +650,10 @@ fn topology(
     }
     // Each object that may break counts its components (a spanning-tree check
     // unless the tree broke: crate::body::connectivity), in parallel over objects.
+    let grain = par::grain(objects.iter().map(fracture::may_fracture));
     let (checked, breaking) = objects
         .par_iter_mut()
+        .with_min_len(grain)
         .filter(|o| fracture::may_fracture(o))
         .map(|o| {
             let p = &o.phyxels;
