@@ -200,18 +200,18 @@ pub(super) fn lump(
     }
 }
 
-/// Adds `f` spread over the side's phyxels to `out` (fixed phyxels take nothing).
+/// Adds `f` spread over a side's phyxels to `rows`, its member's rows (fixed phyxels
+/// take nothing).
 pub(super) fn spread(
-    out: &mut [Vec3],
+    rows: &mut [Vec3],
     springs: &ContactSprings,
-    members: &[Member<'_>],
-    s: &Side,
+    fixed: &[u8],
+    side: &SpringSide,
     f: Vec3,
 ) {
-    let fixed = &members[s.member].phyxels.fixed;
-    springs.spread(&s.spring, f, |j, fj| {
+    springs.spread(side, f, |j, fj| {
         if fixed[j] == 0 {
-            out[s.offset + j] += fj;
+            rows[j] += fj;
         }
     });
 }

@@ -11,6 +11,7 @@ use crate::dynamics::implicit::{
 use crate::material::Material;
 use crate::points::phyxels::Phyxels;
 use glam::{DVec3, Mat3, Vec3};
+use rayon::prelude::*;
 
 /// CG stops at this fraction of the Newton residual (inexact Newton: the outer loop
 /// corrects the rest).
@@ -51,6 +52,8 @@ pub struct SolveScratch {
     blocks: Vec<Mat3>,
     /// The island's springs and their state.
     springs: Vec<Active>,
+    /// Each spring's force on side a in the current product (N, or N·s in the residual).
+    spring_force: Vec<Vec3>,
 }
 
 impl SolveScratch {
@@ -137,11 +140,17 @@ pub fn solve(
             .push(Active::new(k as u32, side(&s.offset, ma, sp.a), mb, given));
     }
     let mut momentum = 0.0f64;
-    each_member(members, &s.offset, &[] as &[Vec3], &mut [], &|m, _, _| {
-        m.dynamics
-            .begin(m.phyxels, &StepContext::new(dt, gravity, m.material));
-        0.0
-    });
+    each_member(
+        members,
+        &s.offset,
+        &[] as &[Vec3],
+        &mut [],
+        &|_, m, _, _| {
+            m.dynamics
+                .begin(m.phyxels, &StepContext::new(dt, gravity, m.material));
+            0.0
+        },
+    );
     for (k, m) in members.iter_mut().enumerate() {
         let at = s.offset[k];
         for j in 0..m.phyxels.len() {
@@ -163,18 +172,21 @@ pub fn solve(
     let mut rel;
     loop {
         // The residual: each member's, then the springs'.
-        let external = each_member(members, &s.offset, &s.v, &mut s.g, &|m, v, g| {
+        let external = each_member(members, &s.offset, &s.v, &mut s.g, &|_, m, v, g| {
             let ctx = StepContext::new(dt, gravity, m.material);
             m.dynamics.residual(m.phyxels, &ctx, v, g)
         });
-        for e in s.springs.iter_mut() {
-            let sp = &springs.springs[e.index as usize];
-            let f = e.force(sp, e.relative(&s.v, springs), dt, newton) * dt;
-            spread(&mut s.g, springs, members, &e.a, -f);
-            if let Some(b) = &e.b {
-                spread(&mut s.g, springs, members, b, f);
-            }
-        }
+        let v = &s.v;
+        s.spring_force.resize(s.springs.len(), Vec3::ZERO);
+        s.springs
+            .par_iter_mut()
+            .zip(s.spring_force.par_iter_mut())
+            .with_min_len(SPRING_TASK)
+            .for_each(|(e, f)| {
+                let sp = &springs.springs[e.index as usize];
+                *f = e.force(sp, e.relative(v, springs), dt, newton) * -dt;
+            });
+        spread_springs(members, springs, s, Target::Residual);
         let norm = inverse_mass_norm(members, &s.offset, |i, _| s.g[i]);
         if newton == 0 {
             // Relative to the step's momentum change, its impulses or a share of its
@@ -216,11 +228,17 @@ pub fn solve(
         if newton == 0 {
             contact_blocks(members, springs, s, dt);
         }
-        each_member(members, &s.offset, &[] as &[Vec3], &mut [], &|m, _, _| {
-            m.dynamics
-                .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
-            0.0
-        });
+        each_member(
+            members,
+            &s.offset,
+            &[] as &[Vec3],
+            &mut [],
+            &|_, m, _, _| {
+                m.dynamics
+                    .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
+                0.0
+            },
+        );
         cg += solve_cg(members, springs, s, settings.max_cg, dt, gravity);
         for (v, d) in s.v.iter_mut().zip(&s.delta) {
             *v += *d;
@@ -228,7 +246,7 @@ pub fn solve(
         newton += 1;
     }
     remove_translation(members, s);
-    each_member(members, &s.offset, &s.v, &mut [], &|m, v, _| {
+    each_member(members, &s.offset, &s.v, &mut [], &|_, m, v, _| {
         let ctx = StepContext::new(dt, gravity, m.material);
         m.dynamics.commit(m.phyxels, &ctx, v);
         0.0
@@ -274,11 +292,27 @@ fn each_member<T, F>(
 ) -> f64
 where
     T: Sync,
-    F: Fn(&mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
+    F: Fn(usize, &mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
+{
+    each_member_from(0, members, offset, input, output, f)
+}
+
+/// [`each_member`] over `members`, the island's members from index `first` on.
+fn each_member_from<T, F>(
+    first: usize,
+    members: &mut [Member<'_>],
+    offset: &[usize],
+    input: &[T],
+    output: &mut [Vec3],
+    f: &F,
+) -> f64
+where
+    T: Sync,
+    F: Fn(usize, &mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
 {
     match members.len() {
         0 => 0.0,
-        1 => f(&mut members[0], input, output),
+        1 => f(first, &mut members[0], input, output),
         n => {
             // Halves of the rows rather than of the members: bodies differ in size.
             let half = (offset[0] + offset[n]) / 2;
@@ -290,8 +324,8 @@ where
             let (il, ir) = input.split_at(cut.min(input.len()));
             let (ol, or) = output.split_at_mut(cut.min(output.len()));
             let (l, r) = rayon::join(
-                || each_member(ml, &offset[..=mid], il, ol, f),
-                || each_member(mr, &offset[mid..], ir, or, f),
+                || each_member_from(first, ml, &offset[..=mid], il, ol, f),
+                || each_member_from(first + mid, mr, &offset[mid..], ir, or, f),
             );
             l + r
         }
@@ -307,19 +341,67 @@ fn apply_island(
     dt: f32,
     gravity: Vec3,
 ) {
-    each_member(members, &s.offset, &s.p, &mut s.ap, &|m, p, ap| {
+    each_member(members, &s.offset, &s.p, &mut s.ap, &|_, m, p, ap| {
         let ctx = StepContext::new(dt, gravity, m.material);
         m.dynamics.apply(m.phyxels, &ctx, p, ap);
         0.0
     });
-    for e in s.springs.iter().filter(|e| e.pushing) {
-        let sp = &springs.springs[e.index as usize];
-        let f = e.tangent(sp, e.relative_change(&s.p, springs), dt);
-        spread(&mut s.ap, springs, members, &e.a, f);
-        if let Some(b) = &e.b {
-            spread(&mut s.ap, springs, members, b, -f);
+    let p = &s.p;
+    s.spring_force.resize(s.springs.len(), Vec3::ZERO);
+    s.springs
+        .par_iter()
+        .zip(s.spring_force.par_iter_mut())
+        .with_min_len(SPRING_TASK)
+        .filter(|(e, _)| e.pushing)
+        .for_each(|(e, f)| {
+            let sp = &springs.springs[e.index as usize];
+            *f = e.tangent(sp, e.relative_change(p, springs), dt);
+        });
+    spread_springs(members, springs, s, Target::Product);
+}
+
+/// Contact springs per parallel task of their forces: a spring reads some fifty
+/// phyxels' velocities (about half a µs), so smaller tasks cost more to hand over.
+const SPRING_TASK: usize = 64;
+
+/// Which vector [`spread_springs`] adds the springs' forces to.
+#[derive(Clone, Copy, PartialEq)]
+enum Target {
+    /// `s.g`, every spring.
+    Residual,
+    /// `s.ap`, the pushing springs (the others are out of the tangent).
+    Product,
+}
+
+/// Adds each spring's `s.spring_force` to its side a's phyxels and its opposite to side
+/// b's, member by member in parallel ([`each_member`]): a member takes its springs in
+/// their order, so each row sums in the same order on any number of threads.
+fn spread_springs(
+    members: &mut [Member<'_>],
+    springs: &ContactSprings,
+    s: &mut SolveScratch,
+    target: Target,
+) {
+    let (active, forces) = (&s.springs, &s.spring_force);
+    let out = match target {
+        Target::Residual => &mut s.g,
+        Target::Product => &mut s.ap,
+    };
+    each_member(members, &s.offset, &[] as &[Vec3], out, &|k, m, _, out| {
+        let fixed = &m.phyxels.fixed;
+        for (e, &f) in active.iter().zip(forces) {
+            if target == Target::Product && !e.pushing {
+                continue;
+            }
+            let (side, f) = match &e.b {
+                _ if e.a.member == k => (&e.a, f),
+                Some(b) if b.member == k => (b, -f),
+                _ => continue,
+            };
+            spread(out, springs, fixed, &side.spring, f);
         }
-    }
+        0.0
+    });
 }
 
 /// The residual's f32 floor, `‖δg‖_{M⁻¹}`: what rounding the displacements the forces
@@ -432,7 +514,7 @@ fn contact_blocks(
         }
     }
     let blocks: &[Mat3] = if any { &s.blocks } else { &[] };
-    each_member(members, &s.offset, blocks, &mut [], &|m, blocks, _| {
+    each_member(members, &s.offset, blocks, &mut [], &|_, m, blocks, _| {
         m.dynamics.contact_blocks(m.phyxels, blocks);
         0.0
     });
@@ -469,7 +551,7 @@ fn solve_cg(
         return 0;
     }
     let precondition = |members: &mut [Member<'_>], s: &mut SolveScratch| {
-        each_member(members, &s.offset, &s.r, &mut s.z, &|m, r, z| {
+        each_member(members, &s.offset, &s.r, &mut s.z, &|_, m, r, z| {
             m.dynamics.precondition(m.phyxels, r, z);
             0.0
         });
