@@ -73,37 +73,51 @@ fn last_reached(adjacency: &[Vec<u32>], seed: usize, level: &mut [u32], placed: 
     *queue.last().unwrap_or(&seed)
 }
 
-/// `Σ aᵢ bᵢ` in four-lane vectors (the factor's and the solve's inner loop; a plain
-/// sequential sum does not vectorise).
+/// `Σ aᵢ bᵢ` in four-lane vectors (the factor's inner loop; a plain sequential sum
+/// does not vectorise), four running sums of them: one would wait on each fused
+/// multiply-add's latency.
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = f64x4::ZERO;
-    let (ca, cb) = (a.chunks_exact(4), b.chunks_exact(4));
+    let load = |x: &[f64]| f64x4::new([x[0], x[1], x[2], x[3]]);
+    let mut acc = [f64x4::ZERO; 4];
+    let (ca, cb) = (a.chunks_exact(16), b.chunks_exact(16));
     let (ra, rb) = (ca.remainder(), cb.remainder());
     for (x, y) in ca.zip(cb) {
-        let x = f64x4::new([x[0], x[1], x[2], x[3]]);
-        let y = f64x4::new([y[0], y[1], y[2], y[3]]);
-        acc = x.mul_add(y, acc);
+        for k in 0..4 {
+            acc[k] = load(&x[4 * k..]).mul_add(load(&y[4 * k..]), acc[k]);
+        }
     }
-    acc.reduce_add() + ra.iter().zip(rb).map(|(x, y)| x * y).sum::<f64>()
+    let (qa, qb) = (ra.chunks_exact(4), rb.chunks_exact(4));
+    let (ta, tb) = (qa.remainder(), qb.remainder());
+    for (x, y) in qa.zip(qb) {
+        acc[0] = load(x).mul_add(load(y), acc[0]);
+    }
+    let sum = (acc[0] + acc[1]) + (acc[2] + acc[3]);
+    sum.reduce_add() + ta.iter().zip(tb).map(|(x, y)| x * y).sum::<f64>()
 }
 
-/// `Σ aᵢ bᵢ` in eight-lane f32 vectors ([`Skyline::solve_f32`]'s inner loop).
+/// `Σ aᵢ bᵢ` in eight-lane f32 vectors, two running sums ([`Skyline::solve_f32`]'s
+/// inner loop).
 #[inline]
 fn dot32(a: &[f32], b: &[f32]) -> f32 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let mut acc = f32x8::ZERO;
-    let (ca, cb) = (a.chunks_exact(8), b.chunks_exact(8));
+    let load = |x: &[f32]| f32x8::new(x[..8].try_into().expect("a chunk of 8"));
+    let mut acc = [f32x8::ZERO; 2];
+    let (ca, cb) = (a.chunks_exact(16), b.chunks_exact(16));
     let (ra, rb) = (ca.remainder(), cb.remainder());
     for (x, y) in ca.zip(cb) {
-        let x = f32x8::new(x.try_into().expect("a chunk of 8"));
-        let y = f32x8::new(y.try_into().expect("a chunk of 8"));
-        acc = x.mul_add(y, acc);
+        acc[0] = load(x).mul_add(load(y), acc[0]);
+        acc[1] = load(&x[8..]).mul_add(load(&y[8..]), acc[1]);
     }
-    acc.reduce_add() + ra.iter().zip(rb).map(|(x, y)| x * y).sum::<f32>()
+    let (qa, qb) = (ra.chunks_exact(8), rb.chunks_exact(8));
+    let (ta, tb) = (qa.remainder(), qb.remainder());
+    for (x, y) in qa.zip(qb) {
+        acc[0] = load(x).mul_add(load(y), acc[0]);
+    }
+    (acc[0] + acc[1]).reduce_add() + ta.iter().zip(tb).map(|(x, y)| x * y).sum::<f32>()
 }
 
 /// A symmetric matrix stored by rows from each row's first nonzero column to the
