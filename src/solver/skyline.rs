@@ -291,6 +291,33 @@ mod tests {
         }
     }
 
+    /// The f32 solve on an irregular envelope (rows reaching 0 to 24 columns back, the
+    /// dot products' vector chunks and tails all taken) agrees with the f64 solve to
+    /// f32's rounding (1e-5 of the solution's largest entry: rows of up to 25 products).
+    #[test]
+    fn f32_solve_matches_on_an_irregular_envelope() {
+        let n: usize = 43;
+        let reach = |r: usize| [24, 1, 7, 0, 13, 2, 19, 5][r % 8];
+        let first: Vec<usize> = (0..n).map(|r| r.saturating_sub(reach(r))).collect();
+        let mut m = Skyline::new(first.clone());
+        for r in 0..n {
+            for c in first[r]..r {
+                m.add(r, c, -1.0 / (2.0 + (r * 7 + c * 3) as f64 % 11.0));
+            }
+            m.add(r, r, 30.0 + r as f64 * 0.1);
+        }
+        m.factor().expect("diagonally dominant");
+        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
+        let mut x = b.clone();
+        m.solve(&mut x);
+        let mut x32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
+        m.solve_f32(&mut x32);
+        let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for (r, (&a, &e)) in x32.iter().zip(&x).enumerate() {
+            assert!((a as f64 - e).abs() < 1e-5 * scale, "row {r}: {a} against {e}");
+        }
+    }
+
     /// A matrix that is not positive definite names its failing row.
     #[test]
     fn indefinite_matrix_is_refused() {
