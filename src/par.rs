@@ -1,12 +1,15 @@
 //! How finely the parallel loops split. A rayon task handed to the second thread costs
 //! its wake-up (tens of µs on a sleeping thread): a loop that splits into tasks shorter
 //! than that runs slower on two threads than on one. The step's loops over points take
-//! at least [`POINT_TASK`] points a task, and its loops over objects split only when
-//! more than one object has work ([`grain`]).
+//! at least [`POINT_TASK`] phyxels ([`SURFEL_TASK`] surfels) a task, and its loops over
+//! objects split only when more than one object has work ([`grain`]).
 
-/// Points per rayon task in a per-point loop that gathers a stencil (50–100 ns a point):
+/// Phyxels per rayon task in a per-phyxel loop that gathers a stencil (50–100 ns a point):
 /// a body below twice this runs its loops on the calling thread.
 pub const POINT_TASK: usize = 512;
+
+/// Surfels per rayon task in advection (a few ns a surfel).
+pub const SURFEL_TASK: usize = 8192;
 
 /// The `with_min_len` of a parallel loop over items of which `active` says which have
 /// work: one item a task when several have, else one task for the whole loop (a second

@@ -12,6 +12,7 @@
 
 use crate::columns::{LANES, load8, store8};
 use crate::math::kernel::poly6_shape;
+use crate::par::SURFEL_TASK;
 use crate::math::linalg::cofactor;
 use crate::points::phyxels::Phyxels;
 use crate::points::surfels::Surfels;
@@ -236,6 +237,7 @@ impl SurfelBinding {
             .zip(normal.par_chunks_mut(CHUNK))
             .zip(vel.par_chunks_mut(CHUNK))
             .zip(boxes.par_iter_mut())
+            .with_min_len(SURFEL_TASK.div_ceil(CHUNK))
             .enumerate()
             .for_each(|(c, (((p, n), v), block))| {
                 let first = c * CHUNK;
