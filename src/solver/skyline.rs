@@ -300,8 +300,8 @@ mod tests {
         let reach = |r: usize| [24, 1, 7, 0, 13, 2, 19, 5][r % 8];
         let first: Vec<usize> = (0..n).map(|r| r.saturating_sub(reach(r))).collect();
         let mut m = Skyline::new(first.clone());
-        for r in 0..n {
-            for c in first[r]..r {
+        for (r, &fr) in first.iter().enumerate() {
+            for c in fr..r {
                 m.add(r, c, -1.0 / (2.0 + (r * 7 + c * 3) as f64 % 11.0));
             }
             m.add(r, r, 30.0 + r as f64 * 0.1);
