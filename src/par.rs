@@ -1,12 +1,38 @@
 //! How finely the parallel loops split. A rayon task handed to the second thread costs
 //! its wake-up (tens of µs on a sleeping thread): a loop that splits into tasks shorter
 //! than that runs slower on two threads than on one. The step's loops over points take
-//! at least [`POINT_TASK`] phyxels ([`SURFEL_TASK`] surfels) a task, and its loops over
+//! at least [`point_task`] phyxels ([`SURFEL_TASK`] surfels) a task, and its loops over
 //! objects split only when more than one object has work ([`grain`]).
 
-/// Phyxels per rayon task in a per-phyxel loop that gathers a stencil (50–100 ns a point):
-/// a body below twice this runs its loops on the calling thread.
+use std::cell::Cell;
+
+/// Phyxels per rayon task in a per-phyxel loop that gathers a stencil (50–100 ns a point)
+/// of a body stepping alone: a body below twice this runs its loops on the calling
+/// thread.
 pub const POINT_TASK: usize = 512;
+
+/// [`POINT_TASK`] for a body stepping beside others: the other thread is awake with
+/// their work, so smaller tasks balance the bodies without waking it (three 280-phyxel
+/// bodies on two threads are otherwise three tasks, one thread taking two).
+pub const SHARED_POINT_TASK: usize = 64;
+
+thread_local! {
+    static TASK: Cell<usize> = const { Cell::new(POINT_TASK) };
+}
+
+/// Phyxels per task for the per-phyxel loops started on this thread now:
+/// [`POINT_TASK`], or what [`with_point_task`] set.
+pub fn point_task() -> usize {
+    TASK.with(Cell::get)
+}
+
+/// Runs `f` with [`point_task`] at `task` on this thread.
+pub fn with_point_task<R>(task: usize, f: impl FnOnce() -> R) -> R {
+    let before = TASK.with(|t| t.replace(task));
+    let out = f();
+    TASK.with(|t| t.set(before));
+    out
+}
 
 /// Surfels per rayon task in advection (a few ns a surfel).
 pub const SURFEL_TASK: usize = 8192;

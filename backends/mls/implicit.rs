@@ -30,7 +30,7 @@ use phyxel::dynamics::SolverStats;
 use phyxel::dynamics::implicit::{F32_UNIT_ROUNDOFF, Implicit, SolveReport, SolveSettings};
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
 use phyxel::math::linalg::polar_rotation;
-use phyxel::par::POINT_TASK;
+use phyxel::par;
 use phyxel::solver::skyline::{Skyline, rcm_order};
 use phyxel::solver::{self, Member, SolveScratch};
 
@@ -333,7 +333,7 @@ impl MlsImplicit {
         let (grad, plastic) = (&self.mls.grad, &self.mls.plastic);
         self.linear
             .par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             .for_each(|(i, l)| {
                 let j = Mat3::IDENTITY + grad[i];
@@ -368,7 +368,7 @@ impl MlsImplicit {
         let linear = &self.linear;
         self.dp
             .par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             .for_each(|(i, dp)| {
                 let l = &linear[i];
@@ -385,7 +385,7 @@ impl MlsImplicit {
         let fixed = &phyxels.fixed;
         let mass = &phyxels.mass;
         ap.par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             .for_each(|(j, out)| {
                 if fixed[j] != 0 {

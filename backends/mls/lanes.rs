@@ -19,13 +19,15 @@ use super::Law;
 use glam::Mat3;
 use phyxel::columns::{LANES, Vec3s, load8, store8};
 use phyxel::dynamics::gradient::MlsStencil;
-use phyxel::par::POINT_TASK;
+use phyxel::par;
 use phyxel::spatial::gather::Rows;
 use wide::f32x8;
 
 /// Groups handled serially by one rayon task: a pass splits only into halves of at least
-/// [`POINT_TASK`] phyxels.
-const GROUP_GRAIN: usize = 2 * POINT_TASK / LANES;
+/// [`par::point_task`] phyxels, and whole windows.
+fn group_grain() -> usize {
+    (2 * par::point_task() / LANES).max(2 * WINDOW_GROUPS)
+}
 
 /// Stress `P` of a phyxel as 16 floats (9 used): two aligned lane rows.
 pub type StressRow = [f32; 16];
@@ -36,7 +38,7 @@ pub type StressRow = [f32; 16];
 /// parallel split never cuts one, so a task writes only its own phyxels.
 const WINDOW: usize = 64;
 const WINDOW_GROUPS: usize = WINDOW / LANES;
-const _: () = assert!(WINDOW.is_multiple_of(LANES) && GROUP_GRAIN >= 2 * WINDOW_GROUPS);
+const _: () = assert!(WINDOW.is_multiple_of(LANES));
 
 /// A sparse table in lane layout: per group of eight lanes, a few slots of eight
 /// (index, weight) entries. Lane position `p` (group `p / 8`, lane `p % 8`) holds the
@@ -440,7 +442,7 @@ pub fn pack_state(
     state
         .par_chunks_mut(LANES)
         .enumerate()
-        .with_min_len(GROUP_GRAIN)
+        .with_min_len(group_grain())
         .for_each(|(g, rows)| {
             let at = g * LANES;
             let u = |c: &[f32], r: &[f32], k: &[f32]| (load8(c, at) - load8(r, at)) + load8(k, at);
@@ -505,7 +507,7 @@ fn groups_pass(
     groups: std::ops::Range<usize>,
     out: LaneOutputs<'_>,
 ) -> f32 {
-    if groups.len() <= GROUP_GRAIN {
+    if groups.len() <= group_grain() {
         let base = groups.start * LANES;
         let LaneOutputs {
             grad,
@@ -661,7 +663,7 @@ fn force_rows(
         .zip(fy.par_chunks_mut(WINDOW))
         .zip(fz.par_chunks_mut(WINDOW))
         .enumerate()
-        .with_min_len(GROUP_GRAIN / WINDOW_GROUPS)
+        .with_min_len(group_grain() / WINDOW_GROUPS)
         .for_each(|(w, ((x, y), z))| {
             let base = w * WINDOW;
             for g in w * WINDOW_GROUPS..((w + 1) * WINDOW_GROUPS).min(groups) {

@@ -22,7 +22,7 @@ use phyxel::dynamics::{
 use phyxel::material::{Material, StrainForm};
 use phyxel::math::kernel::poly6_shape;
 use phyxel::math::linalg::cofactor;
-use phyxel::par::POINT_TASK;
+use phyxel::par;
 use phyxel::points::phyxels::Phyxels;
 use phyxel::spatial::gather::RowBuffer;
 use rayon::prelude::*;
@@ -202,7 +202,7 @@ impl MlsDynamics {
         let kv = material.k_volume();
         // Small bodies in one task: 120 parallel calls per body (the power iteration)
         // cost more to dispatch than to compute (5,000 small spheres: seconds).
-        let min_len = POINT_TASK;
+        let min_len = par::point_task();
         stress
             .par_iter_mut()
             .with_min_len(min_len)
@@ -291,7 +291,7 @@ impl MlsDynamics {
         self.disp.resize(n, Vec3::ZERO);
         self.disp
             .par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             // As `lanes::pack_state`: exact `pos − rest`, plus the position sum's carry.
             .for_each(|(i, u)| {
@@ -302,7 +302,7 @@ impl MlsDynamics {
             self.vel.resize(n, Vec3::ZERO);
             self.vel
                 .par_iter_mut()
-                .with_min_len(POINT_TASK)
+                .with_min_len(par::point_task())
                 .enumerate()
                 .for_each(|(i, v)| *v = phyxels.vel.get(i));
         }
@@ -316,7 +316,7 @@ impl MlsDynamics {
             self.max_plastic = self
                 .plastic
                 .par_iter()
-                .with_min_len(POINT_TASK)
+                .with_min_len(par::point_task())
                 .map(|&ep| frobenius(ep))
                 .reduce(|| 0.0, f32::max);
             // Flow has reached the cap: renew the rest state so that it can go on.
@@ -380,7 +380,7 @@ impl MlsDynamics {
         let (in_off, incoming) = (&self.in_off, &self.incoming);
         self.gathered
             .par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             .for_each(|(j, f)| {
                 *f = pf[j] * st.d_self[j];

@@ -12,8 +12,8 @@
 
 use crate::columns::{LANES, load8, store8};
 use crate::math::kernel::poly6_shape;
-use crate::par::SURFEL_TASK;
 use crate::math::linalg::cofactor;
+use crate::par::SURFEL_TASK;
 use crate::points::phyxels::Phyxels;
 use crate::points::surfels::Surfels;
 use crate::spatial::broad_phase::{Aabb, BLOCK};

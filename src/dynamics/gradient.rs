@@ -8,7 +8,7 @@
 use crate::columns::Vec3s;
 use crate::math::kernel::poly6_shape;
 use crate::math::linalg;
-use crate::par::POINT_TASK;
+use crate::par;
 use crate::points::phyxels::Phyxels;
 use glam::{DMat3, DVec3, Mat3, Vec3};
 use rayon::prelude::*;
@@ -42,7 +42,7 @@ impl MlsStencil {
         let grid = phyxels.rest_grid();
         let rows: Vec<(Vec<u32>, Vec<Vec3>, Vec3, bool)> = (0..n)
             .into_par_iter()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .map(|i| {
                 let xi = phyxels.rest.get(i);
                 let h = phyxels.radius[i];
@@ -135,7 +135,7 @@ impl MlsStencil {
     /// Displacement gradient of every phyxel from current and rest positions.
     pub fn displacement_gradients(&self, pos: &Vec3s, rest: &Vec3s, out: &mut [Mat3]) {
         out.par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             .for_each(|(i, g)| {
                 *g = self.gradient_of(i, |j| pos.get(j) - rest.get(j));
@@ -147,7 +147,7 @@ impl MlsStencil {
     /// SoA columns (the stencil's neighbours are scattered over the columns).
     pub fn gradients(&self, u: &[Vec3], out: &mut [Mat3]) {
         out.par_iter_mut()
-            .with_min_len(POINT_TASK)
+            .with_min_len(par::point_task())
             .enumerate()
             .for_each(|(i, g)| {
                 *g = self.gradient_of(i, |j| u[j]);

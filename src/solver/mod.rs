@@ -85,6 +85,12 @@ impl Solver {
         let islands = &self.islands;
         let alone = |k: usize, o: &Object| !o.is_frozen() && !islands.shared(k);
         let grain = par::grain(objects.iter().enumerate().map(|(k, o)| alone(k, o)));
+        // Bodies stepping side by side split their own loops finely.
+        let task = if grain == 1 {
+            par::SHARED_POINT_TASK
+        } else {
+            par::POINT_TASK
+        };
         objects
             .par_iter_mut()
             .zip(self.scratch.par_iter_mut())
@@ -92,29 +98,31 @@ impl Solver {
             .enumerate()
             .filter(|(k, (o, _))| alone(*k, o))
             .for_each(|(k, (o, scratch))| {
-                o.apply_load(time);
-                let Object {
-                    dynamics,
-                    phyxels,
-                    material,
-                    ..
-                } = o;
-                match dynamics.implicit().filter(|_| islands.alone(k)) {
-                    Some(dynamics) => {
-                        let mut members = [Member {
-                            object: k,
-                            dynamics,
-                            phyxels,
-                            material,
-                        }];
-                        solve(&mut members, springs, dt, gravity, scratch);
+                par::with_point_task(task, || {
+                    o.apply_load(time);
+                    let Object {
+                        dynamics,
+                        phyxels,
+                        material,
+                        ..
+                    } = o;
+                    match dynamics.implicit().filter(|_| islands.alone(k)) {
+                        Some(dynamics) => {
+                            let mut members = [Member {
+                                object: k,
+                                dynamics,
+                                phyxels,
+                                material,
+                            }];
+                            solve(&mut members, springs, dt, gravity, scratch);
+                        }
+                        None => {
+                            let ctx = StepContext::new(dt, gravity, material);
+                            dynamics.step(phyxels, &ctx);
+                        }
                     }
-                    None => {
-                        let ctx = StepContext::new(dt, gravity, material);
-                        dynamics.step(phyxels, &ctx);
-                    }
-                }
-                after(o);
+                    after(o);
+                })
             });
         if islands.any_shared() {
             self.solve_shared(objects, springs, dt, gravity, time, &after);

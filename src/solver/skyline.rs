@@ -314,7 +314,10 @@ mod tests {
         m.solve_f32(&mut x32);
         let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         for (r, (&a, &e)) in x32.iter().zip(&x).enumerate() {
-            assert!((a as f64 - e).abs() < 1e-5 * scale, "row {r}: {a} against {e}");
+            assert!(
+                (a as f64 - e).abs() < 1e-5 * scale,
+                "row {r}: {a} against {e}"
+            );
         }
     }
 
