@@ -3,6 +3,7 @@
 //! by a kinematic tool until it slips (the break-away force against μN).
 
 use super::*;
+use crate::contact::ContactPoint;
 use crate::dynamics::kinematic::Kinematic;
 
 /// The nominal (first Piola–Kirchhoff) axial stress (Pa, negative in compression) of
@@ -328,3 +329,147 @@ pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
 /// contact surfels of the sliding patch that are below Coulomb's cone; the aim, 2%, is
 /// docs/ACCURACY.md's known limit.
 pub const BREAK_AWAY_TOLERANCE: f64 = 0.10;
+
+/// Radius of the indenting sphere (m) and its depth at the end of the indentation, a
+/// tenth of it (m).
+pub const INDENT_RADIUS: f64 = 0.05;
+pub const INDENT_DEPTH: f64 = 0.1 * INDENT_RADIUS;
+
+/// Hertz's contact radius at the final depth, `√(R δ)` (m).
+pub fn indent_contact_radius() -> f64 {
+    (INDENT_RADIUS * INDENT_DEPTH).sqrt()
+}
+
+/// What [`indent`] measured at the final depth.
+#[derive(Clone, Copy, Debug)]
+pub struct Indent {
+    /// The sphere's force on the block (N).
+    pub force: f64,
+    /// Hertz's `4/3 E* √R δ^{3/2}` (N), `E* = E / (1 − ν²)` (the sphere rigid).
+    pub hertz: f64,
+    /// Patch radius from the second moment of the normal force (m), and Hertz's `√(R δ)`.
+    pub radius: f64,
+    pub hertz_radius: f64,
+    pub run: RunInfo,
+}
+
+/// A rigid sphere (radius [`INDENT_RADIUS`], E = 1e9 Pa, kinematic) pressed at 1 cm/s
+/// into a frictionless weightless block (E = 1e5 Pa, ν = 0.3) whose bottom layer is
+/// held, from 0.1 mm above it to [`INDENT_DEPTH`] into it, with the block's spacing
+/// `contact radius / per_contact` ([`indent_contact_radius`]). The block is 0.14 m
+/// wide and 0.08 m deep (9 and 5 contact radii; the held bottom stiffens it against
+/// Hertz's half-space a little), its influence radius 3 spacings: at the default 2 the
+/// phyxels under the sphere run away from 2.5 per contact radius on (docs/ACCURACY.md,
+/// "Known limits").
+pub fn indent(per_contact: f64, backend: &str, dt: Option<f32>) -> Result<Indent, String> {
+    let spacing = (indent_contact_radius() / per_contact) as f32;
+    let (width, depth) = (0.14f32, 0.08f32);
+    let r = INDENT_RADIUS as f32;
+    let gap = 1e-4f32;
+    let y_sphere = 0.5 * depth + gap + r;
+    let hold = -0.5 * depth + 0.5 * spacing;
+    let text = format!(
+        r#"name = "indent"
+gravity = [0.0, 0.0, 0.0]
+
+[[objects]]
+name = "block"
+shape = {{ type = "box", size = [{width}, {depth}, {width}] }}
+spacing = {spacing}
+influence = 3
+material = {{ young = 1.0e5, poisson = 0.3 }}
+fixed = [{{ min = [-1.0, -1.0, -1.0], max = [1.0, {hold}, 1.0] }}]
+
+[[objects]]
+name = "sphere"
+backend = "kinematic"
+shape = {{ type = "sphere", radius = {r} }}
+spacing = {spacing}
+position = [0.0, {y_sphere}, 0.0]
+velocity = [0.0, -0.01, 0.0]
+material = {{ young = 1.0e9, poisson = 0.3 }}
+"#
+    );
+    let mut scene = Scene::parse(&text, "indent").map_err(|e| e.to_string())?;
+    scene.dt = dt;
+    let mut w = build(&scene, &opts(backend))?;
+    let material = w.objects[0].material.clone();
+    let top = 0.5 * depth as f64;
+    let depth_of = |w: &World| top - (com(w, 1).y - INDENT_RADIUS);
+    let steps = ((INDENT_DEPTH + gap as f64) / 0.01 / w.dt as f64).ceil() as usize;
+    let info = timed(&mut w, steps, |w| depth_of(w) < INDENT_DEPTH);
+    let delta = depth_of(&w);
+    let force = w.objects[1]
+        .dynamics_as::<Kinematic>()
+        .map_or(0.0, |k| k.reaction().y as f64);
+    let radius = w.contact.patches.first().map_or(0.0, |patch| {
+        let pts: Vec<ContactPoint> = patch.surfels.iter().map(ContactPoint::of).collect();
+        let f_n = |p: &ContactPoint| Vec3::from(p.penalty_force).length() as f64;
+        let total: f64 = pts.iter().map(f_n).sum();
+        let r2 = |p: &ContactPoint| {
+            let x = Vec3::from(p.position).as_dvec3();
+            x.x * x.x + x.z * x.z
+        };
+        let second = pts.iter().map(|p| f_n(p) * r2(p)).sum::<f64>() / total.max(1e-300);
+        // Hertz's pressure `p₀ √(1 − r²/a²)` has second moment ⅖ a².
+        (2.5 * second).sqrt()
+    });
+    let (e, nu) = (material.young as f64, material.poisson as f64);
+    let e_star = e / (1.0 - nu * nu);
+    Ok(Indent {
+        force,
+        hertz: 4.0 / 3.0 * e_star * INDENT_RADIUS.sqrt() * delta.powf(1.5),
+        radius,
+        hertz_radius: (INDENT_RADIUS * delta).sqrt(),
+        run: info,
+    })
+}
+
+/// Block spacings of the indentation rows, as contact radii per spacing.
+fn per_contact(quick: bool) -> &'static [f64] {
+    if quick {
+        &[1.5, 2.0, 2.5]
+    } else {
+        &[2.0, 3.0, 4.0]
+    }
+}
+
+/// Indentation rows: the rigid sphere's force at a tenth of its radius deep against
+/// Hertz's, at three block spacings ([`indent`]), within [`indent_tolerance`].
+pub fn case_indent(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
+    sweep_by(
+        "indent",
+        backend,
+        indent_tolerance,
+        per_contact(quick),
+        |n| {
+            let s = indent(n, backend, None)?;
+            Ok(Point {
+                measured: s.force,
+                reference: s.hertz,
+                run: s.run,
+                note: format!(
+                    "spacing = contact radius / {n}; patch radius {:.2} mm (Hertz {:.2} mm, {:+.1}%)",
+                    1e3 * s.radius,
+                    1e3 * s.hertz_radius,
+                    100.0 * (s.radius / s.hertz_radius - 1.0)
+                ),
+                rel_error: None,
+            })
+        },
+    )
+}
+
+/// Tolerance of `indent` at `per_contact` block spacings per contact radius (relative
+/// error of the force): about 1.25 times the error measured on `mls` (+21% at 1.5,
+/// +11–12% at 2 and 2.5, +3.8% at 3, +1.2% at 4), and at 3 and finer the issue's aim,
+/// 10%. The force is high at coarse spacings by the penalty layer and the held bottom.
+pub fn indent_tolerance(per_contact: f64) -> f64 {
+    if per_contact <= 1.5 {
+        0.27
+    } else if per_contact <= 2.5 {
+        0.15
+    } else {
+        0.10
+    }
+}
