@@ -140,17 +140,10 @@ pub fn solve(
             .push(Active::new(k as u32, side(&s.offset, ma, sp.a), mb, given));
     }
     let mut momentum = 0.0f64;
-    each_member(
-        members,
-        &s.offset,
-        &[] as &[Vec3],
-        &mut [],
-        &|_, m, _, _| {
-            m.dynamics
-                .begin(m.phyxels, &StepContext::new(dt, gravity, m.material));
-            0.0
-        },
-    );
+    on_each_member(members, &s.offset, &|m| {
+        m.dynamics
+            .begin(m.phyxels, &StepContext::new(dt, gravity, m.material));
+    });
     for (k, m) in members.iter_mut().enumerate() {
         let at = s.offset[k];
         for j in 0..m.phyxels.len() {
@@ -228,17 +221,10 @@ pub fn solve(
         if newton == 0 {
             contact_blocks(members, springs, s, dt);
         }
-        each_member(
-            members,
-            &s.offset,
-            &[] as &[Vec3],
-            &mut [],
-            &|_, m, _, _| {
-                m.dynamics
-                    .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
-                0.0
-            },
-        );
+        on_each_member(members, &s.offset, &|m| {
+            m.dynamics
+                .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
+        });
         cg += solve_cg(members, springs, s, settings.max_cg, dt, gravity);
         for (v, d) in s.v.iter_mut().zip(&s.delta) {
             *v += *d;
@@ -295,6 +281,17 @@ where
     F: Fn(usize, &mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
 {
     each_member_from(0, members, offset, input, output, f)
+}
+
+/// [`each_member`] for work that reads and writes none of the island's vectors.
+fn on_each_member<F>(members: &mut [Member<'_>], offset: &[usize], f: &F)
+where
+    F: Fn(&mut Member<'_>) + Sync,
+{
+    each_member(members, offset, &[] as &[Vec3], &mut [], &|_, m, _, _| {
+        f(m);
+        0.0
+    });
 }
 
 /// [`each_member`] over `members`, the island's members from index `first` on.
