@@ -577,18 +577,23 @@ fn distribute(objects: &mut [Object], patches: &[ContactPatch], cache: &mut Step
     );
     let in_solve = &in_solve[..];
     let grids = &cache.grids.phyxel;
-    let takes = |k: usize, o: &Object| {
-        !o.is_static()
-            && (patches.iter().zip(in_solve))
-                .any(|(p, in_solve)| !in_solve && (p.a == k || p.b == k))
-    };
-    let grain = par::grain(objects.iter().enumerate().map(|(k, o)| takes(k, o)));
+    // The moving objects that take a force spread here.
+    let mut takes = BumpVec::from_iter_in(objects.iter().map(|_| false), &cache.arena);
+    for (p, _) in patches.iter().zip(in_solve).filter(|e| !*e.1) {
+        takes[p.a] = true;
+        takes[p.b] = true;
+    }
+    for (t, o) in takes.iter_mut().zip(objects.iter()) {
+        *t &= !o.is_static();
+    }
+    let takes = &takes[..];
+    let grain = par::grain(takes.iter().copied());
     objects
         .par_iter_mut()
         .zip(cache.distribute.par_iter_mut())
         .with_min_len(grain)
         .enumerate()
-        .filter(|(k, (o, _))| takes(*k, o))
+        .filter(|(k, _)| takes[*k])
         .for_each(|(k, (o, scratch))| {
             let h = o.distribution_radius();
             for (patch, _) in patches.iter().zip(in_solve.iter()).filter(|e| !*e.1) {
