@@ -330,9 +330,9 @@ pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
 /// docs/ACCURACY.md's known limit.
 pub const BREAK_AWAY_TOLERANCE: f64 = 0.10;
 
-/// Radius of the indenting sphere (m) and its depth at the end of the indentation, a
-/// tenth of it (m).
+/// Radius of the indenting sphere (m).
 pub const INDENT_RADIUS: f64 = 0.05;
+/// Depth of the indentation at its end, a tenth of the sphere's radius (m).
 pub const INDENT_DEPTH: f64 = 0.1 * INDENT_RADIUS;
 
 /// Hertz's contact radius at the final depth, `√(R δ)` (m).
