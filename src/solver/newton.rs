@@ -264,39 +264,13 @@ pub fn solve(
     report
 }
 
-/// Runs `f` on every member with its rows of `input` and `output` (either may be
-/// empty: then each member gets an empty slice), the members split into halves of the
-/// rows by `rayon::join`, and sums what `f` returns in that fixed tree: the same bits on any
-/// number of threads. An island's members are independent between the springs' rows,
-/// so a heap of bodies preconditions, applies and refactors in parallel.
+/// Runs `f` on every member with its first row in the island's vectors and its rows of
+/// `input` and `output` (either may be empty: then each member gets an empty slice), the
+/// members split into halves of the rows by `rayon::join`, and sums what `f` returns in
+/// that fixed tree: the same bits on any number of threads. An island's members are
+/// independent between the springs' rows, so a heap of bodies preconditions, applies
+/// and refactors in parallel.
 fn each_member<T, F>(
-    members: &mut [Member<'_>],
-    offset: &[usize],
-    input: &[T],
-    output: &mut [Vec3],
-    f: &F,
-) -> f64
-where
-    T: Sync,
-    F: Fn(usize, &mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
-{
-    each_member_from(0, members, offset, input, output, f)
-}
-
-/// [`each_member`] for work that reads and writes none of the island's vectors.
-fn on_each_member<F>(members: &mut [Member<'_>], offset: &[usize], f: &F)
-where
-    F: Fn(&mut Member<'_>) + Sync,
-{
-    each_member(members, offset, &[] as &[Vec3], &mut [], &|_, m, _, _| {
-        f(m);
-        0.0
-    });
-}
-
-/// [`each_member`] over `members`, the island's members from index `first` on.
-fn each_member_from<T, F>(
-    first: usize,
     members: &mut [Member<'_>],
     offset: &[usize],
     input: &[T],
@@ -309,7 +283,7 @@ where
 {
     match members.len() {
         0 => 0.0,
-        1 => f(first, &mut members[0], input, output),
+        1 => f(offset[0], &mut members[0], input, output),
         n => {
             // Halves of the rows rather than of the members: bodies differ in size.
             let half = (offset[0] + offset[n]) / 2;
@@ -321,12 +295,23 @@ where
             let (il, ir) = input.split_at(cut.min(input.len()));
             let (ol, or) = output.split_at_mut(cut.min(output.len()));
             let (l, r) = rayon::join(
-                || each_member_from(first, ml, &offset[..=mid], il, ol, f),
-                || each_member_from(first + mid, mr, &offset[mid..], ir, or, f),
+                || each_member(ml, &offset[..=mid], il, ol, f),
+                || each_member(mr, &offset[mid..], ir, or, f),
             );
             l + r
         }
     }
+}
+
+/// [`each_member`] for work that reads and writes none of the island's vectors.
+fn on_each_member<F>(members: &mut [Member<'_>], offset: &[usize], f: &F)
+where
+    F: Fn(&mut Member<'_>) + Sync,
+{
+    each_member(members, offset, &[] as &[Vec3], &mut [], &|_, m, _, _| {
+        f(m);
+        0.0
+    });
 }
 
 /// `s.ap = A s.p`: the island's tangent (the members' `M + c K` and the pushing springs'
@@ -371,8 +356,9 @@ enum Target {
 }
 
 /// Adds each spring's `s.spring_force` to its side a's phyxels and its opposite to side
-/// b's, member by member in parallel ([`each_member`]): a member takes its springs in
-/// their order, so each row sums in the same order on any number of threads.
+/// b's, member by member in parallel ([`each_member`]): a member takes the sides at its
+/// first row (every object has phyxels, so no two members share one) in the springs'
+/// order, so each row sums in the same order on any number of threads.
 fn spread_springs(
     members: &mut [Member<'_>],
     springs: &ContactSprings,
@@ -384,15 +370,15 @@ fn spread_springs(
         Target::Residual => &mut s.g,
         Target::Product => &mut s.ap,
     };
-    each_member(members, &s.offset, &[] as &[Vec3], out, &|k, m, _, out| {
+    each_member(members, &s.offset, &[] as &[Vec3], out, &|at, m, _, out| {
         let fixed = &m.phyxels.fixed;
         for (e, &f) in active.iter().zip(forces) {
             if target == Target::Product && !e.pushing {
                 continue;
             }
             let (side, f) = match &e.b {
-                _ if e.a.member == k => (&e.a, f),
-                Some(b) if b.member == k => (b, -f),
+                _ if e.a.offset == at => (&e.a, f),
+                Some(b) if b.offset == at => (b, -f),
                 _ => continue,
             };
             spread(out, springs, fixed, &side.spring, f);
