@@ -44,6 +44,14 @@ pub fn uniaxial_stress(m: &Material, stretch: f64) -> f64 {
     l * s_axis(t, ey) + kv * (l * t * t - 1.0) * t * t
 }
 
+/// The world of a tool case's scene `text` (named `name`) on `backend`, at `dt` (None:
+/// the backend's default step).
+fn build_text(text: &str, name: &str, backend: &str, dt: Option<f32>) -> Result<World, String> {
+    let mut scene = Scene::parse(text, name).map_err(|e| e.to_string())?;
+    scene.dt = dt;
+    build(&scene, &opts(backend))
+}
+
 /// What [`squeeze`] measured.
 #[derive(Clone, Copy, Debug)]
 pub struct Squeeze {
@@ -110,9 +118,7 @@ velocity = [0.0, -0.01, 0.0]
 material = {{ young = 1.0e9, poisson = 0.3 }}
 "#
     );
-    let mut scene = Scene::parse(&text, "squeeze").map_err(|e| e.to_string())?;
-    scene.dt = dt;
-    let mut w = build(&scene, &opts(backend))?;
+    let mut w = build_text(&text, "squeeze", backend, dt)?;
     let material = w.objects[1].material.clone();
     let rest = &w.objects[1].phyxels.rest;
     let (lo, hi) = (0..rest.len())
@@ -263,9 +269,7 @@ velocity = [0.01, 0.0, 0.0]
 material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
 "#
     );
-    let mut scene = Scene::parse(&text, "break-away").map_err(|e| e.to_string())?;
-    scene.dt = dt;
-    let mut w = build(&scene, &opts(backend))?;
+    let mut w = build_text(&text, "break-away", backend, dt)?;
     let mass = w.objects[1]
         .phyxels
         .mass
@@ -390,9 +394,7 @@ velocity = [0.0, -0.01, 0.0]
 material = {{ young = 1.0e9, poisson = 0.3 }}
 "#
     );
-    let mut scene = Scene::parse(&text, "indent").map_err(|e| e.to_string())?;
-    scene.dt = dt;
-    let mut w = build(&scene, &opts(backend))?;
+    let mut w = build_text(&text, "indent", backend, dt)?;
     let material = w.objects[0].material.clone();
     let top = 0.5 * depth as f64;
     let depth_of = |w: &World| top - (com(w, 1).y - INDENT_RADIUS);
