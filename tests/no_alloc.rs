@@ -81,7 +81,8 @@ fn topology_allocations(world: &mut phyxel::World, warm_up: usize, n: usize) -> 
 /// a falling body (dynamics, advection, broad phase), a body resting on a plane
 /// (every contact phase, every step), a ring folded onto itself (self-collision) and a
 /// hanging bar that may break (the fracture check) allocate nothing after warm-up, and
-/// neither does a falling body of 100k surfels (its box over parallel chunks).
+/// neither do a falling body of 100k surfels (its box over parallel chunks) and two
+/// such bodies in contact advected lazily.
 #[test]
 fn steady_state_steps_do_not_allocate() {
     let mut falling = built("falling-sphere");
@@ -135,4 +136,13 @@ fn steady_state_steps_do_not_allocate() {
         0,
         "falling-sphere, 100k surfels"
     );
+
+    // Two 100k-surfel spheres pressed together, advected lazily (`phyxel run`'s way):
+    // the outline, the blocks near the contact, and the rest left stale.
+    let mut pressed = Scene::builtin("scale").unwrap().build(&big).unwrap();
+    pressed.lazy_advection = true;
+    allocations_over(&mut pressed, 300);
+    let allocs = allocations_over(&mut pressed, 30);
+    assert!(pressed.objects.iter().any(|o| !o.surfels_current()));
+    assert_eq!(allocs, 0, "scale, 100k surfels, lazy advection");
 }

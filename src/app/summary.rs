@@ -228,6 +228,8 @@ pub fn run(
     mut progress: impl FnMut(u64) + Send,
 ) -> Result<(World, RunSummary), SceneError> {
     let mut world = scene.build(&opts.build)?;
+    // Surfels far from contact move only when read: before each frame and at the end.
+    world.lazy_advection = true;
     let backend_hint = super::hint::backend_hint(&world);
     // After the build: a scene that fails to build clears nothing.
     if let Some(dir) = &opts.out {
@@ -311,6 +313,7 @@ pub fn run(
                 break;
             }
             if s % every == 0 && write_frames.is_some() {
+                world.sync_surfels();
                 frame(&world, s / every)?;
                 frames += 1;
             }
@@ -328,6 +331,7 @@ pub fn run(
         }
         Ok(())
     })?;
+    world.sync_surfels();
     // The last state, when the steps (or an interrupt) ended between frames; not a
     // state that went non-finite.
     if write_frames.is_some() && !ran.is_multiple_of(every) && world.non_finite.is_none() {

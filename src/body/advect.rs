@@ -37,6 +37,11 @@ pub const BINDING_FRACTION: f32 = 0.5;
 /// phase, whose box it takes while it writes the positions ([`SurfelBinding::block_boxes`]).
 const CHUNK: usize = BLOCK;
 
+/// Relative slack of a stale block's box ([`SurfelBinding::prepare`]) over the exact
+/// image of its rest box: covers the f32 rounding of the advected positions (a few
+/// units in the last place, 6e-8 each) with room to spare.
+const BOUND_SLACK: f32 = 1.0e-5;
+
 /// One phyxel's advection terms for this step, `[c_i, ∇u_i (columns), v_i, 0]`, as two
 /// 8-lane rows so a weighted sum over a row is two multiply-adds per entry (plain `f32`
 /// arrays, so that a zeroed table is allocated without writing it: `crate::spatial::gather`).
@@ -66,9 +71,21 @@ pub struct SurfelBinding {
     /// Surfel and phyxel counts of the rest shape it was built from.
     surfels: usize,
     phyxels: usize,
-    /// Box of the positions of each block of [`BLOCK`] surfels, as the last
-    /// [`Self::advect`] (or the build) wrote them.
+    /// Per block of [`BLOCK`] surfels, a box holding its positions: their box as the
+    /// last advection (or the build) wrote them, or, while the block is stale, the box
+    /// they will have when it is advected ([`Self::prepare`]).
     block_boxes: Vec<Aabb>,
+    /// Per block, whether its positions are behind the current table
+    /// ([`Self::prepare`] marks every block; advecting it clears the mark).
+    stale: Vec<bool>,
+    /// Blocks still stale.
+    stale_blocks: usize,
+    /// Per block, the centre and half extent of its surfels' rest box.
+    rest_box: Vec<(Vec3, Vec3)>,
+    /// Per block `b`, the distinct phyxels its surfels bind to:
+    /// `block_phyxels[block_off[b]..block_off[b + 1]]`.
+    block_off: Vec<u32>,
+    block_phyxels: Vec<u32>,
 }
 
 /// Weighted sums of the table rows of a group's eight surfels, each in its entry order
@@ -120,6 +137,7 @@ impl SurfelBinding {
         };
         if phyxels.is_empty() {
             b.slot_off = vec![0; surfels.len().div_ceil(LANES) + 1];
+            b.index_blocks(surfels);
             return b;
         }
         let centroid = phyxels
@@ -173,7 +191,39 @@ impl SurfelBinding {
             b.slot_off
                 .push(b.slot_off.last().copied().unwrap_or(0) + slots as u32);
         }
+        b.index_blocks(surfels);
         b
+    }
+
+    /// Each block's rest box and the distinct phyxels its surfels bind to: what
+    /// [`Self::prepare`] bounds the block's positions by.
+    fn index_blocks(&mut self, surfels: &Surfels) {
+        let n = surfels.len();
+        let blocks = n.div_ceil(BLOCK);
+        self.stale = vec![false; blocks];
+        self.stale_blocks = 0;
+        self.rest_box = (0..blocks)
+            .map(|k| {
+                let r = k * BLOCK..((k + 1) * BLOCK).min(n);
+                let p = &surfels.rest;
+                let b = Aabb::of_columns(&p.x[r.clone()], &p.y[r.clone()], &p.z[r]);
+                ((b.min + b.max) * 0.5, (b.max - b.min) * 0.5)
+            })
+            .collect();
+        self.block_off = vec![0];
+        self.block_phyxels.clear();
+        let mut list = Vec::new();
+        for k in 0..blocks {
+            let groups = k * BLOCK / LANES..((k + 1) * BLOCK).min(n).div_ceil(LANES);
+            let slots = self.slot_off[groups.start] as usize..self.slot_off[groups.end] as usize;
+            list.clear();
+            // Padding repeats a row's own phyxel with weight 0: no phyxel beyond the rows'.
+            list.extend_from_slice(&self.index[slots.start * LANES..slots.end * LANES]);
+            list.sort_unstable();
+            list.dedup();
+            self.block_phyxels.extend_from_slice(&list);
+            self.block_off.push(self.block_phyxels.len() as u32);
+        }
     }
 
     /// The box of each block of [`BLOCK`] surfels (block `k` holds surfels
@@ -182,6 +232,20 @@ impl SurfelBinding {
     /// instead of reading every position again, while the positions are unchanged.
     pub fn block_boxes(&self) -> &[Aabb] {
         &self.block_boxes
+    }
+
+    /// The union of the boxes of the blocks that are not stale (exact boxes).
+    pub fn current_box(&self) -> Aabb {
+        self.block_boxes
+            .iter()
+            .zip(&self.stale)
+            .filter(|(_, s)| !**s)
+            .fold(Aabb::EMPTY, |a, (b, _)| a.union(b))
+    }
+
+    /// True when no block is stale: every surfel is where the last table puts it.
+    pub fn is_current(&self) -> bool {
+        self.stale_blocks == 0
     }
 
     /// Surfel `s`'s binding entries (phyxel, normalised weight) in ascending phyxel order.
@@ -198,8 +262,32 @@ impl SurfelBinding {
     /// Same field as `crate::testing::advect_reference` up to f32 round-off, computed from a
     /// per-phyxel affine table and written straight into the surfel columns.
     pub fn advect(&mut self, surfels: &mut Surfels, phyxels: &Phyxels, grad: &[Mat3]) {
+        self.tabulate(phyxels, grad);
+        // Every block is written next: no bound needed.
+        self.mark_stale();
+        self.advect_blocks(surfels, |_, _| true);
+    }
+
+    /// Tabulates this step's field from the phyxels and marks every block stale, its box
+    /// now the box its positions will have ([`Self::block_boxes`]): the image of the
+    /// block's rest box under each bound phyxel's affine map `s₀ ↦ s₀ + c_i + ∇u_i (s₀ − o)`
+    /// holds the block's positions, which are convex combinations of those maps (weights
+    /// are non-negative and sum to one). [`Self::advect_blocks`] then moves the blocks a
+    /// step needs.
+    pub fn prepare(&mut self, phyxels: &Phyxels, grad: &[Mat3]) {
+        self.tabulate(phyxels, grad);
+        self.bound_blocks();
+        self.mark_stale();
+    }
+
+    fn mark_stale(&mut self) {
+        self.stale.fill(true);
+        self.stale_blocks = self.stale.len();
+    }
+
+    /// The table of this step's per-phyxel affine terms ([`AffineRow`]).
+    fn tabulate(&mut self, phyxels: &Phyxels, grad: &[Mat3]) {
         let o = self.origin;
-        let surfels_len = surfels.len();
         if !self.table.serves(phyxels.len()) {
             // Zeroed, not written: the rows past the phyxels' are never touched.
             self.table = RowBuffer::zeroed(phyxels.len());
@@ -221,6 +309,63 @@ impl SurfelBinding {
                     ];
                 }
             });
+    }
+
+    /// Each block's box from the table: the union of its rest box's images under the
+    /// affine maps of the phyxels it binds to ([`Self::prepare`]).
+    fn bound_blocks(&mut self) {
+        let o = self.origin;
+        let table = &self.table;
+        let (offsets, list) = (&self.block_off, &self.block_phyxels);
+        self.block_boxes
+            .par_iter_mut()
+            .zip(self.rest_box.par_iter())
+            .enumerate()
+            .for_each(|(k, (bound, &(m, e)))| {
+                let mut b = Aabb::EMPTY;
+                for &i in &list[offsets[k] as usize..offsets[k + 1] as usize] {
+                    let [r0, r1] = table[i as usize];
+                    let g = Mat3::from_cols_array(&[
+                        r0[3], r0[4], r0[5], r0[6], r0[7], r1[0], r1[1], r1[2], r1[3],
+                    ]);
+                    let centre = m + Vec3::new(r0[0], r0[1], r0[2]) + g * (m - o);
+                    let j = Mat3::IDENTITY + g;
+                    let half = Mat3::from_cols(j.x_axis.abs(), j.y_axis.abs(), j.z_axis.abs()) * e;
+                    b = b.union(&Aabb {
+                        min: centre - half,
+                        max: centre + half,
+                    });
+                }
+                // The positions are summed in f32: a few units in the last place of the
+                // coordinates' size beyond the exact image.
+                let size = b.min.abs().max(b.max.abs()).max_element() + e.max_element();
+                let slack = Vec3::splat(BOUND_SLACK * size);
+                *bound = if b.min.is_finite() && b.max.is_finite() {
+                    Aabb {
+                        min: b.min - slack,
+                        max: b.max + slack,
+                    }
+                } else if b == Aabb::EMPTY {
+                    b
+                } else {
+                    Aabb::NON_FINITE
+                };
+            });
+    }
+
+    /// Advects the stale blocks for which `pick(block, box)` holds (the box that
+    /// [`Self::block_boxes`] gives), writing each one's exact box; returns the surfels
+    /// moved.
+    pub fn advect_blocks(
+        &mut self,
+        surfels: &mut Surfels,
+        pick: impl Fn(usize, &Aabb) -> bool + Sync,
+    ) -> usize {
+        if self.stale_blocks == 0 {
+            return 0;
+        }
+        let o = self.origin;
+        let surfels_len = surfels.len();
         let Surfels {
             pos,
             rest,
@@ -232,14 +377,18 @@ impl SurfelBinding {
         let (table, index, weight, slot_off) =
             (&self.table, &self.index, &self.weight, &self.slot_off);
         let boxes = &mut self.block_boxes;
-        boxes.resize(surfels_len.div_ceil(CHUNK), Aabb::EMPTY);
-        pos.par_chunks_mut(CHUNK)
+        debug_assert_eq!(boxes.len(), surfels_len.div_ceil(CHUNK));
+        let done = pos
+            .par_chunks_mut(CHUNK)
             .zip(normal.par_chunks_mut(CHUNK))
             .zip(vel.par_chunks_mut(CHUNK))
             .zip(boxes.par_iter_mut())
+            .zip(self.stale.par_iter_mut())
             .with_min_len(SURFEL_TASK.div_ceil(CHUNK))
             .enumerate()
-            .for_each(|(c, (((p, n), v), block))| {
+            .filter(|(c, ((_, block), stale))| **stale && pick(*c, block))
+            .map(|(c, ((((p, n), v), block), stale))| {
+                *stale = false;
                 let first = c * CHUNK;
                 let len = p.0.len();
                 let (rx, ry, rz) = (
@@ -335,7 +484,11 @@ impl SurfelBinding {
                 // The block's box while its positions are still in cache: the broad
                 // phase and the scans then need not read them all again.
                 *block = Aabb::of_columns(p.0, p.1, p.2);
-            });
+                (1, len)
+            })
+            .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        self.stale_blocks -= done.0;
+        done.1
     }
 
     /// The direct sum of Müller et al. (2004, §5) per surfel and entry, with the rest

@@ -8,6 +8,7 @@ use crate::dynamics::gradient::MlsStencil;
 use crate::material::Material;
 use crate::points::phyxels::Phyxels;
 use crate::points::surfels::Surfels;
+use crate::spatial::broad_phase::Aabb;
 use glam::Mat3;
 
 /// Support of the contact-force distribution kernel in influence radii. The paper uses
@@ -428,8 +429,29 @@ impl Object {
     }
 
     /// Moves the surfels with the phyxels (uses the backend's gradient, or the core's
-    /// MLS estimate when the backend has none).
-    pub fn advect_surfels(&mut self) {
+    /// MLS estimate when the backend has none). Returns the surfels moved.
+    pub fn advect_surfels(&mut self) -> usize {
+        self.with_gradient(|binding, surfels, phyxels, grad| {
+            binding.advect(surfels, phyxels, grad);
+        });
+        self.surfels.len()
+    }
+
+    /// Tabulates this step's surfel field from the phyxels without moving the surfels
+    /// ([`SurfelBinding::prepare`]): every block is stale until
+    /// [`Object::advect_outline`], [`Object::advect_surfels_in`] or
+    /// [`Object::sync_surfels`] moves it.
+    pub fn prepare_surfels(&mut self) {
+        self.with_gradient(|binding, _, phyxels, grad| binding.prepare(phyxels, grad));
+    }
+
+    /// Calls `f` with the binding, the surfels, the phyxels and the displacement
+    /// gradient of every phyxel: the backend's, or the core's MLS estimate when the
+    /// backend has none.
+    fn with_gradient(
+        &mut self,
+        f: impl FnOnce(&mut SurfelBinding, &mut Surfels, &Phyxels, &[Mat3]),
+    ) {
         let grad: &[Mat3] = match self.dynamics.displacement_gradient() {
             Some(g) => {
                 assert_eq!(
@@ -453,6 +475,67 @@ impl Object {
                 grad
             }
         };
-        self.binding.advect(&mut self.surfels, &self.phyxels, grad);
+        f(&mut self.binding, &mut self.surfels, &self.phyxels, grad);
+    }
+
+    /// After [`Object::prepare_surfels`]: advects the blocks that can reach the edge of
+    /// the object's box, so that the union of the block boxes is the surfels' exact box
+    /// (the broad phase's) while most of a large body stays stale: the outermost block
+    /// on each side, then, until none is left, the stale blocks whose bound pokes out of
+    /// the box of the advected ones.
+    pub fn advect_outline(&mut self) -> usize {
+        let boxes = self.binding.block_boxes();
+        if boxes.is_empty() {
+            return 0;
+        }
+        // Seeds: on each side, the block whose bound reaches furthest.
+        let mut seeds = [0usize; 6];
+        for (side, seed) in seeds.iter_mut().enumerate() {
+            let reach = |b: &Aabb| {
+                let (axis, low) = (side % 3, side >= 3);
+                if low { -b.min[axis] } else { b.max[axis] }
+            };
+            *seed = (0..boxes.len())
+                .max_by(|&a, &b| reach(&boxes[a]).total_cmp(&reach(&boxes[b])))
+                .unwrap_or(0);
+        }
+        let mut moved = self.binding.advect_blocks(&mut self.surfels, |k, b| {
+            seeds.contains(&k) || b.is_non_finite()
+        });
+        loop {
+            let exact = self.binding.current_box();
+            let pokes_out = |_: usize, b: &Aabb| {
+                b.is_non_finite() || b.min.cmplt(exact.min).any() || b.max.cmpgt(exact.max).any()
+            };
+            let more = match exact.is_non_finite() {
+                true => 0,
+                false => self.binding.advect_blocks(&mut self.surfels, pokes_out),
+            };
+            if more == 0 {
+                return moved;
+            }
+            moved += more;
+        }
+    }
+
+    /// Advects the stale blocks whose box meets `region` (or is non-finite): the
+    /// surfels there are then where the phyxels put them this step. Returns the
+    /// surfels moved.
+    pub fn advect_surfels_in(&mut self, region: &Aabb) -> usize {
+        self.binding.advect_blocks(&mut self.surfels, |_, b| {
+            b.is_non_finite() || b.intersection(region).is_some()
+        })
+    }
+
+    /// Advects every stale block: afterwards all surfels follow the phyxels. Returns the
+    /// surfels moved.
+    pub fn sync_surfels(&mut self) -> usize {
+        self.binding.advect_blocks(&mut self.surfels, |_, _| true)
+    }
+
+    /// True when every surfel is where the last advection table puts it (no block left
+    /// stale by [`Object::prepare_surfels`]).
+    pub fn surfels_current(&self) -> bool {
+        self.binding.is_current()
     }
 }

@@ -13,6 +13,7 @@ use crate::contact::{ContactParams, DistributeScratch, PairSurfaces, PatchScratc
 use crate::spatial::broad_phase::Aabb;
 use crate::spatial::grid::{Grid, LazyGrid};
 use bumpalo::Bump;
+use std::sync::atomic::AtomicBool;
 
 /// Grids, boxes and scratch of the step.
 #[derive(Default)]
@@ -93,9 +94,15 @@ impl<'w> SurfaceView<'w> {
             SurfaceField::with_radius_range(&s.pos, &s.normal, &s.radius, grid, r_min, r_max)
                 .with_far_grid(&sg.far)
                 .with_rows(&sg.rows);
+        let current = self.objects[k].surfels_current();
         match sg.region {
-            Some(region) => surface.with_region(region, &sg.members, &sg.all, &sg.far_region),
-            None => surface,
+            Some(region) => surface
+                .with_region(region, &sg.members, &sg.all, &sg.far_region)
+                .with_stale_outside((!current).then_some(&sg.missed)),
+            None => {
+                debug_assert!(current, "a grid of every surfel over stale surfels");
+                surface
+            }
         }
     }
 
@@ -132,11 +139,24 @@ pub(super) struct SurfaceGrids {
     /// Coarse far-field grid of the surfels in `region` (when there is one), built on
     /// first use in a step.
     pub far_region: LazyGrid,
+    /// Set when a query of this step's surfaces needed the grids of all surfels while
+    /// some surfels were stale (`World::lazy_advection`): the step syncs the object and
+    /// runs its contact phases again.
+    pub missed: AtomicBool,
+    /// The last step whose queries set `missed` (0: none): the object then advects
+    /// every surfel for [`EAGER_AFTER_MISS`] steps, so that a contact whose queries keep
+    /// leaving the region does not run its contact phases twice at every step.
+    pub missed_at: u64,
     /// Smallest and largest surfel disk radius at the last rebuild.
     pub radius_range: (f32, f32),
     /// The kernel grid's surfel columns (the SIMD kernel sums over lane groups).
     pub rows: SurfelRows,
 }
+
+/// Steps an object advects all its surfels after its surface queries reached stale
+/// surfels ([`SurfaceGrids::missed_at`]): one rerun of the contact phases per this many
+/// steps at most, while such queries go on (speed only).
+pub const EAGER_AFTER_MISS: u64 = 50;
 
 /// The block boxes of `o`'s surfels when they bound its current positions (`current`:
 /// this step's advection has run; static objects are not advected, so never).

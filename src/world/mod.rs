@@ -82,6 +82,13 @@ pub struct World {
     /// false: independently and in parallel. Scene key `pairs_in_order`; `preset =
     /// "paper"` sets it.
     pub pairs_in_order: bool,
+    /// Advect only the surfels a step reads: the blocks that outline each moving body's
+    /// box and those near its contacts; the rest of its surfels stay where the last
+    /// advection left them until [`World::sync_surfels`] (or a step with this off)
+    /// moves them. The results are the same bits either way. Default `false`: every
+    /// step leaves every surfel current. `phyxel run` and `phyxel view` turn it on and
+    /// sync before they read the surfels (frames, pictures, the summary).
+    pub lazy_advection: bool,
     /// Let groups of bodies that have stayed still sleep until something moving touches
     /// them ([`sleep`]). Default `true`; scene key `sleep`.
     pub sleep: bool,
@@ -210,6 +217,7 @@ impl World {
             render_contacts: false,
             resampled_forces: false,
             pairs_in_order: false,
+            lazy_advection: false,
             sleep: true,
             preset: Preset::Default,
             steps: 0,
@@ -333,8 +341,24 @@ impl World {
         self.cache.arena.reset();
         let mut blocks_current = false;
         let end = [Phase::SelfCollision, Phase::Topology];
+        // The phases that query the surfaces: lazily advected, one whose query reached
+        // stale surfels runs again from `Detect`, with them current.
+        let queries = [Phase::Detect, Phase::ContactSurface, Phase::Resample];
         for phase in Phase::ALL.into_iter().filter(|p| !end.contains(p)) {
-            let work = t.time(phase, || step::run(self, phase, blocks_current));
+            if phase == Phase::Grids && self.lazy_advection {
+                let moved = t.time(Phase::Advect, || step::advect_near(self));
+                t.add_work(Phase::Advect, moved);
+            }
+            let mut work = t.time(phase, || step::run(self, phase, blocks_current));
+            if self.lazy_advection && queries.contains(&phase) {
+                while t.time(Phase::Advect, || step::sync_missed(self)) {
+                    self.record.lazy_reruns += 1;
+                    for &p in queries.iter().take_while(|&&p| p != phase) {
+                        t.time(p, || step::run(self, p, blocks_current));
+                    }
+                    work = t.time(phase, || step::run(self, phase, blocks_current));
+                }
+            }
             t.add_work(phase, work);
             // From the advection on, the block boxes bound every moving surfel.
             blocks_current |= phase == Phase::Advect;
@@ -525,6 +549,17 @@ impl World {
     /// rebuilds it, with the same results as if it had been kept.
     pub fn clear_cache(&mut self) {
         self.cache = StepCache::default();
+    }
+
+    /// Moves every surfel that [`World::lazy_advection`] left behind to where the
+    /// phyxels put it; returns how many.
+    pub fn sync_surfels(&mut self) -> usize {
+        use rayon::prelude::*;
+        self.objects
+            .par_iter_mut()
+            .filter(|o| !o.surfels_current())
+            .map(|o| o.sync_surfels())
+            .sum()
     }
 
     /// True when every phyxel and surfel is finite.

@@ -18,6 +18,9 @@ pub struct RunRecord {
     pub splits: Vec<SplitEvent>,
     /// Rest configurations renewed by plastic flow so far (all objects).
     pub rest_renewals: u64,
+    /// Steps whose contact phases ran again because a surface query reached surfels
+    /// that lazy advection had left stale (`World::lazy_advection`; speed only).
+    pub lazy_reruns: u64,
     /// Every lowering of `dt` so far, in order.
     pub dt_changes: Vec<DtChange>,
     /// What the world's builder found suspect but legal (`Scene::build`: a body too

@@ -8,8 +8,8 @@
 //! last penetration depth in the cache, which sizes the next grid region (speed only).
 
 use super::cache::{
-    GRID_REGION_DEPTH_FACTOR, GRID_REGION_MARGIN, ObjectGrids, StepCache, SurfaceGrids,
-    SurfaceView, current_blocks,
+    EAGER_AFTER_MISS, GRID_REGION_DEPTH_FACTOR, GRID_REGION_MARGIN, ObjectGrids, StepCache,
+    SurfaceGrids, SurfaceView, current_blocks,
 };
 use super::guard::NonFinite;
 use super::phase::Phase;
@@ -23,7 +23,7 @@ use crate::contact::stick::StickMemory;
 use crate::contact::{ContactPatch, StickContext};
 use crate::par;
 use crate::solver::{ContactSprings, Solver};
-use crate::spatial::broad_phase::{Aabb, Pair, overlapping_pairs, points_in_blocks};
+use crate::spatial::broad_phase::{Aabb, BLOCK, Pair, overlapping_pairs, points_in_blocks};
 use bumpalo::Bump;
 use bumpalo::collections::Vec as BumpVec;
 use glam::Vec3;
@@ -46,6 +46,9 @@ struct Settings {
     /// This step's advection has run, so every moving object's block boxes bound its
     /// surfels and the scans may skip blocks by them.
     blocks_current: bool,
+    /// Advect only the surfels the step reads (`World::lazy_advection`; not with
+    /// pairs in order, whose working surfaces read every surfel).
+    lazy: bool,
 }
 
 /// Runs `phase` of `w` on its current state and returns its work count (the timing
@@ -59,6 +62,7 @@ pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
         render_contacts: w.render_contacts,
         resampled_forces: w.resampled_forces,
         blocks_current,
+        lazy: lazy(w),
     };
     match phase {
         Phase::Dynamics => {
@@ -69,7 +73,18 @@ pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
             }
             dynamics(&mut w.objects, &w.contact.springs, &mut w.cache.solver, &s)
         }
-        Phase::Advect => advect(&mut w.objects, &mut w.record),
+        Phase::Advect => {
+            // Lazily, except for objects whose queries reached stale surfels lately.
+            let surface = &w.cache.grids.surface;
+            let eager = |k: usize| {
+                !s.lazy
+                    || surface
+                        .get(k)
+                        .is_some_and(|g| g.missed_at > 0 && s.step < g.missed_at + EAGER_AFTER_MISS)
+            };
+            let eager = BumpVec::from_iter_in((0..w.objects.len()).map(eager), &w.cache.arena);
+            advect(&mut w.objects, &eager, &mut w.record)
+        }
         Phase::BroadPhase => {
             let work = broad_phase(
                 &w.objects,
@@ -149,6 +164,11 @@ pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
     }
 }
 
+/// Whether this step advects lazily (`Settings::lazy`).
+fn lazy(w: &World) -> bool {
+    w.lazy_advection && !w.pairs_in_order
+}
+
 fn moving_phyxels(objects: &[Object]) -> u64 {
     objects
         .iter()
@@ -180,15 +200,27 @@ fn check_counts(o: &Object) {
 }
 
 /// Surfels follow the phyxels of their object; plastic flow that asked for a new rest
-/// shape gets it (counted in `record.rest_renewals`).
+/// shape gets it (counted in `record.rest_renewals`). Unless `eager` (per object), a
+/// moving object only tabulates its field and advects the blocks that outline its box
+/// ([`Object::advect_outline`]): [`advect_near`] moves those near its contacts once the
+/// broad phase has found them.
 #[inline(never)] // a named frame in flamegraphs
-fn advect(objects: &mut [Object], record: &mut RunRecord) -> u64 {
+fn advect(objects: &mut [Object], eager: &[bool], record: &mut RunRecord) -> u64 {
     let grain = par::grain(objects.iter().map(|o| !o.is_frozen()));
-    objects
+    let moved: usize = objects
         .par_iter_mut()
         .with_min_len(grain)
-        .filter(|o| !o.is_frozen())
-        .for_each(|o| o.advect_surfels());
+        .zip(eager)
+        .map(|(o, &eager)| match (o.is_frozen(), eager) {
+            // Asleep: its phyxels have not moved since the table was made.
+            (true, _) => o.sync_surfels(),
+            (false, true) => o.advect_surfels(),
+            (false, false) => {
+                o.prepare_surfels();
+                o.advect_outline()
+            }
+        })
+        .sum();
     // Now that the surfels have followed this step's motion.
     let renews = |o: &Object| !o.is_static() && o.dynamics.wants_new_rest();
     let grain = par::grain(objects.iter().map(renews));
@@ -197,11 +229,93 @@ fn advect(objects: &mut [Object], record: &mut RunRecord) -> u64 {
         .with_min_len(grain)
         .filter(|o| renews(o))
         .map(|o| {
+            o.sync_surfels();
             o.renew_rest();
             1u64
         })
         .sum::<u64>();
-    0
+    moved as u64
+}
+
+/// The box whose surfels the kernel grid of an object indexes (its pairs'
+/// intersection boxes `near`, grown by the kernel's reach for surfels of disk radius up
+/// to `r_max` and by the last step's depth), and the grid's cell.
+fn grid_region(r_max: f32, near: &Aabb, depth: f32) -> (Aabb, f32) {
+    let cell = grid_cell(r_max).max(1e-6);
+    let margin = GRID_REGION_MARGIN * cell + GRID_REGION_DEPTH_FACTOR * depth;
+    let region = Aabb {
+        min: near.min - margin,
+        max: near.max + margin,
+    };
+    (region, cell)
+}
+
+/// Each object's pairs' intersection boxes, united (`Aabb::EMPTY` for an object in no
+/// pair).
+fn pair_boxes<'a>(n: usize, pairs: &[Pair], arena: &'a Bump) -> BumpVec<'a, Aabb> {
+    let mut near = BumpVec::from_iter_in(std::iter::repeat_n(Aabb::EMPTY, n), arena);
+    for p in pairs {
+        for k in [p.a, p.b] {
+            near[k] = Aabb {
+                min: near[k].min.min(p.bounds.min),
+                max: near[k].max.max(p.bounds.max),
+            };
+        }
+    }
+    near
+}
+
+/// With lazy advection, before the grids: each moving object in a pair advects the
+/// blocks that meet its grid region, or all of them when the grid will hold every
+/// surfel (the blocks there are most of the object). Returns the surfels moved.
+#[inline(never)] // a named frame in flamegraphs
+pub(super) fn advect_near(w: &mut World) -> u64 {
+    let n = w.objects.len();
+    let near = pair_boxes(n, &w.contact.pairs, &w.cache.arena);
+    let near = &near[..];
+    let surface = &w.cache.grids.surface;
+    let depth = |k: usize| surface.get(k).map_or(0.0, |sg| sg.depth);
+    let wanted = |k: usize, o: &Object| near[k] != Aabb::EMPTY && !o.surfels_current();
+    let grain = par::grain(w.objects.iter().enumerate().map(|(k, o)| wanted(k, o)));
+    w.objects
+        .par_iter_mut()
+        .with_min_len(grain)
+        .enumerate()
+        .filter(|(k, o)| wanted(*k, o))
+        .map(|(k, o)| {
+            let (_, r_max) = radius_range(&o.surfels.radius[..o.surfels.len()]);
+            let (region, _) = grid_region(r_max, &near[k], depth(k));
+            let meets = |b: &Aabb| b.is_non_finite() || b.intersection(&region).is_some();
+            let blocks = o.binding.block_boxes().iter().filter(|b| meets(b)).count();
+            // `grids` indexes all surfels when more than half lie in the region: then
+            // every block is read.
+            let moved = if 2 * blocks * BLOCK > o.surfels.len() {
+                o.sync_surfels()
+            } else {
+                o.advect_surfels_in(&region)
+            };
+            moved as u64
+        })
+        .sum()
+}
+
+/// With lazy advection, after a phase that queried the surfaces: the objects whose
+/// queries left their grid region while some of their surfels were stale (the grids of
+/// all surfels would have read them) are brought current, and their grids of all
+/// surfels dropped. True if any was: the contact phases from `detect` on are then run
+/// again, with the same results as if every surfel had been advected.
+pub(super) fn sync_missed(w: &mut World) -> bool {
+    let mut any = false;
+    for (o, sg) in w.objects.iter_mut().zip(w.cache.grids.surface.iter_mut()) {
+        if sg.missed.swap(false, std::sync::atomic::Ordering::Relaxed) {
+            sg.missed_at = w.steps + 1;
+            o.sync_surfels();
+            sg.all.reset();
+            sg.far.reset();
+            any = true;
+        }
+    }
+    any
 }
 
 /// Overlapping surfel bounding boxes and their intersection boxes, written to `pairs`;
@@ -291,18 +405,9 @@ fn grids(
     grids.surfel.resize_with(n, || None);
     grids.phyxel.resize_with(n, || None);
     grids.surface.resize_with(n, SurfaceGrids::default);
-    let mut needed = BumpVec::from_iter_in(std::iter::repeat_n(false, n), arena);
     // The union of each object's pairs' intersection boxes.
-    let mut near = BumpVec::from_iter_in(std::iter::repeat_n(Aabb::EMPTY, n), arena);
-    for p in pairs {
-        for k in [p.a, p.b] {
-            needed[k] = true;
-            near[k] = Aabb {
-                min: near[k].min.min(p.bounds.min),
-                max: near[k].max.max(p.bounds.max),
-            };
-        }
-    }
+    let near = pair_boxes(n, pairs, arena);
+    let needed = BumpVec::from_iter_in(near.iter().map(|b| *b != Aabb::EMPTY), arena);
     let (needed, near) = (&needed[..], &near[..]);
     let current = s.blocks_current;
     // Objects in parallel, and each object's two grids in parallel: a grid's counting
@@ -324,18 +429,13 @@ fn grids(
                 return 0;
             }
             sg.radius_range = radius_range(&o.surfels.radius[..o.surfels.len()]);
-            let cell = grid_cell(sg.radius_range.1).max(1e-6);
             let phyxel_cell = o.distribution_radius().max(1e-6);
             sg.far.reset();
             sg.all.reset();
             sg.far_region.reset();
             // A moving object's kernel grid covers the surfels near its contacts
             // only, unless that is most of them (static objects: built once, whole).
-            let margin = GRID_REGION_MARGIN * cell + GRID_REGION_DEPTH_FACTOR * sg.depth;
-            let region = Aabb {
-                min: near[k].min - margin,
-                max: near[k].max + margin,
-            };
+            let (region, cell) = grid_region(sg.radius_range.1, &near[k], sg.depth);
             sg.members.clear();
             if !o.is_static() {
                 let blocks = current_blocks(current, o);
@@ -668,6 +768,10 @@ fn topology(
         .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     if breaking == 0 {
         return checked;
+    }
+    // Splitting reads every surfel of the breaking objects.
+    for o in objects.iter_mut() {
+        o.sync_surfels();
     }
     // A body that has gone non-finite falls apart in the component count; it is
     // left whole for the end-of-step check to report (its pieces could not be built).

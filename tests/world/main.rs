@@ -5,6 +5,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 
+mod lazy;
 mod model_only_what_needed;
 mod sleep;
 mod threads;

@@ -14,6 +14,7 @@ use crate::columns::{LANES, Vec3s, lane_mask, load8};
 use crate::spatial::broad_phase::Aabb;
 use crate::spatial::grid::{Grid, LazyGrid};
 use glam::Vec3;
+use std::sync::atomic::{AtomicBool, Ordering};
 use wide::f32x8;
 
 /// Kernel width σ_k in units of the surfel's disk radius.
@@ -164,6 +165,19 @@ struct Region<'a> {
     far: &'a LazyGrid,
     /// The surfels in `bounds`, which `grid` indexes.
     members: &'a [u32],
+    /// Set when the surfels outside `bounds` may be stale and a query reached them
+    /// ([`SurfaceField::with_stale_outside`]).
+    missed: Option<&'a AtomicBool>,
+}
+
+impl Region<'_> {
+    /// A query reaches the surfels outside the box: flags it when they may be stale.
+    #[inline]
+    fn leaves(&self) {
+        if let Some(m) = self.missed {
+            m.store(true, Ordering::Relaxed);
+        }
+    }
 }
 
 /// Is the ball of radius `r` around `x` inside `b`?
@@ -261,7 +275,18 @@ impl<'a> SurfaceField<'a> {
             all,
             far,
             members,
+            missed: None,
         });
+        self
+    }
+
+    /// The surfels outside the region may be stale (`World::lazy_advection`): a query
+    /// that reaches them sets `missed` (its answer is then not to be used; the caller
+    /// brings the surfels current and asks again). `None`: they are current.
+    pub fn with_stale_outside(mut self, missed: Option<&'a AtomicBool>) -> Self {
+        if let Some(r) = &mut self.region {
+            r.missed = missed;
+        }
         self
     }
 
@@ -269,7 +294,10 @@ impl<'a> SurfaceField<'a> {
     #[inline]
     fn grid_for(&self, x: Vec3, r: f32) -> &'a Grid {
         match self.region {
-            Some(g) if !ball_inside(&g.bounds, x, r) => g.all.get(self.pos, self.grid.cell()),
+            Some(g) if !ball_inside(&g.bounds, x, r) => {
+                g.leaves();
+                g.all.get(self.pos, self.grid.cell())
+            }
             _ => self.grid,
         }
     }
@@ -306,6 +334,7 @@ impl<'a> SurfaceField<'a> {
             if inside {
                 return;
             }
+            g.leaves();
         }
         let far = match self.far {
             Some(lazy) => lazy.get(self.pos, FAR_GRID_FACTOR * self.grid.cell()),
@@ -324,6 +353,7 @@ impl<'a> SurfaceField<'a> {
         if found.is_some_and(|(_, d2)| ball_inside(&g.bounds, x, d2.sqrt() * (1.0 + 1.0e-6))) {
             return found;
         }
+        g.leaves();
         g.all.get(self.pos, self.grid.cell()).nearest(x)
     }
 
