@@ -21,7 +21,7 @@ pub enum Format {
     /// Binary little-endian PLY (`.ply`).
     #[default]
     Ply,
-    /// VTK XML PolyData, ASCII (`.vtp`).
+    /// VTK XML PolyData, binary and zlib-compressed (`.vtp`).
     Vtk,
 }
 
@@ -111,7 +111,7 @@ impl Frame {
         self.points(|p| p.write_ply(path, "phyxel render surface"))
     }
 
-    /// VTK XML PolyData (ASCII): points as vertices, point data `Normals`, `radius`,
+    /// VTK XML PolyData (binary, zlib-compressed): points as vertices, point data `Normals`, `radius`,
     /// `object`, `contact`.
     pub fn write_vtp(&self, path: &Path) -> std::io::Result<()> {
         self.points(|p| p.write_vtp(path))

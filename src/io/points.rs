@@ -1,5 +1,6 @@
 //! A point cloud with named per-point columns, and its two writers: binary
-//! little-endian PLY and ASCII VTK XML PolyData (`.vtp`, each point a vertex cell).
+//! little-endian PLY and binary VTK XML PolyData (`.vtp`, zlib-compressed, each point a
+//! vertex cell).
 //! The surfel frames ([`super::frame::Frame`]) and the contact frames
 //! ([`crate::world::output::contact_frame`]) are both written through it.
 
@@ -79,13 +80,13 @@ impl Values<'_> {
         }
     }
 
-    fn write_ascii(&self, w: &mut impl Write, i: usize) -> std::io::Result<()> {
-        match self {
-            Values::F32(v) => writeln!(w, "{}", v[i]),
-            Values::Vec3(v) => writeln!(w, "{} {} {}", v[i].x, v[i].y, v[i].z),
-            Values::I32(v) => writeln!(w, "{}", v[i]),
-            Values::U8(v) => writeln!(w, "{}", v[i]),
+    /// Every value, little-endian, in point order.
+    fn le_bytes(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.len() * 12);
+        for i in 0..self.len() {
+            self.write_le(&mut out, i).expect("writing to memory");
         }
+        out
     }
 }
 
@@ -128,24 +129,33 @@ impl Points<'_> {
         w.commit()
     }
 
-    /// VTK XML PolyData (ASCII): the points as vertex cells, the columns as point data.
-    /// A column named `Normals` is the data's normals; the first scalar column its
-    /// scalars.
+    /// VTK XML PolyData, binary: the points as vertex cells, the columns as point data,
+    /// every array zlib-compressed in the appended data block (`vtkZLibDataCompressor`,
+    /// UInt64 headers), as ParaView and VTK read it. A column named `Normals` is the
+    /// data's normals; the first scalar column its scalars.
     pub fn write_vtp(&self, path: &Path) -> std::io::Result<()> {
         self.check();
-        let mut w = create(path)?;
         let n = self.pos.len();
-        writeln!(w, "<?xml version=\"1.0\"?>")?;
-        writeln!(
-            w,
-            "<VTKFile type=\"PolyData\" version=\"0.1\" byte_order=\"LittleEndian\">"
-        )?;
-        writeln!(w, "<PolyData>")?;
-        writeln!(
-            w,
+        let mut xml = String::new();
+        let mut data: Vec<u8> = Vec::new();
+        // One `<DataArray>` whose values go, compressed, to the appended block.
+        let mut array = |xml: &mut String, ty: &str, name: &str, comps: usize, raw: &[u8]| {
+            let name = if name.is_empty() {
+                String::new()
+            } else {
+                format!(" Name=\"{name}\"")
+            };
+            xml.push_str(&format!(
+                "<DataArray type=\"{ty}\"{name} NumberOfComponents=\"{comps}\" \
+                 format=\"appended\" offset=\"{}\"/>\n",
+                data.len()
+            ));
+            append_compressed(&mut data, raw);
+        };
+        xml.push_str(&format!(
             "<Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\" NumberOfLines=\"0\" \
-             NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
-        )?;
+             NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n"
+        ));
         let mut attrs = String::new();
         if self.columns.iter().any(|c| c.vtk == "Normals") {
             attrs.push_str(" Normals=\"Normals\"");
@@ -153,52 +163,75 @@ impl Points<'_> {
         if let Some(c) = self.columns.iter().find(|c| c.values.vtk_type().1 == 1) {
             attrs.push_str(&format!(" Scalars=\"{}\"", c.vtk));
         }
-        writeln!(w, "<PointData{attrs}>")?;
+        xml.push_str(&format!("<PointData{attrs}>\n"));
         for c in self.columns {
             let (ty, k) = c.values.vtk_type();
-            let comps = if k > 1 {
-                format!(" NumberOfComponents=\"{k}\"")
-            } else {
-                String::new()
-            };
-            writeln!(
-                w,
-                "<DataArray type=\"{ty}\" Name=\"{}\"{comps} format=\"ascii\">",
-                c.vtk
-            )?;
-            for i in 0..n {
-                c.values.write_ascii(&mut w, i)?;
-            }
-            writeln!(w, "</DataArray>")?;
+            array(&mut xml, ty, c.vtk, k, &c.values.le_bytes());
         }
-        writeln!(w, "</PointData>")?;
+        xml.push_str("</PointData>\n<Points>\n");
+        array(
+            &mut xml,
+            "Float32",
+            "",
+            3,
+            &Values::Vec3(self.pos).le_bytes(),
+        );
+        xml.push_str("</Points>\n<Verts>\n");
+        let ints = |r: std::ops::Range<usize>| -> Vec<u8> {
+            r.flat_map(|i| (i as i64).to_le_bytes()).collect()
+        };
+        array(&mut xml, "Int64", "connectivity", 1, &ints(0..n));
+        array(&mut xml, "Int64", "offsets", 1, &ints(1..n + 1));
+        xml.push_str("</Verts>\n</Piece>\n");
+        let mut w = create(path)?;
+        writeln!(w, "<?xml version=\"1.0\"?>")?;
         writeln!(
             w,
-            "<Points>\n<DataArray type=\"Float32\" NumberOfComponents=\"3\" format=\"ascii\">"
+            "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" \
+             header_type=\"UInt64\" compressor=\"vtkZLibDataCompressor\">"
         )?;
-        for i in 0..n {
-            Values::Vec3(self.pos).write_ascii(&mut w, i)?;
-        }
-        writeln!(w, "</DataArray>\n</Points>")?;
-        writeln!(
+        write!(
             w,
-            "<Verts>\n<DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
+            "<PolyData>\n{xml}</PolyData>\n<AppendedData encoding=\"raw\">\n_"
         )?;
-        for i in 0..n {
-            writeln!(w, "{i}")?;
-        }
-        writeln!(
-            w,
-            "</DataArray>\n<DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">"
-        )?;
-        for i in 1..=n {
-            writeln!(w, "{i}")?;
-        }
-        writeln!(
-            w,
-            "</DataArray>\n</Verts>\n</Piece>\n</PolyData>\n</VTKFile>"
-        )?;
+        w.write_all(&data)?;
+        writeln!(w, "\n</AppendedData>\n</VTKFile>")?;
         w.commit()
+    }
+}
+
+/// Uncompressed bytes per block of a compressed VTK array.
+const VTK_BLOCK: usize = 1 << 20;
+
+/// `raw` as a compressed VTK array (`vtkZLibDataCompressor`, UInt64 header): the block
+/// count, the block size, the last block's size if partial (else 0), each block's
+/// compressed size, then the blocks (compressed in parallel). Fast compression: frames
+/// are written every few steps, and the sorted columns (connectivity, offsets, object)
+/// shrink most of it.
+fn append_compressed(out: &mut Vec<u8>, raw: &[u8]) {
+    use flate2::{Compression, write::ZlibEncoder};
+    use rayon::prelude::*;
+    let blocks: Vec<Vec<u8>> = raw
+        .par_chunks(VTK_BLOCK)
+        .map(|b| {
+            let mut z = ZlibEncoder::new(Vec::new(), Compression::fast());
+            z.write_all(b).expect("writing to memory");
+            z.finish().expect("writing to memory")
+        })
+        .collect();
+    let header = [
+        blocks.len() as u64,
+        VTK_BLOCK as u64,
+        (raw.len() % VTK_BLOCK) as u64,
+    ];
+    for v in header
+        .into_iter()
+        .chain(blocks.iter().map(|b| b.len() as u64))
+    {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    for b in &blocks {
+        out.extend_from_slice(b);
     }
 }
 

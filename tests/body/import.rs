@@ -61,49 +61,100 @@ fn run_out_frames_read_back() {
     assert_eq!(f, surface_frame(&world));
 }
 
-/// The `<DataArray Name="name">` values of a .vtp file as numbers.
-fn vtp_array(text: &str, name: &str) -> Vec<f64> {
-    let tag = format!("Name=\"{name}\"");
-    let start = text.find(&tag).expect(name);
-    let body = &text[start..];
-    let body = &body[body.find('>').unwrap() + 1..body.find("</DataArray>").unwrap()];
-    body.split_whitespace()
-        .map(|v| v.parse().unwrap())
+/// The bytes of one array of a binary `.vtp` file, decoded as VTK's format says
+/// (independently of the writer): the `<DataArray>` after `key` (`Name="radius"`, or
+/// `<Points>` for the positions) gives its offset into the appended data, where a UInt64
+/// header (block count, block size, last partial block's size, compressed sizes)
+/// precedes the zlib blocks.
+fn vtp_array(bytes: &[u8], key: &str) -> Vec<u8> {
+    use std::io::Read;
+    let find = |hay: &[u8], needle: &[u8]| hay.windows(needle.len()).position(|w| w == needle);
+    let appended = find(bytes, b"<AppendedData encoding=\"raw\">").expect("appended data");
+    let header = std::str::from_utf8(&bytes[..appended]).expect("an XML header");
+    let data = appended + find(&bytes[appended..], b"_").expect("the data's mark") + 1;
+    // A name is inside its array's tag; an element's array follows it.
+    let mut tag = &header[header.find(key).expect(key)..];
+    if key.starts_with('<') {
+        tag = &tag[tag.find("<DataArray").expect("an array")..];
+    }
+    let offset: usize = tag[tag.find("offset=\"").unwrap() + 8..]
+        .split('"')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    let word = |k: usize| {
+        let at = data + offset + 8 * k;
+        u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize
+    };
+    let (blocks, size, last) = (word(0), word(1), word(2));
+    let mut at = data + offset + 8 * (3 + blocks);
+    let mut out = Vec::new();
+    for b in 0..blocks {
+        let len = word(3 + b);
+        let mut raw = Vec::new();
+        flate2::read::ZlibDecoder::new(&bytes[at..at + len])
+            .read_to_end(&mut raw)
+            .unwrap();
+        let expected = if b + 1 == blocks && last > 0 {
+            last
+        } else {
+            size
+        };
+        assert_eq!(raw.len(), expected, "block {b} of {key}");
+        out.extend_from_slice(&raw);
+        at += len;
+    }
+    out
+}
+
+fn f32s(bytes: &[u8]) -> Vec<f32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
         .collect()
 }
 
-/// VTK export of the colliding `two-spheres` frame: an XML `.vtp` file declaring the
-/// frame's point count, whose `radius`, `object`, `contact` arrays and the z components of
-/// its `Normals` equal the frame's values exactly once parsed (f32 radii and normals,
-/// integer ids and flags), with 3 normal components per point, and whose first point line
-/// is the frame's first position as printed by Rust (shortest round-trip decimals).
+/// VTK export of the colliding `two-spheres` frame: a binary `.vtp` file declaring the
+/// frame's point count, whose `radius`, `object`, `contact`, `Normals` and point arrays,
+/// decoded by VTK's format description, equal the frame's values bit for bit, with one
+/// vertex cell per point; and smaller than the PLY of the same frame.
 #[test]
 fn vtk_export_has_the_same_point_data() {
     let dir = TempDir::new("import", "vtk");
     let frame = colliding_frame();
     let path = dir.0.join("f.vtp");
     frame.write(&path, Format::Vtk).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    assert!(text.starts_with("<?xml"));
-    assert!(text.contains(&format!("NumberOfPoints=\"{}\"", frame.len())));
-    let radius = vtp_array(&text, "radius");
-    let object = vtp_array(&text, "object");
-    let contact = vtp_array(&text, "contact");
-    let normals = vtp_array(&text, "Normals");
+    let bytes = std::fs::read(&path).unwrap();
+    let head = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]).to_string();
+    assert!(head.starts_with("<?xml"));
+    assert!(head.contains(&format!("NumberOfPoints=\"{}\"", frame.len())));
+    let radius = f32s(&vtp_array(&bytes, "Name=\"radius\""));
+    let object: Vec<i32> = vtp_array(&bytes, "Name=\"object\"")
+        .chunks_exact(4)
+        .map(|c| i32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    let contact = vtp_array(&bytes, "Name=\"contact\"");
+    let normals = f32s(&vtp_array(&bytes, "Name=\"Normals\""));
+    let points = f32s(&vtp_array(&bytes, "<Points>"));
+    let connectivity = vtp_array(&bytes, "Name=\"connectivity\"");
     assert_eq!(radius.len(), frame.len());
     assert_eq!(normals.len(), 3 * frame.len());
+    assert_eq!(connectivity.len(), 8 * frame.len());
     for i in 0..frame.len() {
-        assert_eq!(radius[i] as f32, frame.radius[i]);
-        assert_eq!(object[i] as i32, frame.object[i]);
-        assert_eq!(contact[i] as u8, frame.contact[i]);
-        assert_eq!(normals[3 * i + 2] as f32, frame.normal[i].z);
+        assert_eq!(radius[i].to_bits(), frame.radius[i].to_bits());
+        assert_eq!(object[i], frame.object[i]);
+        assert_eq!(contact[i], frame.contact[i]);
+        assert_eq!(normals[3 * i..3 * i + 3], frame.normal[i].to_array());
+        assert_eq!(points[3 * i..3 * i + 3], frame.pos[i].to_array());
     }
-    // Points come after point data: check the last array is the positions.
-    let pts_start = text.find("<Points>").unwrap();
-    let pts = &text[pts_start..];
-    let first = pts.lines().nth(2).unwrap();
-    let p = frame.pos[0];
-    assert_eq!(first, format!("{} {} {}", p.x, p.y, p.z));
+    let ply = dir.0.join("f.ply");
+    frame.write(&ply, Format::Ply).unwrap();
+    let (vtp_size, ply_size) = (bytes.len(), std::fs::metadata(&ply).unwrap().len() as usize);
+    assert!(
+        vtp_size <= ply_size,
+        "{vtp_size} bytes against the PLY's {ply_size}"
+    );
 }
 
 /// `phyxel run falling-sphere --steps 10 --format vtk --out DIR` writes the first two
@@ -129,7 +180,8 @@ fn run_format_vtk_writes_vtp_frames() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for k in 0..=1 {
         let p = dir.0.join(format!("surfels_{k:05}.vtp"));
-        let text = std::fs::read_to_string(&p).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        let text = String::from_utf8_lossy(&bytes);
         assert!(text.contains("<VTKFile type=\"PolyData\""));
         assert!(text.trim_end().ends_with("</VTKFile>"));
     }
