@@ -58,6 +58,11 @@ enum Command {
         /// Also write phyxel PLY frames to --out.
         #[arg(long)]
         phyxels: bool,
+        /// Surfel frames hold each body's own surfels in a fixed order (colliding ones
+        /// flagged `contact`), not the render surface: point i is the same material
+        /// point in every frame until a body fractures.
+        #[arg(long, requires = "out")]
+        fixed_points: bool,
         /// File format of the surfel frames in --out: ply (binary PLY) or vtk (.vtp).
         #[arg(long, default_value = "ply", value_parser = ["ply", "vtk"])]
         format: String,
@@ -399,6 +404,7 @@ fn main() -> ExitCode {
             out,
             overwrite,
             phyxels,
+            fixed_points,
             format,
             png,
             size,
@@ -455,6 +461,7 @@ fn main() -> ExitCode {
                 steps,
                 out,
                 phyxels,
+                fixed_points,
                 contacts,
                 overwrite,
                 interrupt: None,

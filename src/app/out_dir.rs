@@ -160,6 +160,10 @@ pub struct Manifest<'a> {
     pub finite: bool,
     /// The frames' file extension (`ply` or `vtp`).
     pub format: &'a str,
+    /// What the surfel frames hold: `render` (the render surface, whose points change
+    /// with the contact) or `fixed` (each body's own surfels in a fixed order,
+    /// `run --fixed-points`).
+    pub surfels: &'a str,
     /// Each frame's simulated time (s), by frame number.
     pub times: &'a [f64],
     /// Every file the run wrote, in order.
@@ -170,15 +174,15 @@ pub struct Manifest<'a> {
 /// their simulated time, so that ParaView opens one file and plays the series in time.
 pub const COLLECTION: &str = "frames.pvd";
 
-/// Writes [`COLLECTION`] into `dir`: frame k's surfels (part 0) and contacts (part 1)
-/// at `times[k]` (s), whole or not at all.
-pub fn write_collection(dir: &Path, times: &[f64]) -> std::io::Result<()> {
+/// Writes [`COLLECTION`] into `dir`: frame k's surfels (part 0), contacts (part 1) and,
+/// with `phyxels`, phyxels (part 2) at `times[k]` (s), whole or not at all.
+pub fn write_collection(dir: &Path, times: &[f64], phyxels: bool) -> std::io::Result<()> {
     let mut text = String::from(
         "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
          byte_order=\"LittleEndian\">\n<Collection>\n",
     );
     for (k, t) in times.iter().enumerate() {
-        let files = crate::world::output::frame_files(k as u64, false, Format::Vtk);
+        let files = crate::world::output::frame_files(k as u64, phyxels, Format::Vtk);
         for (part, file) in files.iter().enumerate() {
             text.push_str(&format!(
                 "<DataSet timestep=\"{t:e}\" group=\"\" part=\"{part}\" file=\"{file}\"/>\n"

@@ -30,6 +30,9 @@ pub struct RunOptions {
     pub out: Option<PathBuf>,
     /// Also write phyxel frames.
     pub phyxels: bool,
+    /// Surfel frames hold each body's own surfels in a fixed order
+    /// ([`output::Surface::Fixed`]), not the render surface.
+    pub fixed_points: bool,
     /// File format of the surfel frames.
     pub format: Format,
     /// Also render each frame to `surfels_NNNNN.png` in `out`, with these options (the
@@ -244,6 +247,11 @@ pub fn run(
     let write_frames = opts.out.clone();
     let every = scene.output.every;
     let phyxels = opts.phyxels || scene.output.phyxels;
+    let kind = if opts.fixed_points {
+        output::Surface::Fixed
+    } else {
+        output::Surface::Render
+    };
     let mut frames = 0;
     let mut png = opts.png.clone();
     if let Some(p) = &mut png {
@@ -257,7 +265,7 @@ pub fn run(
             times.push(world.time);
             let err =
                 |e: String| SceneError(format!("writing frame {k} to {}: {e}", dir.display()));
-            let surface = output::write_frame_as(world, dir, k, phyxels, opts.format)
+            let surface = output::write_frame_with(world, dir, k, phyxels, opts.format, kind)
                 .map_err(|e| err(e.to_string()))?;
             written.extend(output::frame_files(k, phyxels, opts.format));
             if let Some(p) = &mut png {
@@ -348,7 +356,7 @@ pub fn run(
     summary.interrupted = interrupted;
     if let Some(dir) = &opts.out {
         if opts.format == crate::io::frame::Format::Vtk && !times.is_empty() {
-            out_dir::write_collection(dir, &times).map_err(|e| {
+            out_dir::write_collection(dir, &times, phyxels).map_err(|e| {
                 SceneError(format!(
                     "writing {} to {}: {e}",
                     out_dir::COLLECTION,
@@ -365,6 +373,10 @@ pub fn run(
             interrupted,
             finite: summary.finite,
             format: opts.format.extension(),
+            surfels: match kind {
+                output::Surface::Render => "render",
+                output::Surface::Fixed => "fixed",
+            },
             times: &times,
             frames: &written,
         };

@@ -533,6 +533,16 @@ impl Object {
         self.binding.advect_blocks(&mut self.surfels, |_, _| true)
     }
 
+    /// The displacement gradient per phyxel (column b = ∂u/∂x_b) of the last step:
+    /// the backend's, or the core's MLS estimate that the step's advection made; `None`
+    /// before a first step of a backend without one (and for static objects).
+    pub fn displacement_gradient(&self) -> Option<&[Mat3]> {
+        self.dynamics
+            .displacement_gradient()
+            .or(self.estimate.as_ref().map(|e| &e.1[..]))
+            .filter(|g| g.len() == self.phyxels.len())
+    }
+
     /// True when every surfel is where the last advection table puts it (no block left
     /// stale by [`Object::prepare_surfels`]).
     pub fn surfels_current(&self) -> bool {

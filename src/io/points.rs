@@ -17,6 +17,9 @@ pub enum Values<'a> {
     Vec3(&'a [Vec3]),
     I32(&'a [i32]),
     U8(&'a [u8]),
+    /// A symmetric tensor, six components `xx yy zz xy yz zx` (VTK's order for a
+    /// six-component tensor array).
+    Sym(&'a [[f32; 6]]),
 }
 
 /// A named column. `ply` holds its PLY property name, or the three names of a
@@ -46,12 +49,13 @@ impl Values<'_> {
             Values::Vec3(v) => v.len(),
             Values::I32(v) => v.len(),
             Values::U8(v) => v.len(),
+            Values::Sym(v) => v.len(),
         }
     }
 
     fn ply_type(&self) -> &'static str {
         match self {
-            Values::F32(_) | Values::Vec3(_) => "float",
+            Values::F32(_) | Values::Vec3(_) | Values::Sym(_) => "float",
             Values::I32(_) => "int",
             Values::U8(_) => "uchar",
         }
@@ -63,6 +67,7 @@ impl Values<'_> {
             Values::Vec3(_) => ("Float32", 3),
             Values::I32(_) => ("Int32", 1),
             Values::U8(_) => ("UInt8", 1),
+            Values::Sym(_) => ("Float32", 6),
         }
     }
 
@@ -77,6 +82,12 @@ impl Values<'_> {
             }
             Values::I32(v) => w.write_all(&v[i].to_le_bytes()),
             Values::U8(v) => w.write_all(&[v[i]]),
+            Values::Sym(v) => {
+                for c in v[i] {
+                    w.write_all(&c.to_le_bytes())?;
+                }
+                Ok(())
+            }
         }
     }
 
@@ -101,6 +112,12 @@ impl Points<'_> {
     fn check(&self) {
         for c in self.columns {
             assert_eq!(c.values.len(), self.pos.len(), "column {}", c.vtk);
+            assert_eq!(
+                c.ply.len(),
+                c.values.vtk_type().1,
+                "column {}'s PLY names",
+                c.vtk
+            );
         }
     }
 

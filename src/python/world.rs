@@ -537,30 +537,40 @@ impl PyWorld {
 
     /// Writes the render surface (surfels, contact surfels marked) to `path` as binary
     /// PLY (`format="ply"`) or VTK XML PolyData (`"vtk"`, `.vtp`); with `phyxels=True`
-    /// the phyxels instead (PLY); with `contacts=True` the contact surfels carrying force,
-    /// with their area, penetration, forces and slip (the `contacts_NNNNN` frames of
-    /// `phyxel run --out`).
-    #[pyo3(signature = (path, format = "ply", phyxels = false, contacts = false))]
+    /// the phyxels instead, with displacement, strain and stress; with `contacts=True`
+    /// the contact surfels carrying force, with their area, penetration, forces and slip
+    /// (the `contacts_NNNNN` frames of `phyxel run --out`); with `fixed_points=True` every body's own surfels in a fixed
+    /// order instead of the render surface (`phyxel run --fixed-points`).
+    #[pyo3(signature = (path, format = "ply", phyxels = false, contacts = false, fixed_points = false))]
     fn write_frame(
         &self,
         path: PathBuf,
         format: &str,
         phyxels: bool,
         contacts: bool,
+        fixed_points: bool,
     ) -> PyResult<()> {
         super::errors::shield(|| {
             let format = Format::parse(format).map_err(PyValueError::new_err)?;
-            if phyxels && contacts {
+            if [phyxels, contacts, fixed_points]
+                .iter()
+                .filter(|&&b| b)
+                .count()
+                > 1
+            {
                 return Err(PyValueError::new_err(
-                    "write_frame: phyxels=True and contacts=True: one frame per call",
+                    "write_frame: phyxels, contacts and fixed_points are three kinds of frame: \
+                     one per call",
                 ));
             }
             let s = self.lock()?;
             let w = s.world()?;
             let written = if phyxels {
-                output::write_phyxels(w, &path).map(|_| ())
+                output::phyxel_frame(w).write(&path, format)
             } else if contacts {
                 output::contact_frame(w).write(&path, format)
+            } else if fixed_points {
+                output::fixed_frame(w).write(&path, format)
             } else {
                 output::surface_frame(w).write(&path, format)
             };

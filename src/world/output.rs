@@ -24,13 +24,40 @@ pub fn write_frame_as(
     phyxels: bool,
     format: Format,
 ) -> std::io::Result<Frame> {
+    write_frame_with(world, dir, frame, phyxels, format, Surface::Render)
+}
+
+/// Which points a surfel frame holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Surface {
+    /// The render surface `S \ C ∪ Φ` ([`surface_frame`]): its points change with the
+    /// contact.
+    #[default]
+    Render,
+    /// Every object's own surfels in their stored order ([`fixed_frame`]): point i is
+    /// the same material point in every frame (until an object fractures).
+    Fixed,
+}
+
+/// Like [`write_frame_as`] with the surfel frame of `surface`; returns it.
+pub fn write_frame_with(
+    world: &World,
+    dir: &Path,
+    frame: u64,
+    phyxels: bool,
+    format: Format,
+    surface: Surface,
+) -> std::io::Result<Frame> {
     std::fs::create_dir_all(dir)?;
     let files = frame_files(frame, phyxels, format);
-    let surface = surface_frame(world);
+    let surface = match surface {
+        Surface::Render => surface_frame(world),
+        Surface::Fixed => fixed_frame(world),
+    };
     surface.write(&dir.join(&files[0]), format)?;
     contact_frame(world).write(&dir.join(&files[1]), format)?;
     if phyxels {
-        write_phyxels(world, &dir.join(&files[2]))?;
+        phyxel_frame(world).write(&dir.join(&files[2]), format)?;
     }
     Ok(surface)
 }
@@ -44,7 +71,7 @@ pub fn frame_files(frame: u64, phyxels: bool, format: Format) -> Vec<String> {
         format!("contacts_{frame:05}.{ext}"),
     ];
     if phyxels {
-        files.push(format!("phyxels_{frame:05}.ply"));
+        files.push(format!("phyxels_{frame:05}.{ext}"));
     }
     files
 }
@@ -85,54 +112,185 @@ pub fn surface_frame(world: &World) -> Frame {
     frame
 }
 
+/// Every object's own surfels, in object order and each object's stored order: a point
+/// set of fixed size and order (Blender point caches and ParaView's per-point
+/// displacement follow point i), colliding surfels flagged `contact = 1` in place
+/// (with `World::render_contacts` every surfel is tested, else the force carriers).
+pub fn fixed_frame(world: &World) -> Frame {
+    let mut colliding: Vec<Vec<bool>> = world
+        .objects
+        .iter()
+        .map(|o| vec![false; o.surfels.len()])
+        .collect();
+    for d in &world.contact.detections {
+        for (k, list) in [(d.a, &d.a_in_b), (d.b, &d.b_in_a)] {
+            for c in list {
+                colliding[k][c.surfel as usize] = true;
+            }
+        }
+    }
+    let mut frame = Frame::default();
+    for (k, o) in world.objects.iter().enumerate() {
+        let s = &o.surfels;
+        for (i, &hit) in colliding[k].iter().enumerate() {
+            let flag = u8::from(hit);
+            frame.push(
+                s.pos.get(i),
+                s.normal.get(i),
+                s.radius[i],
+                o.id as i32,
+                flag,
+            );
+        }
+    }
+    frame
+}
+
 /// The render surface of every object (see [`surface_frame`]) as one binary PLY file.
 pub fn write_surfels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
     surface_frame(world).write_ply(path)?;
     Ok(path.to_path_buf())
 }
 
-/// All phyxels of the world as one PLY point cloud: position, velocity, mass, radius,
-/// object id.
+/// All phyxels of the world as one PLY point cloud ([`PhyxelFrame`]).
 pub fn write_phyxels(world: &World, path: &Path) -> std::io::Result<PathBuf> {
-    let (mut pos, mut vel, mut mass, mut radius, mut object) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    phyxel_frame(world).write(path, Format::Ply)?;
+    Ok(path.to_path_buf())
+}
+
+/// Every phyxel of the world with its state and mechanics, in object order: position,
+/// velocity, mass, radius, object id, displacement from rest, the Green–Lagrange strain
+/// `E = ½(FᵀF − I)` of the last step's displacement gradient (`F = I + ∇u`) and the
+/// Saint Venant–Kirchhoff stress `S = λ tr(E) I + 2μ E` of the object's material with
+/// its von Mises value. Strain and stress are the total ones (a plastic body's plastic
+/// part included) and zero for static objects and before a first step.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PhyxelFrame {
+    pub pos: Vec<Vec3>,
+    pub vel: Vec<Vec3>,
+    pub mass: Vec<f32>,
+    pub radius: Vec<f32>,
+    pub object: Vec<i32>,
+    /// `x − x₀` (m).
+    pub displacement: Vec<Vec3>,
+    /// `xx yy zz xy yz zx` (dimensionless; shear as tensor components, not engineering).
+    pub strain: Vec<[f32; 6]>,
+    /// `xx yy zz xy yz zx` (Pa).
+    pub stress: Vec<[f32; 6]>,
+    /// `√(½((s₁₁−s₂₂)² + (s₂₂−s₃₃)² + (s₃₃−s₁₁)²) + 3(s₁₂² + s₂₃² + s₃₁²))` (Pa).
+    pub von_mises: Vec<f32>,
+}
+
+/// The phyxel frame of `world` (see [`PhyxelFrame`]).
+pub fn phyxel_frame(world: &World) -> PhyxelFrame {
+    let mut f = PhyxelFrame::default();
     for o in &world.objects {
         let p = &o.phyxels;
-        pos.extend((0..p.len()).map(|i| p.pos.get(i)));
-        vel.extend((0..p.len()).map(|i| p.vel.get(i)));
+        let n = p.len();
+        f.pos.extend((0..n).map(|i| p.pos.get(i)));
+        f.vel.extend((0..n).map(|i| p.vel.get(i)));
         // The scalar columns are padded for the SIMD loops: only the first `len` count.
-        mass.extend_from_slice(&p.mass[..p.len()]);
-        radius.extend_from_slice(&p.radius[..p.len()]);
-        object.extend((0..p.len()).map(|_| o.id as i32));
+        f.mass.extend_from_slice(&p.mass[..n]);
+        f.radius.extend_from_slice(&p.radius[..n]);
+        f.object.extend((0..n).map(|_| o.id as i32));
+        f.displacement
+            .extend((0..n).map(|i| (p.pos.get(i) - p.rest.get(i)) + p.pos_carry.get(i)));
+        let grad = o.displacement_gradient().filter(|_| !o.is_static());
+        let (lambda, mu) = o.material.lame();
+        for i in 0..n {
+            let g = grad.map_or(glam::Mat3::ZERO, |g| g[i]);
+            let j = glam::Mat3::IDENTITY + g;
+            let e = (j.transpose() * j - glam::Mat3::IDENTITY) * 0.5;
+            let tr = e.x_axis.x + e.y_axis.y + e.z_axis.z;
+            let s = glam::Mat3::from_diagonal(Vec3::splat(lambda * tr)) + e * (2.0 * mu);
+            let sym = |m: glam::Mat3| {
+                [
+                    m.x_axis.x, m.y_axis.y, m.z_axis.z, m.y_axis.x, m.z_axis.y, m.x_axis.z,
+                ]
+            };
+            let [sxx, syy, szz, sxy, syz, szx] = sym(s);
+            let vm = (0.5 * ((sxx - syy).powi(2) + (syy - szz).powi(2) + (szz - sxx).powi(2))
+                + 3.0 * (sxy * sxy + syz * syz + szx * szx))
+                .sqrt();
+            f.strain.push(sym(e));
+            f.stress.push(sym(s));
+            f.von_mises.push(vm);
+        }
     }
-    let columns = [
-        Column {
-            ply: &["vx", "vy", "vz"],
-            vtk: "velocity",
-            values: Values::Vec3(&vel),
-        },
-        Column {
-            ply: &["mass"],
-            vtk: "mass",
-            values: Values::F32(&mass),
-        },
-        Column {
-            ply: &["radius"],
-            vtk: "radius",
-            values: Values::F32(&radius),
-        },
-        Column {
-            ply: &["object"],
-            vtk: "object",
-            values: Values::I32(&object),
-        },
-    ];
-    let points = Points {
-        pos: &pos,
-        columns: &columns,
-    };
-    points.write_ply(path, "phyxel phyxels")?;
-    Ok(path.to_path_buf())
+    f
+}
+
+impl PhyxelFrame {
+    /// Writes the frame to `path` in `format`: PLY properties `x y z vx vy vz mass
+    /// radius object ux uy uz` and `strain_xx`…`strain_zx`, `stress_xx`…`stress_zx`,
+    /// `von_mises`; VTK arrays `velocity`, `mass`, `radius`, `object`, `displacement`,
+    /// `strain` and `stress` (six-component symmetric tensors) and `von_mises`.
+    pub fn write(&self, path: &Path, format: Format) -> std::io::Result<()> {
+        let columns = [
+            Column {
+                ply: &["vx", "vy", "vz"],
+                vtk: "velocity",
+                values: Values::Vec3(&self.vel),
+            },
+            Column {
+                ply: &["mass"],
+                vtk: "mass",
+                values: Values::F32(&self.mass),
+            },
+            Column {
+                ply: &["radius"],
+                vtk: "radius",
+                values: Values::F32(&self.radius),
+            },
+            Column {
+                ply: &["object"],
+                vtk: "object",
+                values: Values::I32(&self.object),
+            },
+            Column {
+                ply: &["ux", "uy", "uz"],
+                vtk: "displacement",
+                values: Values::Vec3(&self.displacement),
+            },
+            Column {
+                ply: &[
+                    "strain_xx",
+                    "strain_yy",
+                    "strain_zz",
+                    "strain_xy",
+                    "strain_yz",
+                    "strain_zx",
+                ],
+                vtk: "strain",
+                values: Values::Sym(&self.strain),
+            },
+            Column {
+                ply: &[
+                    "stress_xx",
+                    "stress_yy",
+                    "stress_zz",
+                    "stress_xy",
+                    "stress_yz",
+                    "stress_zx",
+                ],
+                vtk: "stress",
+                values: Values::Sym(&self.stress),
+            },
+            Column {
+                ply: &["von_mises"],
+                vtk: "von_mises",
+                values: Values::F32(&self.von_mises),
+            },
+        ];
+        let points = Points {
+            pos: &self.pos,
+            columns: &columns,
+        };
+        match format {
+            Format::Ply => points.write_ply(path, "phyxel phyxels"),
+            Format::Vtk => points.write_vtp(path),
+        }
+    }
 }
 
 /// The contact surfels of every pair that carry force at the last contact phase

@@ -362,3 +362,72 @@ fn bad_radius_or_normal_in_a_frame_is_an_error() {
     f.write_ply(&p).unwrap();
     assert_eq!(read_frame(&p).unwrap().len(), 1, "radius 0 means unknown");
 }
+
+/// Phyxel frames carry mechanics: a box stretched uniformly by `F = diag(1.02, 1, 1)`
+/// and stepped once (dt 1e-7 s, no gravity: it barely moves) gives every phyxel the
+/// closed forms (MLS gradients are exact for affine fields): Green–Lagrange
+/// `E_xx = ½(1.02² − 1) = 0.0202`, the Saint Venant–Kirchhoff stress
+/// `S = λ tr(E) I + 2μ E` and its von Mises value `|S_xx − S_yy|`, and the displacement
+/// `0.02 x₀`. Tolerance 1e-3 relative (f32 positions); the PLY names the columns.
+#[test]
+fn phyxel_frames_carry_strain_and_stress_of_a_uniform_stretch() {
+    use phyxel::world::output::phyxel_frame;
+    let text = r#"
+        name = "stretch"
+        gravity = [0.0, 0.0, 0.0]
+        dt = 1e-7
+        [[objects]]
+        name = "box"
+        shape = { type = "box", size = [0.1, 0.1, 0.1] }
+        spacing = 0.02
+        material = { young = 1.0e5, poisson = 0.3 }
+    "#;
+    let mut world = Scene::parse(text, "in-code")
+        .unwrap()
+        .build(&Default::default())
+        .unwrap();
+    let p = &mut world.objects[0].phyxels;
+    for i in 0..p.len() {
+        let x = p.rest.get(i);
+        p.pos.set(i, glam::Vec3::new(1.02 * x.x, x.y, x.z));
+    }
+    world.step();
+    let f = phyxel_frame(&world);
+    let (lambda, mu) = world.objects[0].material.lame();
+    let exx = 0.5 * (1.02f32 * 1.02 - 1.0);
+    let (sxx, syy) = (lambda * exx + 2.0 * mu * exx, lambda * exx);
+    let close = |a: f32, b: f32, scale: f32| (a - b).abs() <= 1e-3 * scale;
+    assert!(f.pos.len() > 100);
+    for i in 0..f.pos.len() {
+        let (e, s) = (f.strain[i], f.stress[i]);
+        assert!(close(e[0], exx, exx), "phyxel {i}: strain {e:?}");
+        assert!(
+            e[1..].iter().all(|&c| close(c, 0.0, exx)),
+            "phyxel {i}: strain {e:?}"
+        );
+        assert!(close(s[0], sxx, sxx) && close(s[1], syy, sxx) && close(s[2], syy, sxx));
+        assert!(
+            s[3..].iter().all(|&c| close(c, 0.0, sxx)),
+            "phyxel {i}: stress {s:?}"
+        );
+        assert!(
+            close(f.von_mises[i], sxx - syy, sxx),
+            "phyxel {i}: {}",
+            f.von_mises[i]
+        );
+        let x0 = world.objects[0].phyxels.rest.get(i);
+        assert!(
+            (f.displacement[i].x - 0.02 * x0.x).abs() < 1e-5,
+            "phyxel {i}"
+        );
+    }
+    let dir = TempDir::new("import", "mechanics");
+    let path = dir.0.join("p.ply");
+    f.write(&path, Format::Ply).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
+    let head = String::from_utf8_lossy(&bytes[..end]);
+    for name in ["ux", "strain_xx", "stress_zx", "von_mises"] {
+        assert!(head.contains(&format!("property float {name}\n")), "{head}");
+    }
+}

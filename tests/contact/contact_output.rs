@@ -132,7 +132,9 @@ fn check_contact_frames(world: &phyxel::World, totals: &phyxel::contact::PatchTo
     );
     assert!((area - totals.area).abs() < 1e-4 * totals.area);
     phyxel::world::output::write_frame_as(world, &dir.0, 7, false, Format::Vtk).unwrap();
-    let vtp = std::fs::read_to_string(dir.0.join("contacts_00007.vtp")).unwrap();
+    let vtp = std::fs::read(dir.0.join("contacts_00007.vtp")).unwrap();
+    // The XML header (the binary data follows `<AppendedData`).
+    let vtp = String::from_utf8_lossy(&vtp);
     assert!(vtp.contains(&format!("NumberOfPoints=\"{n}\"")));
     for name in [
         "Normals",

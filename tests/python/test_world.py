@@ -261,8 +261,12 @@ def test_frames_and_pictures(tmp_path):
     n = sum(len(p["areas"]) for p in w.patches())
     assert n > 0 and f"element vertex {n}\n".encode() in contacts.read_bytes()[:200]
     assert b"property float penetration" in contacts.read_bytes()[:800]
-    with pytest.raises(ValueError, match="one frame"):
+    with pytest.raises(ValueError, match="one per call"):
         w.write_frame(contacts, phyxels=True, contacts=True)
+    fixed = tmp_path / "fixed.ply"
+    w.write_frame(fixed, fixed_points=True)
+    total = w.summary()["surfels"]
+    assert f"element vertex {total}\n".encode() in fixed.read_bytes()[:200]
     with pytest.raises(ValueError):
         w.write_frame(tmp_path / "x", format="obj")
     with pytest.raises(phyxel.Error, match="cannot write"):
