@@ -63,6 +63,10 @@ enum Command {
         /// point in every frame until a body fractures.
         #[arg(long, requires = "out")]
         fixed_points: bool,
+        /// Also write mesh_NNNNN.ply (or .vtp) per frame: every `mesh` shape's own
+        /// triangles, their vertices moved with the body.
+        #[arg(long, requires = "out")]
+        mesh: bool,
         /// File format of the surfel frames in --out: ply (binary PLY) or vtk (.vtp).
         #[arg(long, default_value = "ply", value_parser = ["ply", "vtk"])]
         format: String,
@@ -405,6 +409,7 @@ fn main() -> ExitCode {
             overwrite,
             phyxels,
             fixed_points,
+            mesh,
             format,
             png,
             size,
@@ -462,6 +467,7 @@ fn main() -> ExitCode {
                 out,
                 phyxels,
                 fixed_points,
+                mesh,
                 contacts,
                 overwrite,
                 interrupt: None,

@@ -12,8 +12,8 @@ use std::path::Path;
 pub const MANIFEST: &str = "phyxel-manifest.json";
 
 /// Whether `name` is a file a run writes into its folder: a frame
-/// (`surfels_N.ply|vtp|png`, `contacts_N.ply|vtp`, `phyxels_N.ply`, N of five or more
-/// digits), the manifest, or one of these being written when a run was killed
+/// (`surfels_N.ply|vtp|png`, `contacts_N.ply|vtp`, `phyxels_N.ply|vtp`,
+/// `mesh_N.ply|vtp`, N of five or more digits), the manifest, or one of these being written when a run was killed
 /// (`.NAME.PID-N.tmp`, [`crate::io::atomic`]).
 pub fn is_run_file(name: &str) -> bool {
     if name == MANIFEST || name == COLLECTION {
@@ -36,8 +36,7 @@ pub fn is_run_file(name: &str) -> bool {
     };
     let exts: &[&str] = match kind {
         "surfels" => &["ply", "vtp", "png"],
-        "contacts" => &["ply", "vtp"],
-        "phyxels" => &["ply"],
+        "contacts" | "phyxels" | "mesh" => &["ply", "vtp"],
         _ => return false,
     };
     number.len() >= 5 && number.bytes().all(|b| b.is_ascii_digit()) && exts.contains(&ext)
@@ -174,15 +173,24 @@ pub struct Manifest<'a> {
 /// their simulated time, so that ParaView opens one file and plays the series in time.
 pub const COLLECTION: &str = "frames.pvd";
 
-/// Writes [`COLLECTION`] into `dir`: frame k's surfels (part 0), contacts (part 1) and,
-/// with `phyxels`, phyxels (part 2) at `times[k]` (s), whole or not at all.
-pub fn write_collection(dir: &Path, times: &[f64], phyxels: bool) -> std::io::Result<()> {
+/// Writes [`COLLECTION`] into `dir`: frame k's surfels (part 0), contacts (part 1),
+/// then, when written, phyxels and meshes (the next parts) at `times[k]` (s), whole or
+/// not at all.
+pub fn write_collection(
+    dir: &Path,
+    times: &[f64],
+    phyxels: bool,
+    mesh: bool,
+) -> std::io::Result<()> {
     let mut text = String::from(
         "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" \
          byte_order=\"LittleEndian\">\n<Collection>\n",
     );
     for (k, t) in times.iter().enumerate() {
-        let files = crate::world::output::frame_files(k as u64, phyxels, Format::Vtk);
+        let mut files = crate::world::output::frame_files(k as u64, phyxels, Format::Vtk);
+        if mesh {
+            files.push(crate::world::output::mesh_file(k as u64, Format::Vtk));
+        }
         for (part, file) in files.iter().enumerate() {
             text.push_str(&format!(
                 "<DataSet timestep=\"{t:e}\" group=\"\" part=\"{part}\" file=\"{file}\"/>\n"
@@ -211,6 +219,9 @@ mod tests {
             "surfels_00001.png",
             "contacts_00003.vtp",
             "phyxels_00002.ply",
+            "phyxels_00002.vtp",
+            "mesh_00004.ply",
+            "mesh_00004.vtp",
             "phyxel-manifest.json",
             "frames.pvd",
             ".surfels_00001.ply.4242-0.tmp",
@@ -219,7 +230,8 @@ mod tests {
         }
         for name in [
             "surfels_0001.ply",
-            "phyxels_00002.vtp",
+            "phyxels_00002.png",
+            "mesh_00001.png",
             "contacts_00001.png",
             "notes.txt",
             "surfels_0000a.ply",

@@ -33,6 +33,8 @@ pub struct RunOptions {
     /// Surfel frames hold each body's own surfels in a fixed order
     /// ([`output::Surface::Fixed`]), not the render surface.
     pub fixed_points: bool,
+    /// Also write the objects' output meshes ([`output::MeshFrame`]) each frame.
+    pub mesh: bool,
     /// File format of the surfel frames.
     pub format: Format,
     /// Also render each frame to `surfels_NNNNN.png` in `out`, with these options (the
@@ -268,6 +270,13 @@ pub fn run(
             let surface = output::write_frame_with(world, dir, k, phyxels, opts.format, kind)
                 .map_err(|e| err(e.to_string()))?;
             written.extend(output::frame_files(k, phyxels, opts.format));
+            if opts.mesh {
+                let name = output::mesh_file(k, opts.format);
+                output::mesh_frame(world)
+                    .write(&dir.join(&name), opts.format)
+                    .map_err(|e| err(e.to_string()))?;
+                written.push(name);
+            }
             if let Some(p) = &mut png {
                 // One camera for the whole run: fitted to the first frame.
                 p.camera = Some(render::camera_for(&surface, p));
@@ -322,6 +331,9 @@ pub fn run(
             }
             if s % every == 0 && write_frames.is_some() {
                 world.sync_surfels();
+                if opts.mesh {
+                    world.follow_meshes();
+                }
                 frame(&world, s / every)?;
                 frames += 1;
             }
@@ -340,6 +352,9 @@ pub fn run(
         Ok(())
     })?;
     world.sync_surfels();
+    if opts.mesh {
+        world.follow_meshes();
+    }
     // The last state, when the steps (or an interrupt) ended between frames; not a
     // state that went non-finite.
     if write_frames.is_some() && !ran.is_multiple_of(every) && world.non_finite.is_none() {
@@ -356,7 +371,7 @@ pub fn run(
     summary.interrupted = interrupted;
     if let Some(dir) = &opts.out {
         if opts.format == crate::io::frame::Format::Vtk && !times.is_empty() {
-            out_dir::write_collection(dir, &times, phyxels).map_err(|e| {
+            out_dir::write_collection(dir, &times, phyxels, opts.mesh).map_err(|e| {
                 SceneError(format!(
                     "writing {} to {}: {e}",
                     out_dir::COLLECTION,

@@ -7,6 +7,7 @@ pub mod connectivity;
 pub mod fracture;
 pub mod mesh;
 pub mod object;
+pub mod output_mesh;
 pub mod self_collision;
 pub mod shape;
 

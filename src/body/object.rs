@@ -2,6 +2,7 @@
 
 use crate::body::advect::SurfelBinding;
 use crate::body::connectivity::Connectivity;
+use crate::body::output_mesh::OutputMesh;
 use crate::body::self_collision::SelfCollision;
 use crate::dynamics::Dynamics;
 use crate::dynamics::gradient::MlsStencil;
@@ -59,6 +60,9 @@ pub struct Object {
     /// Rest neighbours and penalty of the self-collision force (paper §8), for objects
     /// whose scene asks for it (`self_collision = true`); `None`: no self-collision work.
     pub self_collision: Option<SelfCollision>,
+    /// The triangle mesh that follows the phyxels for mesh frames (a `mesh` shape's own
+    /// triangles; `None`: the object has none, and a fragment of a fracture loses it).
+    pub mesh: Option<OutputMesh>,
     /// The fracture check's state (empty unless the object may break: see
     /// [`crate::body::fracture::may_fracture`]).
     pub connectivity: Connectivity,
@@ -242,6 +246,7 @@ impl Object {
             load_ramp: 0.0,
             parent: None,
             self_collision: None,
+            mesh: None,
             connectivity: Connectivity::default(),
             asleep: false,
             still_for: 0.0,
@@ -263,10 +268,15 @@ impl Object {
     /// the backend rebuilds its rest state ([`Dynamics::rest_replaced`]). Surfels stay
     /// where they are: after it, displacements and gradients are zero.
     pub fn renew_rest(&mut self) {
+        // The mesh's vertices where the old rest shape's field puts them, before it goes.
+        self.follow_mesh();
         self.phyxels.rest = self.phyxels.pos.clone();
         self.surfels.rest = self.surfels.pos.clone();
         self.surfels.rest_normal = self.surfels.normal.clone();
         self.binding = SurfelBinding::build(&self.surfels, &self.phyxels);
+        if let Some(m) = &mut self.mesh {
+            m.renew_rest(&self.phyxels);
+        }
         self.estimate = None;
         self.dynamics.rest_replaced(&self.phyxels, &self.material);
         if self.self_collision.is_some() {
@@ -531,6 +541,20 @@ impl Object {
     /// surfels moved.
     pub fn sync_surfels(&mut self) -> usize {
         self.binding.advect_blocks(&mut self.surfels, |_, _| true)
+    }
+
+    /// Moves the output mesh's vertices with the phyxels (only when a mesh frame is
+    /// written: the field of the last step, as the surfels'). Static objects' meshes
+    /// stay where they were built.
+    pub fn follow_mesh(&mut self) {
+        if self.is_static() {
+            return;
+        }
+        let Some(mut mesh) = self.mesh.take() else {
+            return;
+        };
+        self.with_gradient(|_, _, phyxels, grad| mesh.follow(phyxels, grad));
+        self.mesh = Some(mesh);
     }
 
     /// The displacement gradient per phyxel (column b = ∂u/∂x_b) of the last step:

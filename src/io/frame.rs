@@ -102,6 +102,7 @@ impl Frame {
         f(&Points {
             pos: &self.pos,
             columns: &columns,
+            triangles: &[],
         })
     }
 

@@ -101,11 +101,13 @@ impl Values<'_> {
     }
 }
 
-/// Points and their columns (every column as long as `pos`).
+/// Points and their columns (every column as long as `pos`), and the triangles over
+/// them when they are a mesh's vertices (empty: a point cloud).
 #[derive(Clone, Copy, Debug)]
 pub struct Points<'a> {
     pub pos: &'a [Vec3],
     pub columns: &'a [Column<'a>],
+    pub triangles: &'a [[u32; 3]],
 }
 
 impl Points<'_> {
@@ -121,7 +123,8 @@ impl Points<'_> {
         }
     }
 
-    /// Binary little-endian PLY, one `vertex` element: `x y z` then the columns in order.
+    /// Binary little-endian PLY, one `vertex` element: `x y z` then the columns in order,
+    /// and a `face` element (`vertex_indices`) when there are triangles.
     pub fn write_ply(&self, path: &Path, comment: &str) -> std::io::Result<()> {
         self.check();
         let mut w = create(path)?;
@@ -136,6 +139,10 @@ impl Points<'_> {
                 writeln!(w, "property {} {name}", c.values.ply_type())?;
             }
         }
+        if !self.triangles.is_empty() {
+            writeln!(w, "element face {}", self.triangles.len())?;
+            writeln!(w, "property list uchar int vertex_indices")?;
+        }
         writeln!(w, "end_header")?;
         for i in 0..n {
             Values::Vec3(self.pos).write_le(&mut w, i)?;
@@ -143,10 +150,17 @@ impl Points<'_> {
                 c.values.write_le(&mut w, i)?;
             }
         }
+        for t in self.triangles {
+            w.write_all(&[3])?;
+            for v in t {
+                w.write_all(&(*v as i32).to_le_bytes())?;
+            }
+        }
         w.commit()
     }
 
-    /// VTK XML PolyData, binary: the points as vertex cells, the columns as point data,
+    /// VTK XML PolyData, binary: the points as vertex cells (or the triangles as
+    /// polygons), the columns as point data,
     /// every array zlib-compressed in the appended data block (`vtkZLibDataCompressor`,
     /// UInt64 headers), as ParaView and VTK read it. A column named `Normals` is the
     /// data's normals; the first scalar column its scalars.
@@ -169,9 +183,15 @@ impl Points<'_> {
             ));
             append_compressed(&mut data, raw);
         };
+        // Triangles as polygons, else each point a vertex cell.
+        let (cells, size, tag) = match self.triangles.len() {
+            0 => (n, 1, "Verts"),
+            t => (t, 3, "Polys"),
+        };
+        let (verts, polys) = if tag == "Verts" { (n, 0) } else { (0, cells) };
         xml.push_str(&format!(
-            "<Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{n}\" NumberOfLines=\"0\" \
-             NumberOfStrips=\"0\" NumberOfPolys=\"0\">\n"
+            "<Piece NumberOfPoints=\"{n}\" NumberOfVerts=\"{verts}\" NumberOfLines=\"0\" \
+             NumberOfStrips=\"0\" NumberOfPolys=\"{polys}\">\n"
         ));
         let mut attrs = String::new();
         if self.columns.iter().any(|c| c.vtk == "Normals") {
@@ -193,13 +213,18 @@ impl Points<'_> {
             3,
             &Values::Vec3(self.pos).le_bytes(),
         );
-        xml.push_str("</Points>\n<Verts>\n");
-        let ints = |r: std::ops::Range<usize>| -> Vec<u8> {
-            r.flat_map(|i| (i as i64).to_le_bytes()).collect()
+        xml.push_str(&format!("</Points>\n<{tag}>\n"));
+        let ints = |v: &mut dyn Iterator<Item = usize>| -> Vec<u8> {
+            v.flat_map(|i| (i as i64).to_le_bytes()).collect()
         };
-        array(&mut xml, "Int64", "connectivity", 1, &ints(0..n));
-        array(&mut xml, "Int64", "offsets", 1, &ints(1..n + 1));
-        xml.push_str("</Verts>\n</Piece>\n");
+        let connectivity = match tag {
+            "Verts" => ints(&mut (0..n)),
+            _ => ints(&mut self.triangles.iter().flatten().map(|&v| v as usize)),
+        };
+        array(&mut xml, "Int64", "connectivity", 1, &connectivity);
+        let offsets = ints(&mut (1..=cells).map(|c| c * size));
+        array(&mut xml, "Int64", "offsets", 1, &offsets);
+        xml.push_str(&format!("</{tag}>\n</Piece>\n"));
         let mut w = create(path)?;
         writeln!(w, "<?xml version=\"1.0\"?>")?;
         writeln!(

@@ -6,6 +6,8 @@ use super::warnings::{
     Footprint, flat_warning, footprint, load_above, mass_warning, surface_warning, weight_warning,
 };
 use super::*;
+use crate::body::mesh::Surface;
+use crate::body::output_mesh::OutputMesh;
 use crate::spatial::broad_phase::Aabb;
 
 impl Scene {
@@ -535,6 +537,17 @@ impl ObjectSpec {
             self.name.clone()
         };
         let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
+        // A mesh shape's own triangles follow the body for mesh frames.
+        if let Shape::Mesh {
+            mesh: Some(surface),
+            ..
+        } = &shape
+            && let Surface::Triangles(m) = surface.as_ref()
+        {
+            let vertices: Vec<Vec3> = m.vertices.iter().map(|&p| rot * p + pos).collect();
+            let mesh = OutputMesh::new(&vertices, m.triangles.clone(), &object.phyxels);
+            object.mesh = Some(mesh);
+        }
         object.load = Vec3::from(self.load);
         object.load_ramp = self.load_ramp;
         if self.self_collision && !self.is_static {

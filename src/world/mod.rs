@@ -562,6 +562,16 @@ impl World {
             .sum()
     }
 
+    /// Moves every object's output mesh with its phyxels (before a mesh frame is
+    /// written: [`output::mesh_frame`]).
+    pub fn follow_meshes(&mut self) {
+        use rayon::prelude::*;
+        self.objects
+            .par_iter_mut()
+            .filter(|o| o.mesh.is_some())
+            .for_each(|o| o.follow_mesh());
+    }
+
     /// True when every phyxel and surfel is finite.
     pub fn all_finite(&self) -> bool {
         self.objects

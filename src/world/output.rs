@@ -285,12 +285,71 @@ impl PhyxelFrame {
         let points = Points {
             pos: &self.pos,
             columns: &columns,
+            triangles: &[],
         };
         match format {
             Format::Ply => points.write_ply(path, "phyxel phyxels"),
             Format::Vtk => points.write_vtp(path),
         }
     }
+}
+
+/// The output meshes of every object that has one ([`crate::body::object::Object::mesh`]),
+/// as one triangle mesh: vertices with normals from the deformed triangles and the
+/// object's id, triangles indexing them. Call [`World::follow_meshes`] first so that the
+/// vertices are where this step's field puts them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshFrame {
+    pub pos: Vec<Vec3>,
+    pub normal: Vec<Vec3>,
+    pub object: Vec<i32>,
+    pub triangles: Vec<[u32; 3]>,
+}
+
+/// The mesh frame of `world` (see [`MeshFrame`]).
+pub fn mesh_frame(world: &World) -> MeshFrame {
+    let mut f = MeshFrame::default();
+    for o in &world.objects {
+        let Some(m) = &o.mesh else { continue };
+        let first = f.pos.len() as u32;
+        let pos = m.positions();
+        f.normal
+            .extend(crate::body::output_mesh::vertex_normals(&pos, &m.triangles));
+        f.object.extend(pos.iter().map(|_| o.id as i32));
+        f.pos.extend(pos);
+        f.triangles
+            .extend(m.triangles.iter().map(|t| t.map(|v| v + first)));
+    }
+    f
+}
+
+impl MeshFrame {
+    /// Writes the frame to `path` in `format`: PLY `x y z nx ny nz object` and a `face`
+    /// element, or VTK polygons with `Normals` and `object`.
+    pub fn write(&self, path: &Path, format: Format) -> std::io::Result<()> {
+        let columns = [
+            Column::normals(&self.normal),
+            Column {
+                ply: &["object"],
+                vtk: "object",
+                values: Values::I32(&self.object),
+            },
+        ];
+        let points = Points {
+            pos: &self.pos,
+            columns: &columns,
+            triangles: &self.triangles,
+        };
+        match format {
+            Format::Ply => points.write_ply(path, "phyxel meshes"),
+            Format::Vtk => points.write_vtp(path),
+        }
+    }
+}
+
+/// The name of frame `frame`'s mesh file in `format` (`mesh_NNNNN.ply` or `.vtp`).
+pub fn mesh_file(frame: u64, format: Format) -> String {
+    format!("mesh_{frame:05}.{}", format.extension())
 }
 
 /// The contact surfels of every pair that carry force at the last contact phase
@@ -376,6 +435,7 @@ impl ContactFrame {
         let points = Points {
             pos: &self.pos,
             columns: &columns,
+            triangles: &[],
         };
         match format {
             Format::Ply => points.write_ply(path, "phyxel contact surfels"),

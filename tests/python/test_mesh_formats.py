@@ -34,3 +34,60 @@ def test_trimesh_exports_load_with_the_mesh_volume(cli, tmp_path, name, file_typ
     body = json.loads(out.stdout)["bodies"][0]
     want = 1000.0 * mesh.volume
     assert abs(body["mass"] / want - 1.0) < 0.05, (body["mass"], want)
+
+
+@pytest.mark.parametrize("fmt", ["ply", "vtk"])
+def test_mesh_frames_keep_the_input_mesh_and_follow_the_body(cli, tmp_path, fmt):
+    """`run --mesh`: an icosphere OBJ (642 vertices, 1,280 triangles) dropped onto a
+    plane comes back as `mesh_NNNNN` frames that trimesh (PLY) and pyvista (VTK) read
+    with the input's vertex and face counts, the first frame with the input's vertices
+    (centred, then placed at the scene's position) and triangles (area and outward
+    volume), and the last
+    frame's vertex centroid where the run's summary puts the body's centre of mass
+    (within a phyxel spacing: vertices follow the surface, the mass the volume)."""
+    np = pytest.importorskip("numpy")
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
+    mesh.export(tmp_path / "ball.obj", file_type="obj")
+    source = trimesh.load(tmp_path / "ball.obj", process=False)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(
+        "steps = 300\n[output]\nevery = 100\n"
+        "[[objects]]\nname = \"ball\"\n"
+        'shape = { type = "mesh", path = "ball.obj" }\n'
+        "spacing = 0.01\nposition = [0.0, 0.1, 0.0]\n"
+        "material = { density = 1000.0, young = 1.0e5 }\n"
+        "[[objects]]\nname = \"ground\"\nstatic = true\n"
+        'shape = { type = "plane", size = [0.5, 0.5] }\nspacing = 0.01\n'
+    )
+    out = tmp_path / "out"
+    run = subprocess.run([cli, "run", str(scene), "--mesh", "--format", fmt, "--out", str(out),
+                          "--json"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads(run.stdout)
+    ext = "ply" if fmt == "ply" else "vtp"
+    manifest = json.loads((out / "phyxel-manifest.json").read_text())
+    names = [f"mesh_{k:05}.{ext}" for k in range(4)]
+    assert all(n in manifest["frames"] for n in names)
+    frames = []
+    for n in names:
+        if fmt == "ply":
+            m = trimesh.load(out / n, process=False)
+            frames.append((np.asarray(m.vertices), np.asarray(m.faces)))
+        else:
+            pv = pytest.importorskip("pyvista")
+            m = pv.read(str(out / n))
+            frames.append((np.asarray(m.points), np.asarray(m.faces).reshape(-1, 4)[:, 1:]))
+    centred = np.asarray(source.vertices) - 0.5 * (source.bounds[0] + source.bounds[1])
+    for vertices, faces in frames:
+        assert vertices.shape == source.vertices.shape
+        assert faces.shape == source.faces.shape
+    # The OBJ reader may number the vertices in the order the faces first use them: the
+    # same vertex set, and the same triangles (their total area and enclosed volume).
+    rows = lambda v: v[np.lexsort(v.T[::-1])]
+    assert np.allclose(rows(frames[0][0]), rows(centred + [0.0, 0.1, 0.0]), atol=1e-6)
+    first = trimesh.Trimesh(frames[0][0], frames[0][1], process=False)
+    assert first.area == pytest.approx(source.area, rel=1e-5)
+    assert first.volume == pytest.approx(source.volume, rel=1e-5)
+    com = np.asarray(summary["bodies"][0]["com"])
+    assert np.linalg.norm(frames[-1][0].mean(axis=0) - com) < 0.01
+    assert frames[-1][0][:, 1].mean() < 0.1 - 0.01, "the ball fell"

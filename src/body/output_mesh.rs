@@ -1,0 +1,74 @@
+//! A triangle mesh that follows an object's phyxels: the mesh a user brought (a `mesh`
+//! shape's own triangles), its vertices bound to the phyxels like surfels and moved by
+//! the same MLS displacement field ([`SurfelBinding`]) when a mesh frame is written.
+
+use crate::body::advect::SurfelBinding;
+use crate::points::phyxels::Phyxels;
+use crate::points::surfels::Surfels;
+use glam::{Mat3, Vec3};
+
+/// An object's output mesh: vertices (as surfels: rest and current positions), the
+/// triangles over them, and the vertices' binding to the phyxels.
+#[derive(Clone, Debug)]
+pub struct OutputMesh {
+    /// The vertices: `rest` where the object was built, `pos` where the last
+    /// [`OutputMesh::follow`] moved them.
+    pub vertices: Surfels,
+    /// Outward-oriented triangles (vertex indices).
+    pub triangles: Vec<[u32; 3]>,
+    binding: SurfelBinding,
+}
+
+impl OutputMesh {
+    /// The mesh with `vertices` at rest (world coordinates) and `triangles`, bound to
+    /// the rest positions of `phyxels`.
+    pub fn new(vertices: &[Vec3], triangles: Vec<[u32; 3]>, phyxels: &Phyxels) -> Self {
+        let normals = vertex_normals(vertices, &triangles);
+        let radii = vec![0.0; vertices.len()];
+        let vertices = Surfels::at_rest(vertices, &normals, &radii);
+        let binding = SurfelBinding::build(&vertices, phyxels);
+        Self {
+            vertices,
+            triangles,
+            binding,
+        }
+    }
+
+    /// Moves the vertices with the phyxels, given the displacement gradient of every
+    /// phyxel (the same field as the surfels').
+    pub fn follow(&mut self, phyxels: &Phyxels, grad: &[Mat3]) {
+        self.binding.advect(&mut self.vertices, phyxels, grad);
+    }
+
+    /// Takes the vertices' current positions as their rest positions and binds them
+    /// anew to `phyxels` (whose rest shape was renewed by plastic flow).
+    pub fn renew_rest(&mut self, phyxels: &Phyxels) {
+        self.vertices.rest = self.vertices.pos.clone();
+        self.vertices.rest_normal = self.vertices.normal.clone();
+        self.binding = SurfelBinding::build(&self.vertices, phyxels);
+    }
+
+    /// The current vertex positions.
+    pub fn positions(&self) -> Vec<Vec3> {
+        (0..self.vertices.len())
+            .map(|i| self.vertices.pos.get(i))
+            .collect()
+    }
+}
+
+/// Unit vertex normals of a triangle mesh: the area-weighted sum of the normals of the
+/// triangles around each vertex (+z where a vertex has no triangle of positive area).
+pub fn vertex_normals(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; vertices.len()];
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i as usize]);
+        // |(b − a) × (c − a)| is twice the area: the sum weights by area.
+        let face = (b - a).cross(c - a);
+        for &i in t {
+            n[i as usize] += face;
+        }
+    }
+    n.iter()
+        .map(|v| v.try_normalize().unwrap_or(Vec3::Z))
+        .collect()
+}
