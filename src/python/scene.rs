@@ -287,6 +287,8 @@ impl PyScene {
             let mut world = py
                 .detach(|| scene.build(&opts))
                 .map_err(|e| scene_error(py, &e))?;
+            // As `phyxel run` (the same summaries): `World.step` syncs before returning.
+            world.lazy_advection = true;
             if let Some(class) = class {
                 super::backend::install(py, &mut world, class)?;
                 world.keep_stable = !allow_unstable;

@@ -123,8 +123,9 @@ impl PyWorld {
     }
 
     /// One step with the GIL released; a panic becomes `phyxel.Error` and poisons the
-    /// world.
-    fn step_once(&self, py: Python<'_>) -> PyResult<()> {
+    /// world. With `sync`, every surfel is brought current after it (the world
+    /// advects lazily, `World::lazy_advection`: Python reads surfels between calls).
+    fn step_once(&self, py: Python<'_>, sync: bool) -> PyResult<()> {
         let mut world = {
             let mut s = self.lock()?;
             s.usable()?;
@@ -134,7 +135,14 @@ impl PyWorld {
         let result = py.detach(|| {
             // On a pool thread, as `phyxel run` steps: the steps' parallel loops then
             // push their jobs to local deques (no allocation per step).
-            catch_unwind(AssertUnwindSafe(|| rayon::scope(|_| world.step())))
+            catch_unwind(AssertUnwindSafe(|| {
+                rayon::scope(|_| {
+                    world.step();
+                    if sync {
+                        world.sync_surfels();
+                    }
+                })
+            }))
         });
         let mut s = self.lock()?;
         s.wall += t0.elapsed().as_secs_f64();
@@ -262,12 +270,17 @@ impl PyWorld {
     #[pyo3(signature = (n = 1))]
     fn step(&self, py: Python<'_>, n: u64) -> PyResult<()> {
         super::errors::shield(|| {
-            for _ in 0..n {
-                self.step_once(py)?;
-                if let Some(e) = &self.lock()?.world()?.non_finite {
-                    return Err(NonFiniteError::new_err(e.to_string()));
+            for k in 0..n {
+                self.step_once(py, k + 1 == n)?;
+                let stop = match &self.lock()?.world()?.non_finite {
+                    Some(e) => Err(NonFiniteError::new_err(e.to_string())),
+                    None => py.check_signals(),
+                };
+                if let Err(e) = stop {
+                    // Stopped before the last step: the surfels current for the reader.
+                    self.lock()?.world_mut()?.sync_surfels();
+                    return Err(e);
                 }
-                py.check_signals()?;
             }
             Ok(())
         })
