@@ -86,8 +86,8 @@ pub struct World {
     /// box and those near its contacts; the rest of its surfels stay where the last
     /// advection left them until [`World::sync_surfels`] (or a step with this off)
     /// moves them. The results are the same bits either way. Default `false`: every
-    /// step leaves every surfel current. `phyxel run` and `phyxel view` turn it on and
-    /// sync before they read the surfels (frames, pictures, the summary).
+    /// step leaves every surfel current. `phyxel run` and Python worlds turn it on and
+    /// sync before the surfels are read (frames, the summary, the end of `World.step`).
     pub lazy_advection: bool,
     /// Let groups of bodies that have stayed still sleep until something moving touches
     /// them ([`sleep`]). Default `true`; scene key `sleep`.
