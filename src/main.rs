@@ -63,8 +63,8 @@ enum Command {
         /// point in every frame until a body fractures.
         #[arg(long, requires = "out")]
         fixed_points: bool,
-        /// Also write mesh_NNNNN.ply (or .vtp) per frame: every `mesh` shape's own
-        /// triangles, their vertices moved with the body.
+        /// Also write mesh_NNNNN.ply (or .vtp) per frame: every object's surface as
+        /// triangles (a mesh shape's own), their vertices moved with the body.
         #[arg(long, requires = "out")]
         mesh: bool,
         /// File format of the surfel frames in --out: ply (binary PLY) or vtk (.vtp).
@@ -462,6 +462,7 @@ fn main() -> ExitCode {
                     phyxels: phyxel_count,
                     preset: preset.map(|p| Preset::parse(&p).expect("clap checks the value")),
                     max_memory,
+                    meshes: mesh,
                 },
                 steps,
                 out,

@@ -282,6 +282,7 @@ impl PyScene {
                 phyxels,
                 preset,
                 max_memory,
+                meshes: false,
             };
             let scene = self.scene.clone();
             let mut world = py

@@ -6,7 +6,6 @@ use super::warnings::{
     Footprint, flat_warning, footprint, load_above, mass_warning, surface_warning, weight_warning,
 };
 use super::*;
-use crate::body::mesh::Surface;
 use crate::body::output_mesh::OutputMesh;
 use crate::spatial::broad_phase::Aabb;
 
@@ -92,6 +91,11 @@ impl Scene {
                 .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
             if preset == Preset::Paper {
                 obj.distribution_support = PAPER_DISTRIBUTION_SUPPORT;
+            }
+            if opts.meshes {
+                obj.mesh = spec
+                    .output_mesh(&obj.phyxels)
+                    .map_err(|m| SceneError(format!("{origin}: objects[{k}]: {m}")))?;
             }
             // Only an override can get here with a plastic material on such a backend
             // (the scene's own `backend` is checked above): compared backends run it.
@@ -439,6 +443,20 @@ impl ObjectSpec {
         self.backend.as_deref().unwrap_or(DEFAULT_BACKEND)
     }
 
+    /// The object's output mesh for mesh frames: its shape's triangles
+    /// ([`Shape::triangulate`], edges of the surfel spacing), placed as the object is and
+    /// bound to the rest positions of its `phyxels`; `None` for a point-cloud shape.
+    pub fn output_mesh(&self, phyxels: &Phyxels) -> Result<Option<OutputMesh>, String> {
+        let (rot, pos) = self.placement();
+        let mut shape = self.shape.clone();
+        shape.load_mesh(Path::new(""))?;
+        let (_, surfel_spacing) = self.spacings(&shape)?;
+        Ok(shape.triangulate(surfel_spacing).map(|(v, t)| {
+            let v: Vec<Vec3> = v.iter().map(|&p| rot * p + pos).collect();
+            OutputMesh::new(&v, t, phyxels)
+        }))
+    }
+
     /// Samples the shape and creates the object with backend `backend`.
     pub fn build(&self, id: u32, backend: &str) -> Result<Object, String> {
         let (rot, pos) = self.placement();
@@ -537,17 +555,6 @@ impl ObjectSpec {
             self.name.clone()
         };
         let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
-        // A mesh shape's own triangles follow the body for mesh frames.
-        if let Shape::Mesh {
-            mesh: Some(surface),
-            ..
-        } = &shape
-            && let Surface::Triangles(m) = surface.as_ref()
-        {
-            let vertices: Vec<Vec3> = m.vertices.iter().map(|&p| rot * p + pos).collect();
-            let mesh = OutputMesh::new(&vertices, m.triangles.clone(), &object.phyxels);
-            object.mesh = Some(mesh);
-        }
         object.load = Vec3::from(self.load);
         object.load_ramp = self.load_ramp;
         if self.self_collision && !self.is_static {

@@ -230,6 +230,9 @@ pub struct BuildOptions {
     /// The memory the scene may need (bytes, estimated before building: `scene::memory`);
     /// `None`: 80% of what the system reports available (no check where it does not say).
     pub max_memory: Option<u64>,
+    /// Give every object its output mesh (`Object::mesh`, for mesh frames: `run
+    /// --mesh`): its shape's triangles, bound to its phyxels.
+    pub meshes: bool,
 }
 
 /// An error that names where in the input it comes from.

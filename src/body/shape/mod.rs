@@ -7,6 +7,7 @@
 
 #[cfg(test)]
 mod tests;
+pub mod triangulate;
 
 use std::f32::consts::{PI, TAU};
 
