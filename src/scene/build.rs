@@ -444,14 +444,15 @@ impl ObjectSpec {
     }
 
     /// The object's output mesh for mesh frames: its shape's triangles
-    /// ([`Shape::triangulate`], edges of the surfel spacing), placed as the object is and
-    /// bound to the rest positions of its `phyxels`; `None` for a point-cloud shape.
+    /// ([`Shape::triangulate`], edges of [`MESH_EDGE`] surfel spacings), placed as the
+    /// object is and bound to the rest positions of its `phyxels`; `None` for a
+    /// point-cloud shape.
     pub fn output_mesh(&self, phyxels: &Phyxels) -> Result<Option<OutputMesh>, String> {
         let (rot, pos) = self.placement();
         let mut shape = self.shape.clone();
         shape.load_mesh(Path::new(""))?;
         let (_, surfel_spacing) = self.spacings(&shape)?;
-        Ok(shape.triangulate(surfel_spacing).map(|(v, t)| {
+        Ok(shape.triangulate(MESH_EDGE * surfel_spacing).map(|(v, t)| {
             let v: Vec<Vec3> = v.iter().map(|&p| rot * p + pos).collect();
             OutputMesh::new(&v, t, phyxels)
         }))
@@ -563,6 +564,11 @@ impl ObjectSpec {
         Ok(object)
     }
 }
+
+/// Edge length of the primitives' output meshes, in surfel spacings: a sphere's mesh
+/// then has about 0.4 vertices per surfel, and writing mesh frames beside the surfel
+/// frames adds under a tenth to a run that writes frames (`two-spheres`, every 10 steps).
+pub const MESH_EDGE: f32 = 2.0;
 
 /// How far below the moving bodies' own stable step the contact springs' bound may set
 /// the default dt before the build warns, naming the stiffest `contact_stiffness`.
