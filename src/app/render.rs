@@ -1,7 +1,7 @@
 //! A headless software splat renderer: surfels drawn as shaded, oriented discs with a
 //! depth buffer (ray–disc intersection per pixel), Lambert + ambient lighting, one
-//! colour per object and contact surfels highlighted (an overlay seen through the
-//! objects); supersampled, written as PNG.
+//! colour per object and contact surfels highlighted (an overlay, dimmed where objects
+//! hide it); supersampled, written as PNG.
 
 use crate::io::frame::Frame;
 use glam::Vec3;
@@ -24,9 +24,14 @@ pub const BACKGROUND: [u8; 3] = [236, 239, 243];
 /// Colour of contact surfels (flag `contact = 1`).
 pub const CONTACT_COLOUR: [f32; 3] = [0.92, 0.16, 0.10];
 
-/// Opacity of the contact overlay: contact surfels are drawn over everything (seen
-/// through the objects), so the contact surface shows even where the objects hide it.
+/// Opacity of the contact overlay where it is visible: contact surfels in front of the
+/// objects' surfels (or within two disk radii behind them: they lie on the surface).
 pub const CONTACT_ALPHA: f32 = 0.75;
+
+/// Opacity of the contact overlay where an object hides it: dimmed, so that a patch at
+/// a body's bottom does not show on its front face as if it were there, yet still shows
+/// that a contact is behind.
+pub const CONTACT_HIDDEN_ALPHA: f32 = 0.2;
 
 /// Object colours, by object id modulo their count (no reds: red marks contact).
 pub const PALETTE: [[f32; 3]; 6] = [
@@ -305,14 +310,16 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
                     continue;
                 }
                 let k = (py * w + px) as usize;
-                // Contact splats go to an overlay seen through the objects.
-                let (depth, colour) = if contact {
-                    (&mut ov_depth, &mut ov_colour)
+                // Contact splats go to an overlay, its depth taken two disk radii nearer:
+                // blended fully where it is at or in front of the objects' surface, dimmed
+                // where an object hides it.
+                let (depth, colour, t_depth) = if contact {
+                    (&mut ov_depth, &mut ov_colour, t - 2.0 * r)
                 } else {
-                    (&mut depth, &mut colour)
+                    (&mut depth, &mut colour, t)
                 };
-                if t > 0.0 && t < depth[k] {
-                    depth[k] = t;
+                if t > 0.0 && t_depth < depth[k] {
+                    depth[k] = t_depth;
                     colour[k] = shaded;
                 }
             }
@@ -320,7 +327,7 @@ pub fn render(frame: &Frame, opts: &RenderOptions) -> Image {
     }
     // Box-filter down to the output size.
     let (ow, oh) = (opts.width.max(1), opts.height.max(1));
-    let rgb = downsample((ow, oh), s, w, (&colour, &ov_colour, &ov_depth));
+    let rgb = downsample((ow, oh), s, w, (&colour, &depth), (&ov_colour, &ov_depth));
     Image {
         width: ow,
         height: oh,
@@ -344,12 +351,14 @@ fn shade(contact: bool, base: [f32; 3], n: Vec3, key: Vec3, fwd: Vec3) -> [f32; 
 
 /// RGB bytes of the `(ow, oh)` image from the supersampled buffers (`s` samples per
 /// axis, `w` samples per row): each pixel the mean of its samples, the contact overlay
-/// blended over the objects with [`CONTACT_ALPHA`] where it was drawn.
+/// blended over the objects where it was drawn, with [`CONTACT_ALPHA`] where it is not
+/// behind the objects' depth and [`CONTACT_HIDDEN_ALPHA`] where it is.
 fn downsample(
     (ow, oh): (u32, u32),
     s: u32,
     w: u32,
-    (colour, ov_colour, ov_depth): (&[[f32; 3]], &[[f32; 3]], &[f32]),
+    (colour, depth): (&[[f32; 3]], &[f32]),
+    (ov_colour, ov_depth): (&[[f32; 3]], &[f32]),
 ) -> Vec<u8> {
     let mut rgb = Vec::with_capacity((3 * ow * oh) as usize);
     let norm = 1.0 / (s * s) as f32;
@@ -360,10 +369,10 @@ fn downsample(
                 for sx in 0..s {
                     let k = ((y * s + sy) * w + x * s + sx) as usize;
                     let (c, o) = (colour[k], ov_colour[k]);
-                    let a = if ov_depth[k].is_finite() {
-                        CONTACT_ALPHA
-                    } else {
-                        0.0
+                    let a = match ov_depth[k] {
+                        d if !d.is_finite() => 0.0,
+                        d if d <= depth[k] => CONTACT_ALPHA,
+                        _ => CONTACT_HIDDEN_ALPHA,
                     };
                     for k in 0..3 {
                         acc[k] += (1.0 - a) * c[k] + a * o[k];

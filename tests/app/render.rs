@@ -222,14 +222,13 @@ fn png_round_trip() {
     assert_eq!(Image::read_png(p).unwrap(), img);
 }
 
-/// The contact highlight is drawn over nearer surfaces: a contact-flagged patch
-/// (object 0) 0.5 m behind a green patch (object 1) covering the same area; the pixel at
-/// their common centre is more red than green.
+/// An honest picture: a contact-flagged patch (object 0) 0.5 m behind a green patch
+/// (object 1) covering the same area is dimmed, not drawn as if in front. At their
+/// common centre the pixel is more green than red, yet redder than the green patch
+/// rendered alone (the contact still shows, dimmed). The same contact patch at the green
+/// patch's depth (a contact surface on the surface) is drawn in full: more red than green.
 #[test]
-fn contact_shows_through_the_object_in_front() {
-    let mut frame = Frame::default();
-    patch(&mut frame, -0.5, 0.0, 0, 1); // contact, behind
-    patch(&mut frame, -0.5, 0.5, 1, 0); // green, in front
+fn contact_behind_an_object_is_dimmed_and_on_its_surface_is_not() {
     let cam = Camera {
         position: [0.0, 0.0, 4.0],
         target: [0.0, 0.0, 0.0],
@@ -242,13 +241,26 @@ fn contact_shows_through_the_object_in_front() {
         camera: Some(cam),
         ..Default::default()
     };
-    let img = render(&frame, &opts);
-    let (x, y, _) = cam.project(Vec3::new(0.0, 0.0, 0.5), 100, 100).unwrap();
-    let c = img.pixel(x as u32, y as u32);
+    let centre = |frame: &Frame| {
+        let img = render(frame, &opts);
+        let (x, y, _) = cam.project(Vec3::new(0.0, 0.0, 0.5), 100, 100).unwrap();
+        img.pixel(x as u32, y as u32)
+    };
+    let mut alone = Frame::default();
+    patch(&mut alone, -0.5, 0.5, 1, 0); // green
+    let mut behind = Frame::default();
+    patch(&mut behind, -0.5, 0.0, 0, 1); // contact, 0.5 m behind
+    patch(&mut behind, -0.5, 0.5, 1, 0);
+    let mut on = Frame::default();
+    patch(&mut on, -0.5, 0.5, 0, 1); // contact, at the green patch's depth
+    patch(&mut on, -0.5, 0.5, 1, 0);
+    let (g, b, o) = (centre(&alone), centre(&behind), centre(&on));
+    assert!(b[1] > b[0], "hidden contact dimmed: {b:?}");
     assert!(
-        c[0] > c[1],
-        "contact overlay visible through the object: {c:?}"
+        b[0] > g[0],
+        "hidden contact still shows: {b:?} against {g:?}"
     );
+    assert!(o[0] > o[1], "contact on the surface drawn in full: {o:?}");
 }
 
 /// A scene's `[camera]` (at (0, 0, 2) m looking at the origin, fov 40°) with a sphere
