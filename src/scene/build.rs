@@ -444,7 +444,7 @@ impl ObjectSpec {
     }
 
     /// The object's output mesh for mesh frames: its shape's triangles
-    /// ([`Shape::triangulate`], edges of [`MESH_EDGE`] surfel spacings), placed as the
+    /// ([`Shape::triangulate`], edges of `MESH_EDGE` surfel spacings), placed as the
     /// object is and bound to the rest positions of its `phyxels`; `None` for a
     /// point-cloud shape.
     pub fn output_mesh(&self, phyxels: &Phyxels) -> Result<Option<OutputMesh>, String> {
