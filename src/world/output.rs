@@ -83,19 +83,7 @@ pub fn frame_files(frame: u64, phyxels: bool, format: Format) -> Vec<String> {
 /// the force carriers among the colliding surfels are known.
 pub fn surface_frame(world: &World) -> Frame {
     let n_obj = world.objects.len();
-    let mut colliding: Vec<Vec<bool>> = world
-        .objects
-        .iter()
-        .map(|o| vec![false; o.surfels.len()])
-        .collect();
-    for d in &world.contact.detections {
-        for c in &d.a_in_b {
-            colliding[d.a][c.surfel as usize] = true;
-        }
-        for c in &d.b_in_a {
-            colliding[d.b][c.surfel as usize] = true;
-        }
-    }
+    let colliding = colliding_surfels(world);
     let mut frame = Frame::default();
     for (k, o) in world.objects.iter().enumerate() {
         let s = &o.surfels;
@@ -112,11 +100,8 @@ pub fn surface_frame(world: &World) -> Frame {
     frame
 }
 
-/// Every object's own surfels, in object order and each object's stored order: a point
-/// set of fixed size and order (Blender point caches and ParaView's per-point
-/// displacement follow point i), colliding surfels flagged `contact = 1` in place
-/// (with `World::render_contacts` every surfel is tested, else the force carriers).
-pub fn fixed_frame(world: &World) -> Frame {
+/// Per object, per surfel: found colliding by the last detection.
+fn colliding_surfels(world: &World) -> Vec<Vec<bool>> {
     let mut colliding: Vec<Vec<bool>> = world
         .objects
         .iter()
@@ -129,6 +114,15 @@ pub fn fixed_frame(world: &World) -> Frame {
             }
         }
     }
+    colliding
+}
+
+/// Every object's own surfels, in object order and each object's stored order: a point
+/// set of fixed size and order (Blender point caches and ParaView's per-point
+/// displacement follow point i), colliding surfels flagged `contact = 1` in place
+/// (with `World::render_contacts` every surfel is tested, else the force carriers).
+pub fn fixed_frame(world: &World) -> Frame {
+    let colliding = colliding_surfels(world);
     let mut frame = Frame::default();
     for (k, o) in world.objects.iter().enumerate() {
         let s = &o.surfels;
