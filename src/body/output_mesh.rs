@@ -34,6 +34,31 @@ impl OutputMesh {
         }
     }
 
+    /// A point cloud's output: `points` with their `normals` (world coordinates) and no
+    /// triangles, bound to the rest positions of `phyxels`; its normals follow the body
+    /// as surfel normals do.
+    pub fn points(points: &[Vec3], normals: &[Vec3], phyxels: &Phyxels) -> Self {
+        let radii = vec![0.0; points.len()];
+        let vertices = Surfels::at_rest(points, normals, &radii);
+        let binding = SurfelBinding::build(&vertices, phyxels);
+        Self {
+            vertices,
+            triangles: Vec::new(),
+            binding,
+        }
+    }
+
+    /// Unit vertex normals: from the deformed triangles, or a point cloud's own advected
+    /// normals.
+    pub fn normals(&self) -> Vec<Vec3> {
+        if self.triangles.is_empty() {
+            return (0..self.vertices.len())
+                .map(|i| self.vertices.normal.get(i))
+                .collect();
+        }
+        vertex_normals(&self.positions(), &self.triangles)
+    }
+
     /// Moves the vertices with the phyxels, given the displacement gradient of every
     /// phyxel (the same field as the surfels').
     pub fn follow(&mut self, phyxels: &Phyxels, grad: &[Mat3]) {

@@ -6,6 +6,7 @@ use super::warnings::{
     Footprint, flat_warning, footprint, load_above, mass_warning, surface_warning, weight_warning,
 };
 use super::*;
+use crate::body::mesh::Surface;
 use crate::body::output_mesh::OutputMesh;
 use crate::spatial::broad_phase::Aabb;
 
@@ -444,14 +445,21 @@ impl ObjectSpec {
     }
 
     /// The object's output mesh for mesh frames: its shape's triangles
-    /// ([`Shape::triangulate`], edges of `MESH_EDGE` surfel spacings), placed as the
-    /// object is and bound to the rest positions of its `phyxels`; `None` for a
-    /// point-cloud shape.
+    /// ([`Shape::triangulate`], edges of `MESH_EDGE` surfel spacings), or a point-cloud
+    /// shape's own points and normals, placed as the object is and bound to the rest
+    /// positions of its `phyxels`.
     pub fn output_mesh(&self, phyxels: &Phyxels) -> Result<Option<OutputMesh>, String> {
         let (rot, pos) = self.placement();
         let mut shape = self.shape.clone();
         shape.load_mesh(Path::new(""))?;
         let (_, surfel_spacing) = self.spacings(&shape)?;
+        if let Shape::Mesh { mesh: Some(m), .. } = &shape
+            && let Surface::Points(cloud) = m.as_ref()
+        {
+            let p: Vec<Vec3> = cloud.points.iter().map(|&p| rot * p + pos).collect();
+            let n: Vec<Vec3> = cloud.normals.iter().map(|&n| rot * n).collect();
+            return Ok(Some(OutputMesh::points(&p, &n, phyxels)));
+        }
         Ok(shape.triangulate(MESH_EDGE * surfel_spacing).map(|(v, t)| {
             let v: Vec<Vec3> = v.iter().map(|&p| rot * p + pos).collect();
             OutputMesh::new(&v, t, phyxels)

@@ -289,8 +289,9 @@ impl PhyxelFrame {
 }
 
 /// The output meshes of every object that has one ([`crate::body::object::Object::mesh`]),
-/// as one triangle mesh: vertices with normals from the deformed triangles and the
-/// object's id, triangles indexing them. Call [`World::follow_meshes`] first so that the
+/// as one triangle mesh: vertices with normals from the deformed triangles (a point
+/// cloud's: its points, with their own normals and no triangles) and the object's id,
+/// triangles indexing them. Call [`World::follow_meshes`] first so that the
 /// vertices are where this step's field puts them.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshFrame {
@@ -307,8 +308,7 @@ pub fn mesh_frame(world: &World) -> MeshFrame {
         let Some(m) = &o.mesh else { continue };
         let first = f.pos.len() as u32;
         let pos = m.positions();
-        f.normal
-            .extend(crate::body::output_mesh::vertex_normals(&pos, &m.triangles));
+        f.normal.extend(m.normals());
         f.object.extend(pos.iter().map(|_| o.id as i32));
         f.pos.extend(pos);
         f.triangles
