@@ -67,8 +67,10 @@ enum Command {
         /// triangles (a mesh shape's own), their vertices moved with the body.
         #[arg(long, requires = "out")]
         mesh: bool,
-        /// File format of the surfel frames in --out: ply (binary PLY) or vtk (.vtp).
-        #[arg(long, default_value = "ply", value_parser = ["ply", "vtk"])]
+        /// File format of the frames in --out: ply (binary PLY), vtk (.vtp and a
+        /// frames.pvd series), or usd (one frames.usda stage: every object's mesh, with
+        /// --fixed-points its surfels and with --phyxels its phyxels, time-sampled).
+        #[arg(long, default_value = "ply", value_parser = ["ply", "vtk", "usd"])]
         format: String,
         /// Also render every frame to surfels_NNNNN.png in --out.
         #[arg(long, requires = "out")]
@@ -447,8 +449,14 @@ fn main() -> ExitCode {
                     return ExitCode::FAILURE;
                 }
             };
+            let usd = format == "usd";
             let opts = RunOptions {
-                format: Format::parse(&format).expect("clap checks the value"),
+                format: if usd {
+                    Format::default()
+                } else {
+                    Format::parse(&format).expect("clap checks the value")
+                },
+                usd,
                 png: png.then(|| RenderOptions {
                     width,
                     height,
@@ -462,7 +470,7 @@ fn main() -> ExitCode {
                     phyxels: phyxel_count,
                     preset: preset.map(|p| Preset::parse(&p).expect("clap checks the value")),
                     max_memory,
-                    meshes: mesh,
+                    meshes: mesh || usd,
                 },
                 steps,
                 out,

@@ -16,7 +16,7 @@ pub const MANIFEST: &str = "phyxel-manifest.json";
 /// `mesh_N.ply|vtp`, N of five or more digits), the manifest, or one of these being written when a run was killed
 /// (`.NAME.PID-N.tmp`, [`crate::io::atomic`]).
 pub fn is_run_file(name: &str) -> bool {
-    if name == MANIFEST || name == COLLECTION {
+    if name == MANIFEST || name == COLLECTION || name == STAGE {
         return true;
     }
     if let Some(inner) = name.strip_prefix('.').and_then(|n| n.strip_suffix(".tmp"))
@@ -173,6 +173,9 @@ pub struct Manifest<'a> {
 /// their simulated time, so that ParaView opens one file and plays the series in time.
 pub const COLLECTION: &str = "frames.pvd";
 
+/// The USD stage of a run written with `--format usd` ([`crate::io::usd`]).
+pub const STAGE: &str = "frames.usda";
+
 /// Writes [`COLLECTION`] into `dir`: frame k's surfels (part 0), contacts (part 1),
 /// then, when written, phyxels and meshes (the next parts) at `times[k]` (s), whole or
 /// not at all.
@@ -224,6 +227,8 @@ mod tests {
             "mesh_00004.vtp",
             "phyxel-manifest.json",
             "frames.pvd",
+            "frames.usda",
+            ".frames.usda.4242-3.tmp",
             ".surfels_00001.ply.4242-0.tmp",
         ] {
             assert!(is_run_file(name), "{name}");

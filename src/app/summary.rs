@@ -3,6 +3,7 @@
 use crate::app::out_dir;
 use crate::app::render::{self, RenderOptions};
 use crate::io::frame::Format;
+use crate::io::usd::{PrimKind, UsdSeries};
 use crate::scene::{BuildOptions, Scene, SceneError};
 use crate::world::World;
 use crate::world::output;
@@ -37,6 +38,12 @@ pub struct RunOptions {
     pub mesh: bool,
     /// File format of the surfel frames.
     pub format: Format,
+    /// Write the frames as one USD stage, [`out_dir::STAGE`] ([`crate::io::usd`]),
+    /// instead of files per frame: every object's output mesh (build with
+    /// [`BuildOptions::meshes`]; an object without one, such as a fragment, as its
+    /// surfels), with `fixed_points` every object's surfels and with `phyxels` its
+    /// phyxels.
+    pub usd: bool,
     /// Also render each frame to `surfels_NNNNN.png` in `out`, with these options (the
     /// camera: theirs, else the scene's, else fitted to the first frame).
     pub png: Option<RenderOptions>,
@@ -262,11 +269,34 @@ pub fn run(
     // Every file written into `out`, and each frame's simulated time, for the manifest.
     let mut written: Vec<String> = Vec::new();
     let mut times: Vec<f64> = Vec::new();
+    let mut stage = match (&write_frames, opts.usd) {
+        (Some(dir), true) => {
+            let per_second = 1.0 / (every as f64 * world.dt as f64);
+            Some(
+                UsdSeries::create(&dir.join(out_dir::STAGE), per_second)
+                    .map_err(|e| SceneError(format!("--out {}: {e}", dir.display())))?,
+            )
+        }
+        _ => None,
+    };
     let mut frame = |world: &World, k: u64| -> Result<(), SceneError> {
         if let Some(dir) = &write_frames {
             times.push(world.time);
             let err =
                 |e: String| SceneError(format!("writing frame {k} to {}: {e}", dir.display()));
+            if let Some(stage) = &mut stage {
+                stage_frame(stage, world, kind, phyxels).map_err(|e| err(e.to_string()))?;
+                if let Some(p) = &mut png {
+                    let surface = output::surface_frame(world);
+                    p.camera = Some(render::camera_for(&surface, p));
+                    let name = format!("surfels_{k:05}.png");
+                    render::render(&surface, p)
+                        .write_png(&dir.join(&name))
+                        .map_err(err)?;
+                    written.push(name);
+                }
+                return Ok(());
+            }
             let surface = output::write_frame_with(world, dir, k, phyxels, opts.format, kind)
                 .map_err(|e| err(e.to_string()))?;
             written.extend(output::frame_files(k, phyxels, opts.format));
@@ -331,7 +361,7 @@ pub fn run(
             }
             if s % every == 0 && write_frames.is_some() {
                 world.sync_surfels();
-                if opts.mesh {
+                if opts.mesh || opts.usd {
                     world.follow_meshes();
                 }
                 frame(&world, s / every)?;
@@ -352,7 +382,7 @@ pub fn run(
         Ok(())
     })?;
     world.sync_surfels();
-    if opts.mesh {
+    if opts.mesh || opts.usd {
         world.follow_meshes();
     }
     // The last state, when the steps (or an interrupt) ended between frames; not a
@@ -363,6 +393,16 @@ pub fn run(
     }
     if let Some((mut out, path)) = contacts {
         std::io::Write::flush(&mut out).map_err(|e| contacts_err(path, e))?;
+    }
+    if let (Some(stage), Some(dir)) = (stage, &opts.out) {
+        stage.finish().map_err(|e| {
+            SceneError(format!(
+                "writing {} to {}: {e}",
+                out_dir::STAGE,
+                dir.display()
+            ))
+        })?;
+        written.insert(0, out_dir::STAGE.into());
     }
     let wall = t0.elapsed().as_secs_f64();
     let start = (momentum_initial, energy_initial);
@@ -387,7 +427,11 @@ pub fn run(
             dt: world.dt,
             interrupted,
             finite: summary.finite,
-            format: opts.format.extension(),
+            format: if opts.usd {
+                "usd"
+            } else {
+                opts.format.extension()
+            },
             surfels: match kind {
                 output::Surface::Render => "render",
                 output::Surface::Fixed => "fixed",
@@ -399,6 +443,47 @@ pub fn run(
             .map_err(|e| SceneError(format!("writing the manifest to {}: {e}", dir.display())))?;
     }
     Ok((world, summary))
+}
+
+/// Adds `world`'s frame to the USD stage: each object's output mesh (a point cloud's
+/// points; an object without one, its surfels), and with `kind` [`output::Surface::Fixed`]
+/// every object's surfels, with `phyxels` its phyxels (widths: the cube root of their
+/// volume).
+fn stage_frame(
+    stage: &mut UsdSeries,
+    world: &World,
+    kind: output::Surface,
+    phyxels: bool,
+) -> std::io::Result<()> {
+    stage.begin_frame(world.time);
+    for o in &world.objects {
+        let s = &o.surfels;
+        let surfels = |stage: &mut UsdSeries| {
+            let pos: Vec<glam::Vec3> = (0..s.len()).map(|i| s.pos.get(i)).collect();
+            let widths: Vec<f32> = s.radius[..s.len()].iter().map(|r| 2.0 * r).collect();
+            stage.points(o.id, &o.name, PrimKind::Surfels, &pos, &widths)
+        };
+        match &o.mesh {
+            Some(m) if m.triangles.is_empty() => {
+                let pos = m.positions();
+                let widths = vec![o.surfel_spacing; pos.len()];
+                stage.points(o.id, &o.name, PrimKind::Cloud, &pos, &widths)?;
+            }
+            Some(m) => stage.mesh(o.id, &o.name, &m.positions(), &m.triangles)?,
+            None if kind != output::Surface::Fixed => surfels(stage)?,
+            None => {}
+        }
+        if kind == output::Surface::Fixed {
+            surfels(stage)?;
+        }
+        if phyxels {
+            let p = &o.phyxels;
+            let pos: Vec<glam::Vec3> = (0..p.len()).map(|i| p.pos.get(i)).collect();
+            let widths: Vec<f32> = p.volume[..p.len()].iter().map(|v| v.cbrt()).collect();
+            stage.points(o.id, &o.name, PrimKind::Phyxels, &pos, &widths)?;
+        }
+    }
+    Ok(())
 }
 
 /// The warning of [`RunSummary::energy_warning`]: the gain `E₁ − E₀` against the scale

@@ -84,15 +84,7 @@ impl AtomicFile {
                 "not a file name",
             ))
         })?;
-        static COUNT: AtomicU64 = AtomicU64::new(0);
-        let mut hidden = std::ffi::OsString::from(".");
-        hidden.push(name);
-        hidden.push(format!(
-            ".{}-{}.tmp",
-            std::process::id(),
-            COUNT.fetch_add(1, Ordering::Relaxed)
-        ));
-        let tmp = dest.with_file_name(hidden);
+        let tmp = hidden_beside(dest, name);
         let file = OpenOptions::new()
             .write(true)
             .create_new(true)
@@ -144,6 +136,55 @@ impl AtomicFile {
             self.file = None;
         }
         renamed.map_err(named)
+    }
+}
+
+/// A fresh hidden name beside `dest` (whose file name is `name`): `.NAME.PID-N.tmp`.
+fn hidden_beside(dest: &Path, name: &std::ffi::OsStr) -> PathBuf {
+    static COUNT: AtomicU64 = AtomicU64::new(0);
+    let mut hidden = std::ffi::OsString::from(".");
+    hidden.push(name);
+    hidden.push(format!(
+        ".{}-{}.tmp",
+        std::process::id(),
+        COUNT.fetch_add(1, Ordering::Relaxed)
+    ));
+    dest.with_file_name(hidden)
+}
+
+/// A working file of `dest`'s writer (data it reads back before writing `dest`), under
+/// the hidden name an [`AtomicFile`] for `dest` would get, so that `--overwrite` knows
+/// it as the run's; removed when dropped.
+pub struct Scratch {
+    pub file: File,
+    path: PathBuf,
+}
+
+impl Scratch {
+    /// Creates the working file of `dest` (read and write).
+    pub fn create(dest: &Path) -> std::io::Result<Self> {
+        let name = dest.file_name().ok_or_else(|| {
+            std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name")
+        })?;
+        let path = hidden_beside(dest, name);
+        let file = OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create_new(true)
+            .open(&path)
+            .map_err(|e| {
+                std::io::Error::new(
+                    e.kind(),
+                    format!("{}: working file {}: {e}", dest.display(), path.display()),
+                )
+            })?;
+        Ok(Self { file, path })
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_file(&self.path);
     }
 }
 

@@ -1,6 +1,6 @@
 //! Files in and out, below the engine: a frame of the render surface as plain columns,
 //! the PLY and VTP writers of point tables, output files written whole or not at all, the PLY reader (frames, meshes, point
-//! clouds), and the exact-length arrays of scene files. The frames of a
+//! clouds), a run's USD stage, and the exact-length arrays of scene files. The frames of a
 //! [`crate::World`] are [`crate::world::output`].
 
 pub mod arrays;
@@ -8,6 +8,7 @@ pub mod atomic;
 pub mod frame;
 pub mod import;
 pub mod points;
+pub mod usd;
 
 /// Largest scene file read (bytes): a scene is a page of TOML; a 50 MB file of 1.3
 /// million `fixed` entries takes 4.1 GB to parse.

@@ -110,3 +110,62 @@ def test_primitive_meshes_are_closed_and_follow_their_bodies(cli, tmp_path):
         points = np.asarray(mesh.points)[objects == body["id"]]
         assert len(points) > 100
         assert np.linalg.norm(points.mean(axis=0) - np.asarray(body["com"])) < 0.025
+
+
+def test_usd_stage_plays_the_run_in_pxr(cli, tmp_path):
+    """`run --format usd` (with `--fixed-points` and `--phyxels`): Pixar's own reader
+    (usd-core's `pxr`) opens `frames.usda`; the icosphere's Mesh prim has the input's
+    642 vertices and 1,280 triangles in every sample; the points' time samples are the
+    manifest's frames (time code = time × timeCodesPerSecond, the last step included),
+    metres and +y up; the last sample's vertex centroid is where the run's summary puts
+    the body's centre of mass (within a phyxel spacing, 1 cm); the surfel and phyxel
+    Points prims keep their counts (the summary's) in every sample, and surfel i moves
+    continuously (no sample jumps a point by more than the body's fall over a frame
+    plus a spacing: the order is fixed)."""
+    np = pytest.importorskip("numpy")
+    from pxr import Usd, UsdGeom
+    mesh = trimesh.creation.icosphere(subdivisions=3, radius=0.05)
+    mesh.export(tmp_path / "ball.obj", file_type="obj")
+    scene = tmp_path / "scene.toml"
+    scene.write_text(
+        "steps = 250\n[output]\nevery = 100\n"
+        "[[objects]]\nname = \"ball\"\n"
+        'shape = { type = "mesh", path = "ball.obj" }\n'
+        "spacing = 0.01\nposition = [0.0, 0.1, 0.0]\n"
+        "material = { density = 1000.0, young = 1.0e5 }\n"
+    )
+    out = tmp_path / "out"
+    run = subprocess.run([cli, "run", str(scene), "--format", "usd", "--fixed-points",
+                          "--phyxels", "--out", str(out), "--json"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads(run.stdout)
+    manifest = json.loads((out / "phyxel-manifest.json").read_text())
+    assert manifest["format"] == "usd" and manifest["frames"] == ["frames.usda"]
+    stage = Usd.Stage.Open(str(out / "frames.usda"))
+    assert UsdGeom.GetStageMetersPerUnit(stage) == 1.0
+    assert UsdGeom.GetStageUpAxis(stage) == UsdGeom.Tokens.y
+    per_second = stage.GetTimeCodesPerSecond()
+    # The manifest's dt is the f32 step in its shortest decimal form.
+    assert per_second == pytest.approx(1.0 / (100 * manifest["dt"]), rel=1e-6)
+    codes = [t * per_second for t in manifest["times"]]
+    assert len(codes) == 4, "frames 0, 100, 200 and the last step, 250"
+    ball = UsdGeom.Mesh(stage.GetPrimAtPath("/World/ball"))
+    points = ball.GetPointsAttr()
+    assert points.GetTimeSamples() == pytest.approx(codes)
+    assert stage.GetStartTimeCode() == 0 and stage.GetEndTimeCode() == pytest.approx(codes[-1])
+    assert len(ball.GetFaceVertexCountsAttr().Get()) == len(mesh.faces)
+    for code in codes:
+        assert len(points.Get(code)) == len(mesh.vertices)
+    last = np.asarray(points.Get(codes[-1]))
+    body = summary["bodies"][0]
+    assert np.linalg.norm(last.mean(axis=0) - np.asarray(body["com"])) < 0.01
+    assert last[:, 1].mean() < 0.1 - 0.01, "the ball fell"
+    for name, count in [("ball_surfels", body["surfels"]), ("ball_phyxels", body["phyxels"])]:
+        prim = UsdGeom.Points(stage.GetPrimAtPath(f"/World/{name}"))
+        samples = [np.asarray(prim.GetPointsAttr().Get(c)) for c in codes]
+        assert all(len(s) == count for s in samples), name
+        assert len(prim.GetWidthsAttr().Get(codes[0])) == count
+        for a, b in zip(samples, samples[1:]):
+            fall = np.linalg.norm(a.mean(axis=0) - b.mean(axis=0))
+            assert np.linalg.norm(a - b, axis=1).max() < fall + 0.01, name
