@@ -88,6 +88,22 @@ pub fn split(
             knn.first().map_or(0, |&(i, _)| comps.label[i])
         })
         .collect();
+    // The output mesh, moved to this step's shape, cut the same way (vertex by nearest
+    // phyxel).
+    let mut object = object;
+    object.follow_mesh();
+    let mut meshes = object.mesh.as_ref().map(|mesh| {
+        let piece: Vec<u32> = (0..mesh.vertices.len())
+            .into_par_iter()
+            .map(|v| {
+                let mut knn = Vec::with_capacity(1);
+                grid.k_nearest(mesh.vertices.pos.get(v), 1, &mut knn);
+                knn.first().map_or(0, |&(i, _)| comps.label[i])
+            })
+            .collect();
+        mesh.split(&piece, &piece_phyxels)
+    });
+    let p = &object.phyxels;
     let mut surfel_members: Vec<Vec<usize>> = vec![Vec::new(); comps.count];
     for (s, &c) in surfel_piece.iter().enumerate() {
         surfel_members[c as usize].push(s);
@@ -142,6 +158,7 @@ pub fn split(
         piece.distribution_support = object.distribution_support;
         piece.parent = Some(object.id);
         piece.self_collision = self_collision;
+        piece.mesh = meshes.as_mut().and_then(|m| m[c].take());
         pieces.push(piece);
     }
     Ok((pieces, event))

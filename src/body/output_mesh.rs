@@ -65,6 +65,50 @@ impl OutputMesh {
         self.binding.advect(&mut self.vertices, phyxels, grad);
     }
 
+    /// The mesh cut along a fracture: vertex v goes to piece `piece[v]`, a triangle to
+    /// the piece of its three vertices (a triangle whose vertices went to different
+    /// pieces is dropped, so the crack is left open), and each piece's part is bound at
+    /// its current shape to that piece's `phyxels` (whose rest is their current
+    /// positions). A point cloud's points go by their piece. `None` for a piece that gets
+    /// no triangle (no point).
+    pub fn split(&self, piece: &[u32], phyxels: &[Phyxels]) -> Vec<Option<OutputMesh>> {
+        let pos = self.positions();
+        let normals: Vec<Vec3> = (0..self.vertices.len())
+            .map(|i| self.vertices.normal.get(i))
+            .collect();
+        (0..phyxels.len())
+            .map(|c| {
+                let c = c as u32;
+                let mut index = vec![u32::MAX; pos.len()];
+                let (mut p, mut n) = (Vec::new(), Vec::new());
+                let mut take = |v: u32| {
+                    let v = v as usize;
+                    if index[v] == u32::MAX {
+                        index[v] = p.len() as u32;
+                        p.push(pos[v]);
+                        n.push(normals[v]);
+                    }
+                    index[v]
+                };
+                if self.triangles.is_empty() {
+                    for v in (0..pos.len()).filter(|&v| piece[v] == c) {
+                        take(v as u32);
+                    }
+                    return (!p.is_empty())
+                        .then(|| OutputMesh::points(&p, &n, &phyxels[c as usize]));
+                }
+                let triangles: Vec<[u32; 3]> = self
+                    .triangles
+                    .iter()
+                    .filter(|t| t.iter().all(|&v| piece[v as usize] == c))
+                    .map(|t| t.map(&mut take))
+                    .collect();
+                (!triangles.is_empty())
+                    .then(|| OutputMesh::new(&p, triangles, &phyxels[c as usize]))
+            })
+            .collect()
+    }
+
     /// Takes the vertices' current positions as their rest positions and binds them
     /// anew to `phyxels` (whose rest shape was renewed by plastic flow).
     pub fn renew_rest(&mut self, phyxels: &Phyxels) {
