@@ -169,3 +169,67 @@ def test_usd_stage_plays_the_run_in_pxr(cli, tmp_path):
         for a, b in zip(samples, samples[1:]):
             fall = np.linalg.norm(a.mean(axis=0) - b.mean(axis=0))
             assert np.linalg.norm(a - b, axis=1).max() < fall + 0.01, name
+
+
+BLENDER_READ = r'''
+import bpy, json, sys
+bpy.ops.wm.read_factory_settings(use_empty=True)
+assert bpy.ops.wm.usd_import(filepath=sys.argv[1]) == {"FINISHED"}
+scene = bpy.context.scene
+out = {"version": bpy.app.version_string, "frame_end": scene.frame_end, "objects": {}}
+for o in bpy.data.objects:
+    if o.type in ("MESH", "POINTCLOUD"):
+        out["objects"][o.name] = {"type": o.type, "modifiers": [m.type for m in o.modifiers]}
+centroids = []
+for frame in (scene.frame_start, scene.frame_end):
+    scene.frame_set(frame)
+    ev = bpy.data.objects["left"].evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = ev.to_mesh()
+    n = len(mesh.vertices)
+    c = [sum((ev.matrix_world @ v.co)[k] for v in mesh.vertices) / n for k in range(3)]
+    centroids.append({"frame": frame, "vertices": n, "faces": len(mesh.polygons), "centroid": c})
+    ev.to_mesh_clear()
+out["left"] = centroids
+print("BLENDER " + json.dumps(out))
+'''
+
+
+def test_blender_imports_the_usd_stage_as_animation(cli, tmp_path):
+    """Blender itself (the `bpy` wheel, in the Python of $PHYXEL_BPY_PYTHON, a venv of
+    its own: CI installs it where a wheel exists for the machine) imports
+    `run two-spheres --format usd --fixed-points`: each sphere a mesh and its surfels a
+    point cloud, animated by a mesh sequence cache; one Blender frame per time code (0
+    to the last frame); the left sphere's mesh has the same vertex and face counts at
+    its first and last frame, starts where the scene puts it (x = −0.15 m) and ends
+    where the run's summary puts its centre of mass (within 1 cm: vertices sample the
+    surface, the mass the volume)."""
+    import os
+    python = os.environ.get("PHYXEL_BPY_PYTHON")
+    if not python:
+        pytest.skip("no Blender Python: set PHYXEL_BPY_PYTHON to a venv's python with bpy")
+    np = pytest.importorskip("numpy")
+    out = tmp_path / "out"
+    run = subprocess.run([cli, "run", "two-spheres", "--steps", "120", "--format", "usd",
+                          "--fixed-points", "--out", str(out), "--json"],
+                         capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    summary = json.loads(run.stdout)
+    frames = len(json.loads((out / "phyxel-manifest.json").read_text())["times"])
+    script = tmp_path / "read.py"
+    script.write_text(BLENDER_READ)
+    blender = subprocess.run([python, str(script), str(out / "frames.usda")],
+                             capture_output=True, text=True, timeout=600)
+    assert blender.returncode == 0, blender.stderr[-2000:]
+    line = [l for l in blender.stdout.splitlines() if l.startswith("BLENDER ")][-1]
+    got = json.loads(line.removeprefix("BLENDER "))
+    objects = got["objects"]
+    for name, kind in [("left", "MESH"), ("right", "MESH"),
+                       ("left_surfels", "POINTCLOUD"), ("right_surfels", "POINTCLOUD")]:
+        assert objects[name]["type"] == kind, (name, objects)
+        assert "MESH_SEQUENCE_CACHE" in objects[name]["modifiers"], (name, objects)
+    assert got["frame_end"] == frames - 1
+    first, last = got["left"]
+    assert first["vertices"] == last["vertices"] > 0 and first["faces"] == last["faces"] > 0
+    assert first["centroid"] == pytest.approx([-0.15, 0.0, 0.0], abs=1e-3)
+    com = np.asarray(summary["bodies"][0]["com"])
+    assert np.linalg.norm(np.asarray(last["centroid"]) - com) < 0.01, (last, com)
