@@ -87,9 +87,9 @@ pub fn contact_pairs(world: &World) -> Vec<ContactPair<'_>> {
     world
         .contact_totals()
         .into_iter()
-        .map(|mut totals| {
-            let (a, b) = (&world.objects[totals.a], &world.objects[totals.b]);
-            (totals.a, totals.b) = (a.id as usize, b.id as usize);
+        .zip(&world.contact.patches)
+        .map(|(totals, patch)| {
+            let (a, b) = (&world.objects[patch.a], &world.objects[patch.b]);
             ContactPair {
                 a_name: &a.name,
                 b_name: &b.name,

@@ -48,9 +48,10 @@ impl ContactPoint {
 /// The totals of one pair's contact patch.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct PatchTotals {
-    /// The pair's objects (indices into `World::objects`, `a < b`).
-    pub a: usize,
-    pub b: usize,
+    /// The pair's objects by id ([`crate::World::object`], [`crate::World::index_of`]):
+    /// ids survive a fracture, which renumbers `World::objects`.
+    pub a: u32,
+    pub b: u32,
     /// Contact surfels carrying force.
     pub contact_surfels: usize,
     /// Total force on a (N); b takes the opposite.
@@ -77,8 +78,9 @@ pub struct PatchTotals {
 }
 
 impl PatchTotals {
-    /// The totals of `patch`, with torques about `centre`.
-    pub fn of(patch: &ContactPatch, centre: DVec3) -> Self {
+    /// The totals of `patch` between the objects of ids `a` and `b`, with torques about
+    /// `centre`.
+    pub fn of(patch: &ContactPatch, [a, b]: [u32; 2], centre: DVec3) -> Self {
         let (mut force, mut friction, mut torque) = (DVec3::ZERO, DVec3::ZERO, DVec3::ZERO);
         let (mut normal, mut area, mut moment) = (0.0f64, 0.0f64, DVec3::ZERO);
         let (mut peak, mut deepest) = (0.0f64, 0.0f64);
@@ -100,8 +102,8 @@ impl PatchTotals {
         }
         let centroid = (area > 0.0).then(|| (moment / area).to_array());
         Self {
-            a: patch.a,
-            b: patch.b,
+            a,
+            b,
             contact_surfels: patch.surfels.len(),
             force: force.to_array(),
             normal_force: normal,

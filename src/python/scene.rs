@@ -324,7 +324,10 @@ fn python_backend_dt(
     } else {
         &scene.name
     };
-    let limiter = limiter.map(|o| o.name.clone()).unwrap_or_default();
+    let limiter = limiter
+        .and_then(|id| world.object(id))
+        .map(|o| o.name.clone())
+        .unwrap_or_default();
     if stable.is_nan() || stable <= 0.0 {
         return Err(SceneError(format!(
             "{origin}: object '{limiter}': the Python backend's stable_dt gave {stable}: it \

@@ -324,7 +324,9 @@ impl PyWorld {
             let (stable, limiter) = w.stable_dt();
             // A world built with `allow_unstable=True` keeps that choice.
             if dt > stable && !allow_unstable && w.keep_stable {
-                let limiter = limiter.map_or("?", |o| o.name.as_str());
+                let limiter = limiter
+                    .and_then(|id| w.object(id))
+                    .map_or("?", |o| o.name.as_str());
                 let suggest = crate::world::DT_FRACTION * stable;
                 let e = crate::scene::SceneError(format!(
                     "world: dt = {dt} s exceeds the stable bound {stable} s of object \

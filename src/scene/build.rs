@@ -155,7 +155,8 @@ impl Scene {
         opts: &BuildOptions,
         origin: &str,
     ) -> Result<f32, SceneError> {
-        let (stable, limiter_object) = world.stable_dt();
+        let (stable, limiter_id) = world.stable_dt();
+        let limiter_object = limiter_id.and_then(|id| world.object(id));
         let limiter = limiter_object.map(|o| o.name.clone()).unwrap_or_default();
         if stable.is_nan() || stable <= 0.0 {
             // Values each in range whose combination leaves f32's range: name them all.

@@ -1,6 +1,7 @@
 //! Scenes: a TOML description of a simulation (docs/SCENES.md), and the built-in ones.
 
 mod build;
+mod builder;
 pub mod camera;
 mod check;
 pub mod memory;

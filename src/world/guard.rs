@@ -171,7 +171,7 @@ impl World {
     /// finiteness checks.
     pub(super) fn keep_dt_stable(&mut self) {
         let (bound, limiter) = self.stable_dt();
-        let Some(o) = limiter else {
+        let Some(o) = limiter.and_then(|id| self.object(id)) else {
             return;
         };
         if !(bound > 0.0 && bound < self.dt) {

@@ -232,13 +232,15 @@ impl World {
         }
     }
 
-    /// Largest stable time step over all objects (s) and the object that limits it:
+    /// Largest stable time step over all objects (s) and the id of the object that
+    /// limits it ([`World::object`]; owned, so `world.dt = world.stable_dt().0` needs no
+    /// second borrow):
     /// each object's own dynamics, and, where two objects may touch, its contact spring
     /// ([`contact_stable_dt`]) unless its motion is prescribed ([`Object::is_prescribed`])
     /// or every moving object is implicit (its contacts are then springs in the solves). A backend's bound that is not a number > 0 (a
     /// broken [`crate::Dynamics::stable_dt`]) is the smallest, or NaN, which wins: it is
     /// returned with its object, not hidden.
-    pub fn stable_dt(&self) -> (f32, Option<&Object>) {
+    pub fn stable_dt(&self) -> (f32, Option<u32>) {
         // The stiffest partner any object could meet: the pair's E* and mean
         // `contact_stiffness` are largest against it, and the spring `κE*/h` takes the
         // finest spacing of the pair's moving objects (`contact_params`).
@@ -278,7 +280,7 @@ impl World {
                     _ => f32::INFINITY,
                 };
                 // A NaN bound (a broken backend) must win, not vanish in `min`.
-                (if own.is_nan() { own } else { own.min(contact) }, o)
+                (if own.is_nan() { own } else { own.min(contact) }, o.id)
             })
             .fold((f32::INFINITY, None), |acc, (dt, o)| {
                 // NaN (a broken backend) wins and stays, so callers see it.
@@ -442,6 +444,12 @@ impl World {
         self.objects.iter().find(|o| o.id == id)
     }
 
+    /// The index in [`World::objects`] of the object with id `id` (ids name objects in
+    /// contact totals and summaries; indices change when an object fractures).
+    pub fn index_of(&self, id: u32) -> Option<usize> {
+        self.objects.iter().position(|o| o.id == id)
+    }
+
     /// Mutable [`World::object`].
     pub fn object_mut(&mut self, id: u32) -> Option<&mut Object> {
         self.objects.iter_mut().find(|o| o.id == id)
@@ -491,8 +499,9 @@ impl World {
         e
     }
 
-    /// Each contact pair's totals at the last contact phase (`contact::PatchTotals`:
-    /// force, torque, area, centroid, peak pressure, deepest overlap), torques about the
+    /// Each contact pair's totals at the last contact phase (`contact::PatchTotals`: the
+    /// objects' ids, force, torque, area, centroid, peak pressure, deepest overlap), in
+    /// the order of `contact.patches`, torques about the
     /// midpoint of the two objects' centres of mass; per contact surfel,
     /// `contact::ContactPoint::of` over `patches[k].surfels`.
     pub fn contact_totals(&self) -> Vec<crate::contact::PatchTotals> {
@@ -500,7 +509,10 @@ impl World {
         self.contact
             .patches
             .iter()
-            .map(|p| crate::contact::PatchTotals::of(p, 0.5 * (com(p.a) + com(p.b))))
+            .map(|p| {
+                let ids = [self.objects[p.a].id, self.objects[p.b].id];
+                crate::contact::PatchTotals::of(p, ids, 0.5 * (com(p.a) + com(p.b)))
+            })
             .collect()
     }
 

@@ -74,8 +74,8 @@ impl ContactHistory {
     ) {
         for patch in patches.iter().filter(|p| !p.surfels.is_empty()) {
             // No torque is kept: any centre does.
-            let t = crate::contact::PatchTotals::of(patch, glam::DVec3::ZERO);
-            let (a, b) = (&objects[t.a], &objects[t.b]);
+            let (a, b) = (&objects[patch.a], &objects[patch.b]);
+            let t = crate::contact::PatchTotals::of(patch, [a.id, b.id], glam::DVec3::ZERO);
             let h = self.0.entry((a.id, b.id)).or_insert_with(|| PairHistory {
                 a: a.id,
                 b: b.id,

@@ -168,6 +168,7 @@ fn a_tool_imposes_no_contact_bound_of_its_own() {
     };
     let (alone, mut squeezed) = (build(false), build(true));
     let (bound, limiter) = squeezed.stable_dt();
+    let limiter = limiter.and_then(|id| squeezed.object(id));
     assert_eq!(limiter.map(|o| o.name.as_str()), Some("cube"));
     assert_eq!(bound, alone.stable_dt().0, "the plate changes the bound");
     let steps = (0.1 / squeezed.dt as f64).ceil() as usize;
