@@ -7,6 +7,7 @@
 
 mod backend;
 mod errors;
+mod record;
 mod scene;
 mod world;
 

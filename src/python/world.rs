@@ -286,6 +286,61 @@ impl PyWorld {
         })
     }
 
+    /// Advances the world by `steps` steps and records, at the start and every `every`
+    /// steps after it (and after the last), the quantities named in `record` (default:
+    /// `com`, `velocity`, `contacts`, `tool_force`; also `energy`), sampled in Rust: a
+    /// dict of NumPy arrays with `time` (s) and `step` (samples), `bodies` (the moving
+    /// bodies' names), `com` and `velocity` (samples × bodies × 3, centre of mass and
+    /// mean velocity; NaN once a body has broken), `tools` and `tool_force` (the
+    /// kinematic bodies' reaction, N), `energy` (a dict of kinetic, elastic, potential,
+    /// contact and total, J), `pairs` (the touching pairs' names, in order of first
+    /// contact) and per pair `normal_force` (N), `area` (m²), `peak_pressure` (Pa),
+    /// `max_penetration` (m), samples × pairs, zero out of contact. `phyxel.to_pandas`
+    /// turns it into a DataFrame, one row per sample. Stops, as `step`, on Ctrl-C or a
+    /// non-finite state (raising), the samples so far then lost.
+    #[pyo3(signature = (steps, record = None, every = 1))]
+    fn run<'py>(
+        &self,
+        py: Python<'py>,
+        steps: u64,
+        record: Option<Vec<String>>,
+        every: u64,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        super::errors::shield(|| {
+            if every == 0 {
+                return Err(PyValueError::new_err("every = 0: must be at least 1"));
+            }
+            let names = record.unwrap_or_else(|| {
+                super::record::DEFAULT
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect()
+            });
+            let mut recorder = super::record::Recorder::new(self.lock()?.world()?, &names)?;
+            recorder.sample(self.lock()?.world()?);
+            let ran = (|| {
+                for k in 1..=steps {
+                    self.step_once(py, false)?;
+                    let s = self.lock()?;
+                    let world = s.world()?;
+                    if let Some(e) = &world.non_finite {
+                        return Err(NonFiniteError::new_err(e.to_string()));
+                    }
+                    if k % every == 0 || k == steps {
+                        recorder.sample(world);
+                    }
+                    drop(s);
+                    py.check_signals()?;
+                }
+                Ok(())
+            })();
+            // The surfels current for the reader, however the run ended.
+            self.lock()?.world_mut()?.sync_surfels();
+            ran?;
+            recorder.into_dict(py)
+        })
+    }
+
     /// Time step (s). Setting it checks only that it is a finite number > 0: see
     /// `stable_dt` for the explicit bound.
     #[getter]

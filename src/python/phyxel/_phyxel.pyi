@@ -102,6 +102,9 @@ class Body:
 class World:
     """A simulation: the objects of a built scene and the state of the run."""
     def step(self, n: int = 1) -> None: ...
+    def run(
+        self, steps: int, record: Optional[Sequence[str]] = None, every: int = 1
+    ) -> dict[str, Any]: ...
     dt: float
     gravity: Sequence[float]
     @property
