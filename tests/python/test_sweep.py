@@ -89,3 +89,34 @@ def test_material_overrides_and_validation_tasks():
     assert df["material.young"].iloc[1] == 4e7
     v = df[df["validate"] == "mls-consistency"]
     assert len(v) >= 1 and (v["case"] == "mls-consistency").all() and v["error"].isna().all()
+
+
+def test_tasks_take_any_scene_and_dotted_overrides():
+    """A task's scene may be a `Scene`, a dict, TOML text or a name, and dotted keys
+    override any scene key (`grid` expands them as any axis): the right sphere of
+    `two-spheres` at two moduli gives rows equal, bit for bit, to `phyxel.run` of the
+    scene changed by hand; a Dask worker gets the scene by value (a `Scene` task on a
+    cluster gives the serial row); an unknown object is a row error naming the objects."""
+    scene = phyxel.Scene.builtin("two-spheres")
+    key = "objects.right.material.young"
+    tasks = phyxel.grid(scene=[scene, scene.to_dict(), scene.to_toml(), "two-spheres"], steps=150,
+                        **{key: [1e5, 3e5]})
+    df = phyxel.sweep(tasks)
+    assert len(df) == 8 and df["error"].isna().all(), df["error"].tolist()
+    assert set(df["scene"]) == {"two-spheres"}
+    for young in (1e5, 3e5):
+        d = scene.to_dict()
+        d["objects"][1]["material"]["young"] = young
+        want = phyxel.run(phyxel.Scene.from_dict(d), steps=150)
+        rows = df[df[key] == young]
+        assert (rows["summary.energy_final.kinetic"] == want["energy_final"]["kinetic"]).all()
+        assert (rows["summary.max_penetration"] == want["max_penetration"]).all()
+    assert df[df[key] == 1e5]["summary.max_penetration"].iloc[0] != df[df[key] == 3e5]["summary.max_penetration"].iloc[0]
+    (bad,) = phyxel.sweep([{"scene": scene, "steps": 5, "objects.middle.material.young": 1e5}], frame=False)
+    assert "no object 'middle' (objects: left, right)" in bad["error"]
+    distributed = pytest.importorskip("distributed")
+    serial = comparable(phyxel.sweep(tasks[:2]))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with distributed.Client(cluster) as client:
+            parallel = comparable(phyxel.sweep(tasks[:2], client=client))
+    assert [{k: v for k, v in r.items()} for r in parallel] == serial

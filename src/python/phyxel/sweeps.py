@@ -3,20 +3,25 @@ a Dask cluster, collected into a pandas DataFrame.
 
 Each task is a dict:
 
-- a run: ``scene`` (a built-in name or a path), and optionally ``backend`` (a name or a
-  picklable Python backend class), ``surfels``, ``phyxels``, ``dt``, ``steps``,
-  ``allow_unstable`` and ``material`` (a dict of material keys set on every deformable
-  object, e.g. ``{"young": 1e6}``); its row holds the task's keys and the run's
+- a run: ``scene`` (a built-in name, a ``.toml`` path, TOML text, a ``Scene`` or a
+  scene dict), and optionally ``backend`` (a name or a picklable Python backend class),
+  ``surfels``, ``phyxels``, ``dt``, ``steps``, ``allow_unstable``, ``material`` (a dict
+  of material keys set on every deformable object, e.g. ``{"young": 1e6}``) and dotted
+  overrides of any scene key: ``"objects.right.material.young": 3e5`` (an object by
+  name or index), ``"output.every": 5``; its row holds the task's keys and the run's
   summary (the dict of ``phyxel run --json``, nested keys dotted);
 - a validation: ``validate`` (a case-name prefix), and optionally ``backend`` and
   ``quick`` (default True); it gives one row per validation row.
 
 A task that fails gives one row with its ``error`` (the exception's type and message);
-no result is lost. Results are the engine's own: the same task gives the same numbers
+no result is lost. ``sweep`` reads each task's scene here and sends it to the worker by
+value (a dict; a mesh's path made absolute): a worker needs no scene file, only the mesh
+files a scene names. Results are the engine's own: the same task gives the same numbers
 on any worker as in this process, bit for bit (wall times aside).
 """
 
 import itertools
+import os
 import time
 
 from . import _phyxel
@@ -42,16 +47,75 @@ def _label(value):
     return value
 
 
+def scene_value(scene):
+    """A task's ``scene`` as a scene dict: a ``Scene``, a dict (checked when the run builds
+    it), a built-in name, a ``.toml`` path (mesh paths made absolute) or TOML text."""
+    if isinstance(scene, _phyxel.Scene):
+        return scene.to_dict()
+    if isinstance(scene, dict):
+        return scene
+    if not isinstance(scene, (str, os.PathLike)):
+        raise TypeError(f"scene = {scene!r:.80}: a name, a .toml path, TOML text, a Scene or a dict")
+    text = os.fspath(scene)
+    if "\n" in text:
+        return _phyxel.Scene.from_toml(text).to_dict()
+    if text.endswith(".toml"):
+        d = _phyxel.Scene.load(text).to_dict()
+        base = os.path.dirname(os.path.abspath(text))
+        for o in d["objects"]:
+            shape = o.get("shape", {})
+            if shape.get("type") == "mesh" and not os.path.isabs(shape["path"]):
+                shape["path"] = os.path.join(base, shape["path"])
+        return d
+    return _phyxel.Scene.builtin(text).to_dict()
+
+
+def _override(d, key, value):
+    """Sets the dotted `key` of the scene dict `d` (``objects.NAME`` or ``objects.K``
+    picks an object)."""
+    path = key.split(".")
+    node = d
+    for depth, part in enumerate(path[:-1]):
+        if depth == 1 and path[0] == "objects":
+            objects = node
+            names = [o.get("name") or f"object{k}" for k, o in enumerate(objects)]
+            if part in names:
+                node = objects[names.index(part)]
+            elif part.isdigit() and int(part) < len(objects):
+                node = objects[int(part)]
+            else:
+                raise KeyError(f"{key}: no object '{part}' (objects: {', '.join(names)})")
+            continue
+        child = node.get(part)
+        if child is None:
+            child = node[part] = {}
+        if not isinstance(child, (dict, list)):
+            raise KeyError(f"{key}: '{part}' is {child!r:.40}, not a table")
+        node = child
+    node[path[-1]] = value
+
+
 def _scene(task):
-    scene = _phyxel.Scene.load(task["scene"]) if str(task["scene"]).endswith(".toml") else _phyxel.Scene.builtin(task["scene"])
+    d = task["_scene"] if "_scene" in task else scene_value(task["scene"])
+    d = _copy(d)
+    for key, value in task.items():
+        if "." in key:
+            _override(d, key, value)
     material = task.get("material")
     if material:
-        d = scene.to_dict()
         for o in d["objects"]:
             if not o.get("static", False):
                 o.setdefault("material", {}).update(material)
-        scene = _phyxel.Scene.from_dict(d, origin=scene.name)
-    return scene
+    return _phyxel.Scene.from_dict(d, origin=str(d.get("name") or "scene"))
+
+
+def _copy(d):
+    """A deep copy of a scene dict (plain values)."""
+    if isinstance(d, dict):
+        return {k: _copy(v) for k, v in d.items()}
+    if isinstance(d, list):
+        return [_copy(v) for v in d]
+    return d
 
 
 def run_task(task):
@@ -60,7 +124,11 @@ def run_task(task):
     if not isinstance(task, dict):
         error = f"TypeError: a task is a dict of keys ({', '.join(RUN_KEYS)}), not {type(task).__name__} {task!r:.80}"
         return [dict(task=repr(task)[:80], error=error, task_seconds=time.perf_counter() - t0)]
-    base = {k: _label(v) for k, v in task.items() if k != "material"}
+    base = {k: _label(v) for k, v in task.items() if k not in ("material", "_scene")}
+    if not isinstance(base.get("scene"), (str, type(None))):
+        scene = task["scene"]
+        name = scene.get("name") if isinstance(scene, dict) else getattr(scene, "name", None)
+        base["scene"] = name or type(scene).__name__
     material = task.get("material")
     if isinstance(material, dict):
         for k, v in material.items():
@@ -70,7 +138,7 @@ def run_task(task):
     try:
         if material is not None and not isinstance(material, dict):
             raise TypeError(f"material = {material!r:.80}: a dict of material keys (young, poisson, ...)")
-        unknown = set(task) - set(RUN_KEYS) - {"validate", "quick"}
+        unknown = {k for k in task if "." not in k} - set(RUN_KEYS) - {"validate", "quick", "_scene"}
         if unknown:
             raise ValueError(f"unknown task keys {sorted(unknown)} (known: {', '.join(RUN_KEYS)}, validate, quick)")
         if "validate" in task:
@@ -92,6 +160,19 @@ def run_task(task):
         return [dict(base, error=f"{type(e).__name__}: {e}", task_seconds=time.perf_counter() - t0)]
 
 
+def _by_value(task):
+    """The task with its scene read here, as a dict under ``_scene`` (a scene that
+    cannot be read stays as given: its task's row then says why)."""
+    if not isinstance(task, dict) or "scene" not in task:
+        return task
+    try:
+        d = scene_value(task["scene"])
+    except Exception:
+        return task
+    label = task["scene"] if isinstance(task["scene"], str) and "\n" not in task["scene"] else None
+    return dict(task, scene=label or d.get("name") or "scene", _scene=d)
+
+
 def sweep(tasks, client=None, frame=True):
     """Runs `tasks` (dicts, see the module doc; `grid(...)` makes a product) and returns
     a pandas DataFrame with one row per run (or validation row), in task order.
@@ -107,7 +188,7 @@ def sweep(tasks, client=None, frame=True):
         )
     if isinstance(tasks, (str, bytes)):
         raise TypeError("sweep takes a list of task dicts, not a string")
-    tasks = list(tasks)
+    tasks = [_by_value(t) for t in tasks]
     if client is None:
         nested = [run_task(t) for t in tasks]
     else:
