@@ -34,7 +34,7 @@ pyo3::create_exception!(
 ///
 /// `step(n)` advances it (the GIL is released while it steps; Ctrl-C is answered between
 /// steps). Arrays read from it are copies (read-only); write through the setters of a
-/// [`Body`](PyBody), between steps.
+/// `Body`, between steps.
 #[pyclass(name = "World", module = "phyxel", frozen)]
 pub struct PyWorld {
     state: Mutex<State>,

@@ -329,3 +329,22 @@ def test_to_pandas():
     df = phyxel.to_pandas(phyxel.compare("two-spheres", steps=3))
     assert len(df) == len(phyxel.BACKENDS) and "energy_final.kinetic" in df.columns
     assert isinstance(df, pd.DataFrame)
+
+
+def test_docstrings_carry_no_rust_link_syntax():
+    """`help()` on the module's classes, functions and methods reads as Python: no
+    rustdoc links (`[`Name`]`, `](target)`) or Rust paths (`crate::`, `a::b`)."""
+    import inspect
+    import re
+
+    rust = re.compile(r"\[`[^\]]*`\]|\]\(|\bcrate::|`[A-Za-z_]+::[A-Za-z_]")
+    found = []
+    for name in dir(phyxel._phyxel):
+        obj = getattr(phyxel._phyxel, name)
+        members = [(name, obj)]
+        if inspect.isclass(obj):
+            members += [(f"{name}.{m}", getattr(obj, m)) for m in dir(obj) if not m.startswith("_")]
+        for label, member in members:
+            doc = inspect.getdoc(member) or ""
+            found += [f"{label}: {line}" for line in doc.splitlines() if rust.search(line)]
+    assert not found, found

@@ -5,7 +5,23 @@ from typing import Any, Optional, Protocol, Sequence, Union
 
 import numpy as np
 import numpy.typing as npt
+from typing_extensions import final
 
+__all__ = [
+    "Error",
+    "SceneError",
+    "UnstableError",
+    "NonFiniteError",
+    "Scene",
+    "World",
+    "Body",
+    "scenes",
+    "run",
+    "compare",
+    "validate",
+    "__version__",
+    "BACKENDS",
+]
 __version__: str
 BACKENDS: list[str]
 
@@ -36,6 +52,7 @@ class PhyxelArrays(Protocol):
 
 Backend = Union[str, type]
 
+@final
 class Scene:
     """A simulation scene (docs/SCENES.md)."""
     @staticmethod
@@ -65,6 +82,7 @@ class Scene:
         max_memory: Optional[int] = None,
     ) -> World: ...
 
+@final
 class Body:
     """One object of a world; arrays are read-only copies, setters write."""
     @property
@@ -99,12 +117,14 @@ class Body:
     @property
     def surfel_radii(self) -> npt.NDArray[np.float32]: ...
 
+@final
 class World:
     """A simulation: the objects of a built scene and the state of the run."""
     def step(self, n: int = 1) -> None: ...
     def run(
         self, steps: int, record: Optional[Sequence[str]] = None, every: int = 1
     ) -> dict[str, Any]: ...
+    def set_dt(self, dt: float, allow_unstable: bool = False) -> None: ...
     dt: float
     gravity: Sequence[float]
     @property
@@ -123,12 +143,12 @@ class World:
     @property
     def objects(self) -> list[Body]: ...
     def __len__(self) -> int: ...
-    def __getitem__(self, key: Union[int, str]) -> Body: ...
+    def __getitem__(self, key: Union[int, str], /) -> Body: ...
     def object(self, id: int) -> Body: ...
     def patches(self) -> list[dict[str, Any]]: ...
     def contact_totals(self) -> list[dict[str, Any]]: ...
     def write_frame(self, path: Union[str, PathLike[str]], format: str = "ply", phyxels: bool = False, contacts: bool = False, fixed_points: bool = False) -> None: ...
-    def render(self, size: tuple[int, int] = (800, 600)) -> npt.NDArray[np.uint8]: ...
+    def render(self, size: tuple[int, int] = ...) -> npt.NDArray[np.uint8]: ...
 
 def scenes() -> list[tuple[str, str]]: ...
 def run(
