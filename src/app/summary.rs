@@ -284,30 +284,29 @@ pub fn run(
             times.push(world.time);
             let err =
                 |e: String| SceneError(format!("writing frame {k} to {}: {e}", dir.display()));
-            if let Some(stage) = &mut stage {
-                stage_frame(stage, world, kind, phyxels).map_err(|e| err(e.to_string()))?;
-                if let Some(p) = &mut png {
-                    let surface = output::surface_frame(world);
-                    p.camera = Some(render::camera_for(&surface, p));
-                    let name = format!("surfels_{k:05}.png");
-                    render::render(&surface, p)
-                        .write_png(&dir.join(&name))
-                        .map_err(err)?;
-                    written.push(name);
+            // The render surface written as this frame's surfels (none into a USD stage).
+            let written_surface = match &mut stage {
+                Some(stage) => {
+                    stage_frame(stage, world, kind, phyxels).map_err(|e| err(e.to_string()))?;
+                    None
                 }
-                return Ok(());
-            }
-            let surface = output::write_frame_with(world, dir, k, phyxels, opts.format, kind)
-                .map_err(|e| err(e.to_string()))?;
-            written.extend(output::frame_files(k, phyxels, opts.format));
-            if opts.mesh {
-                let name = output::mesh_file(k, opts.format);
-                output::mesh_frame(world)
-                    .write(&dir.join(&name), opts.format)
-                    .map_err(|e| err(e.to_string()))?;
-                written.push(name);
-            }
+                None => {
+                    let surface =
+                        output::write_frame_with(world, dir, k, phyxels, opts.format, kind)
+                            .map_err(|e| err(e.to_string()))?;
+                    written.extend(output::frame_files(k, phyxels, opts.format));
+                    if opts.mesh {
+                        let name = output::mesh_file(k, opts.format);
+                        output::mesh_frame(world)
+                            .write(&dir.join(&name), opts.format)
+                            .map_err(|e| err(e.to_string()))?;
+                        written.push(name);
+                    }
+                    Some(surface)
+                }
+            };
             if let Some(p) = &mut png {
+                let surface = written_surface.unwrap_or_else(|| output::surface_frame(world));
                 // One camera for the whole run: fitted to the first frame.
                 p.camera = Some(render::camera_for(&surface, p));
                 let name = format!("surfels_{k:05}.png");

@@ -80,13 +80,14 @@ pub fn split(
     };
     // Each surfel goes to the piece of its nearest phyxel (current positions).
     let grid = Grid::build(p.pos.iter(), object.max_influence.max(1e-6));
+    let piece_of = |x: glam::Vec3| {
+        let mut knn = Vec::with_capacity(1);
+        grid.k_nearest(x, 1, &mut knn);
+        knn.first().map_or(0, |&(i, _)| comps.label[i])
+    };
     let surfel_piece: Vec<u32> = (0..object.surfels.len())
         .into_par_iter()
-        .map(|s| {
-            let mut knn = Vec::with_capacity(1);
-            grid.k_nearest(object.surfels.pos.get(s), 1, &mut knn);
-            knn.first().map_or(0, |&(i, _)| comps.label[i])
-        })
+        .map(|s| piece_of(object.surfels.pos.get(s)))
         .collect();
     // The output mesh, moved to this step's shape, cut the same way (vertex by nearest
     // phyxel).
@@ -95,11 +96,7 @@ pub fn split(
     let mut meshes = object.mesh.as_ref().map(|mesh| {
         let piece: Vec<u32> = (0..mesh.vertices.len())
             .into_par_iter()
-            .map(|v| {
-                let mut knn = Vec::with_capacity(1);
-                grid.k_nearest(mesh.vertices.pos.get(v), 1, &mut knn);
-                knn.first().map_or(0, |&(i, _)| comps.label[i])
-            })
+            .map(|v| piece_of(mesh.vertices.pos.get(v)))
             .collect();
         mesh.split(&piece, &piece_phyxels)
     });

@@ -84,17 +84,7 @@ impl AtomicFile {
                 "not a file name",
             ))
         })?;
-        let tmp = hidden_beside(dest, name);
-        let file = OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&tmp)
-            .map_err(|e| {
-                std::io::Error::new(
-                    e.kind(),
-                    format!("{}: temporary {}: {e}", dest.display(), tmp.display()),
-                )
-            })?;
+        let (file, tmp) = create_hidden(dest, name, "temporary", false)?;
         Ok(Self {
             file: Some(BufWriter::new(file)),
             tmp,
@@ -139,8 +129,15 @@ impl AtomicFile {
     }
 }
 
-/// A fresh hidden name beside `dest` (whose file name is `name`): `.NAME.PID-N.tmp`.
-fn hidden_beside(dest: &Path, name: &std::ffi::OsStr) -> PathBuf {
+/// Creates a new file under a fresh hidden name beside `dest` (whose file name is
+/// `name`), `.NAME.PID-N.tmp`, for writing (and reading, if `read`); the error names
+/// `dest` and the file as `what`.
+fn create_hidden(
+    dest: &Path,
+    name: &std::ffi::OsStr,
+    what: &str,
+    read: bool,
+) -> std::io::Result<(File, PathBuf)> {
     static COUNT: AtomicU64 = AtomicU64::new(0);
     let mut hidden = std::ffi::OsString::from(".");
     hidden.push(name);
@@ -149,7 +146,19 @@ fn hidden_beside(dest: &Path, name: &std::ffi::OsStr) -> PathBuf {
         std::process::id(),
         COUNT.fetch_add(1, Ordering::Relaxed)
     ));
-    dest.with_file_name(hidden)
+    let path = dest.with_file_name(hidden);
+    let file = OpenOptions::new()
+        .read(read)
+        .write(true)
+        .create_new(true)
+        .open(&path)
+        .map_err(|e| {
+            std::io::Error::new(
+                e.kind(),
+                format!("{}: {what} {}: {e}", dest.display(), path.display()),
+            )
+        })?;
+    Ok((file, path))
 }
 
 /// A working file of `dest`'s writer (data it reads back before writing `dest`), under
@@ -166,18 +175,7 @@ impl Scratch {
         let name = dest.file_name().ok_or_else(|| {
             std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a file name")
         })?;
-        let path = hidden_beside(dest, name);
-        let file = OpenOptions::new()
-            .read(true)
-            .write(true)
-            .create_new(true)
-            .open(&path)
-            .map_err(|e| {
-                std::io::Error::new(
-                    e.kind(),
-                    format!("{}: working file {}: {e}", dest.display(), path.display()),
-                )
-            })?;
+        let (file, path) = create_hidden(dest, name, "working file", true)?;
         Ok(Self { file, path })
     }
 }

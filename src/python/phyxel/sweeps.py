@@ -20,6 +20,7 @@ files a scene names. Results are the engine's own: the same task gives the same 
 on any worker as in this process, bit for bit (wall times aside).
 """
 
+import copy
 import itertools
 import os
 import time
@@ -97,7 +98,7 @@ def _override(d, key, value):
 
 def _scene(task):
     d = task["_scene"] if "_scene" in task else scene_value(task["scene"])
-    d = _copy(d)
+    d = copy.deepcopy(d)
     for key, value in task.items():
         if "." in key:
             _override(d, key, value)
@@ -107,15 +108,6 @@ def _scene(task):
             if not o.get("static", False):
                 o.setdefault("material", {}).update(material)
     return _phyxel.Scene.from_dict(d, origin=str(d.get("name") or "scene"))
-
-
-def _copy(d):
-    """A deep copy of a scene dict (plain values)."""
-    if isinstance(d, dict):
-        return {k: _copy(v) for k, v in d.items()}
-    if isinstance(d, list):
-        return [_copy(v) for v in d]
-    return d
 
 
 def run_task(task):
