@@ -466,9 +466,12 @@ impl PyWorld {
         })
     }
 
-    /// Total linear momentum of the moving objects (kg·m/s).
-    fn momentum(&self) -> PyResult<[f64; 3]> {
-        super::errors::shield(|| Ok(self.lock()?.world()?.momentum()))
+    /// Total linear momentum of the moving objects (kg·m/s), a float64 array of 3.
+    fn momentum<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray1<f64>>> {
+        super::errors::shield(|| {
+            let p = self.lock()?.world()?.momentum();
+            Ok(PyArray1::from_slice(py, &p))
+        })
     }
 
     /// The run so far as `phyxel run --json` prints it (a dict with the same keys;
@@ -594,14 +597,26 @@ impl PyWorld {
     /// Each touching pair's contact totals at the last step, as `phyxel run --contacts`
     /// writes them per step: one dict per pair with `a`, `b` (ids), `a_name`, `b_name`,
     /// `contact_surfels`, `force`, `normal_force`, `friction_force`, `centre`, `torque`,
-    /// `area`, `centroid`, `peak_pressure`, `max_penetration`.
+    /// `area`, `centroid`, `peak_pressure`, `max_penetration`; vectors as float64 arrays
+    /// of 3 (`centroid` None for a patch with no area).
     fn contact_totals<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         super::errors::shield(|| {
             let s = self.lock()?;
             let w = s.world()?;
             let json = serde_json::to_string(&crate::app::summary::contact_pairs(w))
                 .map_err(|e| error(e.to_string()))?;
-            json_to_py(py, &json)
+            let pairs = json_to_py(py, &json)?;
+            let np = py.import("numpy")?;
+            for pair in pairs.try_iter()? {
+                let pair = pair?;
+                for key in ["force", "friction_force", "centre", "torque", "centroid"] {
+                    let v = pair.get_item(key)?;
+                    if !v.is_none() {
+                        pair.set_item(key, np.call_method1("asarray", (v, "float64"))?)?;
+                    }
+                }
+            }
+            Ok(pairs)
         })
     }
 
