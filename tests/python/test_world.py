@@ -348,3 +348,16 @@ def test_docstrings_carry_no_rust_link_syntax():
             doc = inspect.getdoc(member) or ""
             found += [f"{label}: {line}" for line in doc.splitlines() if rust.search(line)]
     assert not found, found
+
+
+def test_vectors_come_back_as_numpy_arrays():
+    """Vectors the API returns are float64 NumPy arrays of 3: the momentum, and the
+    force, friction force, centre, torque and centroid of each contact pair."""
+    w = phyxel.Scene.builtin("two-spheres").build()
+    p = w.momentum()
+    assert isinstance(p, np.ndarray) and p.dtype == np.float64 and p.shape == (3,)
+    while not w.contact_totals():
+        w.step()
+    (t,) = w.contact_totals()
+    for key in ("force", "friction_force", "centre", "torque", "centroid"):
+        assert isinstance(t[key], np.ndarray) and t[key].shape == (3,), key
