@@ -287,7 +287,7 @@ impl PyWorld {
     }
 
     /// Advances the world by `steps` steps and records, at the start and every `every`
-    /// steps after it (and after the last), the quantities named in `record` (default:
+    /// steps after it (and after the last), the quantities named in `record` (a name or a list; default:
     /// `com`, `velocity`, `contacts`, `tool_force`; also `energy`), sampled in Rust: a
     /// dict of NumPy arrays with `time` (s) and `step` (samples), `bodies` (the moving
     /// bodies' names), `com` and `velocity` (samples × bodies × 3, centre of mass and
@@ -303,19 +303,30 @@ impl PyWorld {
         &self,
         py: Python<'py>,
         steps: u64,
-        record: Option<Vec<String>>,
+        record: Option<Bound<'py, PyAny>>,
         every: u64,
     ) -> PyResult<Bound<'py, PyDict>> {
         super::errors::shield(|| {
             if every == 0 {
                 return Err(PyValueError::new_err("every = 0: must be at least 1"));
             }
-            let names = record.unwrap_or_else(|| {
-                super::record::DEFAULT
+            // One name or a list of them.
+            let names: Vec<String> = match &record {
+                None => super::record::DEFAULT
                     .iter()
                     .map(|s| s.to_string())
-                    .collect()
-            });
+                    .collect(),
+                Some(r) => match r.extract::<String>() {
+                    Ok(one) => vec![one],
+                    Err(_) => r.extract().map_err(|_| {
+                        PyTypeError::new_err(format!(
+                            "record = {}: a quantity's name or a list of them ({})",
+                            r.repr().map_or_else(|_| "?".into(), |s| s.to_string()),
+                            super::record::QUANTITIES.join(", ")
+                        ))
+                    })?,
+                },
+            };
             let mut recorder = super::record::Recorder::new(self.lock()?.world()?, &names)?;
             recorder.sample(self.lock()?.world()?);
             let ran = (|| {

@@ -49,6 +49,10 @@ def test_every_samples_the_start_every_k_steps_and_the_end():
         world.run(1, record=["speed"])
     with pytest.raises(ValueError, match="every = 0"):
         world.run(1, every=0)
+    one = world.run(2, record="velocity")
+    assert "velocity" in one and "com" not in one
+    with pytest.raises(TypeError, match="record = 5: a quantity's name or a list"):
+        world.run(1, record=5)
 
 
 def test_a_record_becomes_one_row_per_sample():
