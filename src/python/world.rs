@@ -287,8 +287,9 @@ impl PyWorld {
     }
 
     /// Advances the world by `steps` steps and records, at the start and every `every`
-    /// steps after it (and after the last), the quantities named in `record` (a name or a list; default:
-    /// `com`, `velocity`, `contacts`, `tool_force`; also `energy`), sampled in Rust: a
+    /// steps after it (and after the last), the quantities named in `record` (a name or
+    /// a list; default: `com`, `velocity`, `contacts`, `tool_force`; also `energy`),
+    /// sampled in Rust: a
     /// dict of NumPy arrays with `time` (s) and `step` (samples), `bodies` (the moving
     /// bodies' names), `com` and `velocity` (samples × bodies × 3, centre of mass and
     /// mean velocity; NaN once a body has broken), `tools` and `tool_force` (the
