@@ -83,21 +83,9 @@ impl Frame {
     fn points<R>(&self, f: impl FnOnce(&Points) -> R) -> R {
         let columns = [
             Column::normals(&self.normal),
-            Column {
-                ply: &["radius"],
-                vtk: "radius",
-                values: Values::F32(&self.radius),
-            },
-            Column {
-                ply: &["object"],
-                vtk: "object",
-                values: Values::I32(&self.object),
-            },
-            Column {
-                ply: &["contact"],
-                vtk: "contact",
-                values: Values::U8(&self.contact),
-            },
+            Column::scalar(&"radius", Values::F32(&self.radius)),
+            Column::scalar(&"object", Values::I32(&self.object)),
+            Column::scalar(&"contact", Values::U8(&self.contact)),
         ];
         f(&Points {
             pos: &self.pos,

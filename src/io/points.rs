@@ -32,6 +32,16 @@ pub struct Column<'a> {
 }
 
 impl<'a> Column<'a> {
+    /// A column of one value per point, `name` in PLY and in VTK alike (pass a
+    /// literal's reference, `&"mass"`).
+    pub fn scalar(name: &'a &'a str, values: Values<'a>) -> Self {
+        Column {
+            ply: std::slice::from_ref(name),
+            vtk: name,
+            values,
+        }
+    }
+
     /// Unit normals: PLY `nx ny nz`, VTK `Normals` (which ParaView shades with).
     pub fn normals(values: &'a [Vec3]) -> Self {
         Column {

@@ -226,21 +226,9 @@ impl PhyxelFrame {
                 vtk: "velocity",
                 values: Values::Vec3(&self.vel),
             },
-            Column {
-                ply: &["mass"],
-                vtk: "mass",
-                values: Values::F32(&self.mass),
-            },
-            Column {
-                ply: &["radius"],
-                vtk: "radius",
-                values: Values::F32(&self.radius),
-            },
-            Column {
-                ply: &["object"],
-                vtk: "object",
-                values: Values::I32(&self.object),
-            },
+            Column::scalar(&"mass", Values::F32(&self.mass)),
+            Column::scalar(&"radius", Values::F32(&self.radius)),
+            Column::scalar(&"object", Values::I32(&self.object)),
             Column {
                 ply: &["ux", "uy", "uz"],
                 vtk: "displacement",
@@ -270,11 +258,7 @@ impl PhyxelFrame {
                 vtk: "stress",
                 values: Values::Sym(&self.stress),
             },
-            Column {
-                ply: &["von_mises"],
-                vtk: "von_mises",
-                values: Values::F32(&self.von_mises),
-            },
+            Column::scalar(&"von_mises", Values::F32(&self.von_mises)),
         ];
         let points = Points {
             pos: &self.pos,
@@ -323,11 +307,7 @@ impl MeshFrame {
     pub fn write(&self, path: &Path, format: Format) -> std::io::Result<()> {
         let columns = [
             Column::normals(&self.normal),
-            Column {
-                ply: &["object"],
-                vtk: "object",
-                values: Values::I32(&self.object),
-            },
+            Column::scalar(&"object", Values::I32(&self.object)),
         ];
         let points = Points {
             pos: &self.pos,
@@ -390,16 +370,8 @@ impl ContactFrame {
     pub fn write(&self, path: &Path, format: Format) -> std::io::Result<()> {
         let columns = [
             Column::normals(&self.normal),
-            Column {
-                ply: &["area"],
-                vtk: "area",
-                values: Values::F32(&self.area),
-            },
-            Column {
-                ply: &["penetration"],
-                vtk: "penetration",
-                values: Values::F32(&self.penetration),
-            },
+            Column::scalar(&"area", Values::F32(&self.area)),
+            Column::scalar(&"penetration", Values::F32(&self.penetration)),
             Column {
                 ply: &["penalty_force_x", "penalty_force_y", "penalty_force_z"],
                 vtk: "penalty_force",
@@ -415,16 +387,8 @@ impl ContactFrame {
                 vtk: "slip_velocity",
                 values: Values::Vec3(&self.slip_velocity),
             },
-            Column {
-                ply: &["a"],
-                vtk: "a",
-                values: Values::I32(&self.a),
-            },
-            Column {
-                ply: &["b"],
-                vtk: "b",
-                values: Values::I32(&self.b),
-            },
+            Column::scalar(&"a", Values::I32(&self.a)),
+            Column::scalar(&"b", Values::I32(&self.b)),
         ];
         let points = Points {
             pos: &self.pos,
