@@ -107,6 +107,20 @@ impl Phyxels {
         }
     }
 
+    /// The same phyxels, each standing for its own volume of `density` material (a
+    /// quadrature's volumes: [`crate::body::shape::quadrature`]); mass follows.
+    ///
+    /// # Panics
+    /// If `volumes` does not hold one volume per phyxel.
+    pub fn with_volumes(mut self, volumes: &[f32], density: f32) -> Self {
+        assert_eq!(volumes.len(), self.len(), "one volume per phyxel");
+        for (i, &v) in volumes.iter().enumerate() {
+            self.volume[i] = v;
+            self.mass[i] = density * v;
+        }
+        self
+    }
+
     /// The phyxels at `idx`, in that order, every column copied (a fragment's phyxels).
     pub fn gather(&self, idx: &[usize]) -> Self {
         let col = |c: &[f32]| scalar_column(idx.iter().map(|&i| c[i]));

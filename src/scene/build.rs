@@ -494,21 +494,24 @@ impl ObjectSpec {
                 vol.positions.len()
             ));
         }
-        // Each phyxel's mass is its lattice cell's volume times the density: both in range
-        // can still overflow or underflow f32 together.
-        let mass = vol.cell_volume * self.material.density;
-        if !(mass.is_finite() && mass > 0.0) {
-            return Err(format!(
-                "material.density = {:e} kg/m³ at spacing = {spacing} m gives each phyxel a \
-                 mass of {mass:e} kg ({:e} m³ × density), outside f32's range: change the \
-                 density or the spacing",
-                self.material.density, vol.cell_volume
-            ));
+        // Each phyxel's mass is its volume times the density: both in range can still
+        // overflow or underflow f32 together.
+        for &v in &vol.volumes {
+            let mass = v * self.material.density;
+            if !(mass.is_finite() && mass > 0.0) {
+                return Err(format!(
+                    "material.density = {:e} kg/m³ at spacing = {spacing} m gives a phyxel a \
+                     mass of {mass:e} kg ({v:e} m³ × density), outside f32's range: change \
+                     the density or the spacing",
+                    self.material.density
+                ));
+            }
         }
         let surf = shape.sample_surface(surfel_spacing);
         self_overlap(&shape, &surf.positions, &surf.normals, surfel_spacing)?;
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
-        let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density);
+        let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density)
+            .with_volumes(&vol.volumes, self.material.density);
         if let Some(f) = self.influence {
             for (h, r) in phyxels.radius.iter_mut().zip(&phyxels.spacing) {
                 *h = f * r;

@@ -94,3 +94,108 @@ fn static_sag_at_every_count_through() {
         );
     }
 }
+
+/// A bar as a closed triangle mesh written to `dir/name`: a prism along x from −0.5 to
+/// 0.5 m over the polygon `section` (y, z corners, counter-clockwise seen from +x), its
+/// ends fanned about their centres.
+fn write_bar(dir: &std::path::Path, name: &str, section: &[(f64, f64)]) {
+    use std::fmt::Write;
+    let n = section.len();
+    let mut obj = String::new();
+    for x in [-0.5, 0.5] {
+        for &(y, z) in section {
+            writeln!(obj, "v {x} {y} {z}").unwrap();
+        }
+    }
+    writeln!(obj, "v -0.5 0 0\nv 0.5 0 0").unwrap();
+    let (left, right) = (2 * n + 1, 2 * n + 2);
+    for k in 0..n {
+        let (a, b) = (k + 1, (k + 1) % n + 1);
+        let (c, d) = (a + n, b + n);
+        writeln!(obj, "f {a} {b} {d}\nf {a} {d} {c}").unwrap();
+        writeln!(obj, "f {left} {b} {a}\nf {right} {c} {d}").unwrap();
+    }
+    std::fs::write(dir.join(name), obj).unwrap();
+}
+
+/// Meshed bars against Euler–Bernoulli `qL⁴/(8EI)` (analytic, independent), the shapes
+/// the box's sampling does not special-case: a square bar (an 8-corner OBJ, the
+/// built-in bar's size) and a round one (a 64-sided prism of circumradius 5 cm, whose
+/// `A` and `I` are the polygon's). The cantilever scene's material and clamp, static sag
+/// by `mls-implicit` at dt = 1 s over 40 steps, at 5, 7 and 9 phyxels across (the
+/// clamp's face on a layer, as for the box). Asserted: within 5% at every count and
+/// falling with resolution (docs/ACCURACY.md, "Cantilever").
+#[test]
+fn meshed_square_and_round_bars_sag_as_euler_bernoulli() {
+    use phyxel::body::shape::Shape;
+    let dir = crate::common::TempDir::new("cantilever", "meshed");
+    let square = [(-0.05, -0.05), (0.05, -0.05), (0.05, 0.05), (-0.05, 0.05)];
+    let sides = 64;
+    let radius = 0.05f64;
+    let round: Vec<(f64, f64)> = (0..sides)
+        .map(|k| {
+            let a = std::f64::consts::TAU * k as f64 / sides as f64;
+            (radius * a.cos(), radius * a.sin())
+        })
+        .collect();
+    write_bar(&dir.0, "square.obj", &square);
+    write_bar(&dir.0, "round.obj", &round);
+    let polygon = |n: f64, r: f64| {
+        let s = (std::f64::consts::TAU / n).sin();
+        let c = (std::f64::consts::TAU / n).cos();
+        (0.5 * n * r * r * s, n * r.powi(4) * s * (2.0 + c) / 24.0)
+    };
+    let builtin = Scene::builtin("cantilever").unwrap();
+    let o = &builtin.objects[0];
+    let (rho, e, g) = (
+        o.material.density as f64,
+        o.material.young as f64,
+        -builtin.gravity[1] as f64,
+    );
+    let free_length = 0.95f64;
+    for (file, (area, inertia)) in [
+        ("square.obj", polygon(4.0, 0.05 * 2f64.sqrt())),
+        ("round.obj", polygon(sides as f64, radius)),
+    ] {
+        let reference = rho * g * area * free_length.powi(4) / (8.0 * e * inertia);
+        let mut errors = Vec::new();
+        for through in [5u32, 7, 9] {
+            let s = 0.1 / through as f32;
+            let mut scene = builtin.clone();
+            scene.objects[0].shape = Shape::Mesh {
+                path: dir.0.join(file).display().to_string(),
+                scale: 1.0,
+                mesh: None,
+            };
+            scene.objects[0].spacing = s;
+            scene.objects[0].surfel_spacing = Some(s);
+            let opts = BuildOptions {
+                dt: Some(1.0),
+                backend: Some("mls-implicit".into()),
+                ..Default::default()
+            };
+            let mut w = scene.build(&opts).unwrap();
+            let tip = validate::CantileverTip::of(&w, s);
+            for _ in 0..40 {
+                w.step();
+            }
+            let d = tip.deflection(&w);
+            let err = d / reference - 1.0;
+            println!(
+                "{file}, {through} across, {} phyxels: sag {d:.5e} m against {reference:.5e} m \
+                 ({:+.2}%)",
+                w.objects[0].phyxels.len(),
+                100.0 * err
+            );
+            errors.push(err.abs());
+        }
+        assert!(
+            errors.iter().all(|&e| e < 0.05),
+            "{file}: errors {errors:?} over 5%"
+        );
+        assert!(
+            errors[2] < errors[1] && errors[1] < errors[0],
+            "{file}: errors must fall with resolution: {errors:?}"
+        );
+    }
+}

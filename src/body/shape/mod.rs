@@ -5,6 +5,7 @@
 //! surfel sizing), phyxels on a cubic lattice (the simulated volume) and evenly spread
 //! surfels (the rendered and collided surface).
 
+pub mod quadrature;
 #[cfg(test)]
 mod tests;
 pub mod triangulate;
@@ -77,8 +78,23 @@ pub struct SurfaceSample {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct VolumeSample {
     pub positions: Vec<Vec3>,
-    /// Volume each sample stands for (spacing^3 on the lattice).
+    /// The lattice's cell volume, spacing³.
     pub cell_volume: f32,
+    /// Volume each sample stands for: the cell volume, or for nodal integration the
+    /// moment-fitted quadrature volumes ([`quadrature`]).
+    pub volumes: Vec<f32>,
+}
+
+impl VolumeSample {
+    /// Samples at `positions`, each standing for one lattice cell.
+    fn cells(positions: Vec<Vec3>, cell_volume: f32) -> Self {
+        let volumes = vec![cell_volume; positions.len()];
+        VolumeSample {
+            positions,
+            cell_volume,
+            volumes,
+        }
+    }
 }
 
 /// Fraction of a cell by which an extent may exceed a whole number of cells and still be
@@ -278,24 +294,30 @@ impl Shape {
     }
 
     /// Phyxels for a backend whose elastic energy is a sum over its phyxels (nodal
-    /// integration: `mls`, `mls-implicit`): as [`Shape::sample_volume`], except that a box
-    /// keeps the lattice's count per axis but spreads its layers `size/√(n²−1)` apart, so
-    /// that, with equal weights, they integrate second moments exactly (the lattice's
-    /// cell centres, the midpoint rule, count `1 − 1/n²` of them: a bar's bending
-    /// stiffness 6% low at 4 through). The particle backends keep the lattice, on which
-    /// their models are defined (LJ's bonds, SPH's kernel density).
+    /// integration: `mls`, `mls-implicit`): the lattice of [`Shape::sample_volume`] with
+    /// volumes fitted to the solid's moments up to the second ([`quadrature`]), so that
+    /// mass, inertia and the bending of a section are the solid's on any shape (the
+    /// lattice's cell centres with equal volumes, the midpoint rule, count `1 − 1/n²` of
+    /// a section's second moment at `n` through). A box keeps the lattice's count per
+    /// axis but spreads its layers `size/√(n²−1)` apart, where equal volumes already
+    /// integrate its moments. The particle backends keep the lattice and its cell
+    /// volume, on which their models are defined (LJ's bonds, SPH's kernel density).
     ///
     /// # Panics
     /// As [`Shape::sample_volume`].
     pub fn sample_volume_nodal(&self, spacing: f32) -> VolumeSample {
-        if let Shape::Box { size } = *self {
+        let mut sample = if let Shape::Box { size } = *self {
             check_spacing(spacing);
-            return VolumeSample {
-                positions: box_phyxels(size.map(|s| fitted_count(0.5 * s, spacing)), size),
-                cell_volume: spacing.powi(3),
-            };
+            let counts = size.map(|s| fitted_count(0.5 * s, spacing));
+            VolumeSample::cells(box_phyxels(counts, size), spacing.powi(3))
+        } else {
+            self.sample_volume(spacing)
+        };
+        if let Some(moments) = self.moments() {
+            sample.volumes =
+                quadrature::fitted_volumes(&sample.positions, sample.cell_volume, &moments);
         }
-        self.sample_volume(spacing)
+        sample
     }
 
     /// Phyxels: the cell centres of a simple cubic lattice at `spacing` that lie inside
@@ -324,10 +346,7 @@ impl Shape {
             let positions = zs
                 .flat_map(|z| xs.clone().map(move |x| Vec3::new(x, y, z)))
                 .collect();
-            return VolumeSample {
-                positions,
-                cell_volume,
-            };
+            return VolumeSample::cells(positions, cell_volume);
         }
 
         if let Shape::Mesh {
@@ -346,10 +365,7 @@ impl Shape {
             if positions.is_empty() {
                 positions.push(Vec3::ZERO);
             }
-            return VolumeSample {
-                positions,
-                cell_volume,
-            };
+            return VolumeSample::cells(positions, cell_volume);
         }
         let half = self.half_extents().to_array();
         let fitted = self.lattice_inside(half.map(|h| fitted_count(h, spacing)), spacing);
@@ -364,10 +380,7 @@ impl Shape {
         } else {
             fitted
         };
-        VolumeSample {
-            positions,
-            cell_volume,
-        }
+        VolumeSample::cells(positions, cell_volume)
     }
 
     /// Surfels spread evenly over the surface roughly `spacing` apart, with outward unit
