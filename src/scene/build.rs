@@ -474,7 +474,7 @@ impl ObjectSpec {
         let mut shape = self.shape.clone();
         shape.load_mesh(Path::new(""))?;
         let (spacing, surfel_spacing) = self.spacings(&shape)?;
-        // Nodal integration's quadrature wants a box's layers spread; the particle
+        // Nodal integration wants volumes fitted to the solid's moments; the particle
         // backends' lattice models do not (`Shape::sample_volume_nodal`).
         let nodal = [
             crate::backends::mls::NAME,
