@@ -159,13 +159,13 @@ fn integrals(m: &Moments, scale: f64) -> [f64; 10] {
 }
 
 /// Phyxel volumes at `points` (object coordinates) that integrate `moments` exactly
-/// (module doc), each within a factor [`LARGEST_FACTOR`] of `cell_volume`; where no such volumes exist the
-/// cell volume scaled so that the volumes sum to the solid's, or the cell volume itself
-/// when even that is further off (a shape much thinner than the spacing).
+/// (module doc), each within a factor `LARGEST_FACTOR` (4) of `cell_volume`. Where no
+/// such volumes exist: the cell volume scaled so that the volumes sum to the solid's, or
+/// the cell volume itself when even that is further off (a shape much thinner than the
+/// spacing).
 pub fn fitted_volumes(points: &[Vec3], cell_volume: f32, moments: &Moments) -> Vec<f32> {
     let v0 = cell_volume as f64;
     let n = points.len();
-
     let scale = points
         .iter()
         .map(|p| p.abs().max_element() as f64)
