@@ -165,20 +165,7 @@ fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
         return None;
     }
     // Offsets scaled by h so linear and quadratic terms are of one size.
-    let basis = |x: DVec3| {
-        let q = x / h;
-        [
-            q.x,
-            q.y,
-            q.z,
-            q.x * q.x,
-            q.y * q.y,
-            q.z * q.z,
-            q.x * q.y,
-            q.y * q.z,
-            q.z * q.x,
-        ]
-    };
+    let basis = |x: DVec3| linalg::quadratic_terms(x / h);
     let mut m = [[0.0f64; 9]; 9];
     for &(x, w) in offsets {
         let p = basis(x);

@@ -61,6 +61,23 @@ pub fn jacobi_eigen<const N: usize>(mut m: [[f64; N]; N]) -> ([f64; N], [[f64; N
     (std::array::from_fn(|k| m[k][k]), v)
 }
 
+/// The monomials of degree 1 and 2 at `q`: `x, y, z, x², y², z², xy, yz, zx` (the
+/// quadratic MLS fit's basis and, with a constant, the volume fit's).
+#[inline]
+pub fn quadratic_terms(q: DVec3) -> [f64; 9] {
+    [
+        q.x,
+        q.y,
+        q.z,
+        q.x * q.x,
+        q.y * q.y,
+        q.z * q.z,
+        q.x * q.y,
+        q.y * q.z,
+        q.z * q.x,
+    ]
+}
+
 /// Cofactor matrix `[J₂×J₃, J₃×J₁, J₁×J₂]` (columns) = `det(J) J⁻ᵀ` = ∂det J/∂J:
 /// the volume term's force direction and the normal transform without a division.
 #[inline]

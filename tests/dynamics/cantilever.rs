@@ -38,6 +38,27 @@ fn tip_deflection_converges_to_euler_bernoulli() {
     );
 }
 
+/// `scene`'s bar (object 0) at phyxel and surfel spacing `s` (m), stepped by
+/// `mls-implicit` at dt = 1 s for 40 steps: the tip's deflection before and after the
+/// last step (m) and the phyxel count.
+fn static_sag(mut scene: Scene, s: f32) -> (f64, f64, usize) {
+    scene.objects[0].spacing = s;
+    scene.objects[0].surfel_spacing = Some(s);
+    let opts = BuildOptions {
+        dt: Some(1.0),
+        backend: Some("mls-implicit".into()),
+        ..Default::default()
+    };
+    let mut w = scene.build(&opts).unwrap();
+    let tip = validate::CantileverTip::of(&w, s);
+    let mut last = 0.0;
+    for _ in 0..40 {
+        last = tip.deflection(&w);
+        w.step();
+    }
+    (last, tip.deflection(&w), w.objects[0].phyxels.len())
+}
+
 /// The static sag at every count from 3 to 9 phyxels through the thickness, against
 /// Euler–Bernoulli `qL⁴/(8EI)` (analytic, independent): `mls-implicit` at dt = 1 s, whose
 /// backward-Euler steps reach the static equilibrium (the last two of 40 steps agree to
@@ -54,22 +75,7 @@ fn static_sag_at_every_count_through() {
     let free_length = 0.95;
     for through in 3..=9u32 {
         let s = 0.1 / through as f32;
-        let mut scene = scene.clone();
-        scene.objects[0].spacing = s;
-        scene.objects[0].surfel_spacing = Some(s);
-        let opts = BuildOptions {
-            dt: Some(1.0),
-            backend: Some("mls-implicit".into()),
-            ..Default::default()
-        };
-        let mut w = scene.build(&opts).unwrap();
-        let tip = validate::CantileverTip::of(&w, s);
-        let mut last = 0.0;
-        for _ in 0..40 {
-            last = tip.deflection(&w);
-            w.step();
-        }
-        let d = tip.deflection(&w);
+        let (last, d, _) = static_sag(scene.clone(), s);
         assert!(
             (d - last).abs() < 1e-5 * d,
             "{through} through: not static ({last} → {d} m)"
@@ -167,24 +173,11 @@ fn meshed_square_and_round_bars_sag_as_euler_bernoulli() {
                 scale: 1.0,
                 mesh: None,
             };
-            scene.objects[0].spacing = s;
-            scene.objects[0].surfel_spacing = Some(s);
-            let opts = BuildOptions {
-                dt: Some(1.0),
-                backend: Some("mls-implicit".into()),
-                ..Default::default()
-            };
-            let mut w = scene.build(&opts).unwrap();
-            let tip = validate::CantileverTip::of(&w, s);
-            for _ in 0..40 {
-                w.step();
-            }
-            let d = tip.deflection(&w);
+            let (_, d, phyxels) = static_sag(scene, s);
             let err = d / reference - 1.0;
             println!(
-                "{file}, {through} across, {} phyxels: sag {d:.5e} m against {reference:.5e} m \
-                 ({:+.2}%)",
-                w.objects[0].phyxels.len(),
+                "{file}, {through} across, {phyxels} phyxels: sag {d:.5e} m against \
+                 {reference:.5e} m ({:+.2}%)",
                 100.0 * err
             );
             errors.push(err.abs());

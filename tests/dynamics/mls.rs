@@ -596,6 +596,21 @@ fn paper_strain_form_gives_its_hooke_law() {
     );
 }
 
+/// Saint-Venant's pure bending of curvature `kappa` (1/m) about z, Poisson's ratio `nu`:
+/// `u_x = −κxy`, `u_y = ½κ(x² + ν(y² − z²))`, `u_z = νκyz`, whose only stress is
+/// `σ_xx = −Eκy`.
+fn bend(p: &mut Phyxels, kappa: f64, nu: f64) {
+    deform(p, |x| {
+        let (x, y, z) = (x.x as f64, x.y as f64, x.z as f64);
+        let u = DVec3::new(
+            -kappa * x * y,
+            0.5 * kappa * (x * x + nu * (y * y - z * z)),
+            nu * kappa * y * z,
+        );
+        (DVec3::new(x, y, z) + u).as_vec3()
+    });
+}
+
 /// A box's bending energy under nodal integration is exact (docs/ACCURACY.md,
 /// "Cantilever"): for the pure-bending field of linear elasticity (Saint-Venant:
 /// `u_x = −κxy`, `u_y = ½κ(x² + ν(y² − z²))`, `u_z = νκyz`, so `σ_xx = −Eκy` is the only
@@ -638,15 +653,7 @@ fn box_bending_energy_is_exact() {
             "{n} through: rotational inertia {inertia:e} against {solid:e} kg m²"
         );
         let mut m = MlsDynamics::new(&p, &mat);
-        deform(&mut p, |x| {
-            let (x, y, z) = (x.x as f64, x.y as f64, x.z as f64);
-            let u = DVec3::new(
-                -kappa * x * y,
-                0.5 * kappa * (x * x + nu * (y * y - z * z)),
-                nu * kappa * y * z,
-            );
-            (DVec3::new(x, y, z) + u).as_vec3()
-        });
+        bend(&mut p, kappa, nu);
         m.compute_forces(&p, &mat, 1e-4);
         let energy = phyxel::Dynamics::diagnostics(&m, &p, &mat)
             .elastic_energy
@@ -753,15 +760,7 @@ fn bending_energy_is_exact_on_any_shape() {
             let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density)
                 .with_volumes(&v.volumes, mat.density);
             let mut m = MlsDynamics::new(&p, &mat);
-            deform(&mut p, |x| {
-                let (x, y, z) = (x.x as f64, x.y as f64, x.z as f64);
-                let u = DVec3::new(
-                    -kappa * x * y,
-                    0.5 * kappa * (x * x + nu * (y * y - z * z)),
-                    nu * kappa * y * z,
-                );
-                (DVec3::new(x, y, z) + u).as_vec3()
-            });
+            bend(&mut p, kappa, nu);
             m.compute_forces(&p, &mat, 1e-4);
             let energy = phyxel::Dynamics::diagnostics(&m, &p, &mat)
                 .elastic_energy

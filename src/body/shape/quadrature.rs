@@ -15,6 +15,7 @@ use glam::{DMat3, DVec3, Vec3};
 
 use super::Shape;
 use crate::body::mesh::Surface;
+use crate::math::linalg;
 
 /// Volume moments of a solid in object coordinates: `∫ 1`, `∫ x` and `∫ x xᵀ` (m³, m⁴, m⁵).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -35,9 +36,9 @@ const LARGEST_FACTOR: f64 = 4.0;
 /// already integrate the moments (a box's spread layers): the cell volume is kept.
 const ROUNDING: f64 = 1e-5;
 
-/// A pivot below this share of its diagonal marks a moment the points cannot carry
-/// independently of the others (all phyxels in one layer have no second moment across
-/// it); that condition is dropped.
+/// An eigenvalue of the conditions' Gram matrix below this share of the largest marks a
+/// moment the points cannot carry independently of the others (all phyxels in one layer
+/// have no second moment across it); that condition is dropped.
 const DEPENDENT: f64 = 1e-9;
 
 impl Moments {
@@ -136,23 +137,16 @@ pub fn mesh_moments(triangles: impl Iterator<Item = [DVec3; 3]>) -> Moments {
 
 /// The ten monomials of degree ≤ 2 at `x` (scaled to order one by the caller).
 fn monomials(x: DVec3) -> [f64; 10] {
-    [
-        1.0,
-        x.x,
-        x.y,
-        x.z,
-        x.x * x.x,
-        x.y * x.y,
-        x.z * x.z,
-        x.x * x.y,
-        x.y * x.z,
-        x.z * x.x,
-    ]
+    let q = linalg::quadratic_terms(x);
+    [1.0, q[0], q[1], q[2], q[3], q[4], q[5], q[6], q[7], q[8]]
 }
 
-/// The same monomials integrated over the solid, in coordinates divided by `scale`.
-fn integrals(m: &Moments, scale: f64) -> [f64; 10] {
-    let (v, f, s) = (m.volume, m.first / scale, m.second / (scale * scale));
+/// The same monomials integrated over the solid, in coordinates divided by `scale`
+/// per axis.
+fn integrals(m: &Moments, scale: DVec3) -> [f64; 10] {
+    let (v, f) = (m.volume, m.first / scale);
+    let s = DMat3::from_diagonal(scale.recip());
+    let s = s * m.second * s;
     [
         v, f.x, f.y, f.z, s.x_axis.x, s.y_axis.y, s.z_axis.z, s.y_axis.x, s.z_axis.y, s.x_axis.z,
     ]
@@ -166,11 +160,11 @@ fn integrals(m: &Moments, scale: f64) -> [f64; 10] {
 pub fn fitted_volumes(points: &[Vec3], cell_volume: f32, moments: &Moments) -> Vec<f32> {
     let v0 = cell_volume as f64;
     let n = points.len();
+    // Per axis, so that a thin direction's conditions weigh as much as a long one's.
     let scale = points
         .iter()
-        .map(|p| p.abs().max_element() as f64)
-        .fold(0.0, f64::max)
-        .max(cell_volume.cbrt() as f64);
+        .fold(DVec3::ZERO, |m, p| m.max(p.abs().as_dvec3()))
+        .max(DVec3::splat(cell_volume.cbrt() as f64));
     let basis: Vec<[f64; 10]> = points
         .iter()
         .map(|p| monomials(p.as_dvec3() / scale))
@@ -185,7 +179,7 @@ pub fn fitted_volumes(points: &[Vec3], cell_volume: f32, moments: &Moments) -> V
             }
         }
     }
-    let lambda = solve_dropping_dependent(gram, rhs);
+    let lambda = pseudo_solve(gram, rhs);
     let fitted: Vec<f64> = basis
         .iter()
         .map(|p| v0 * (1.0 + (0..10).map(|a| lambda[a] * p[a]).sum::<f64>()))
@@ -202,50 +196,21 @@ pub fn fitted_volumes(points: &[Vec3], cell_volume: f32, moments: &Moments) -> V
     vec![v as f32; n]
 }
 
-/// Solves the symmetric positive semi-definite `a x = b` by Cholesky, setting to zero
-/// each unknown whose pivot falls below [`DEPENDENT`] of its diagonal (a condition the
-/// points cannot carry apart from the earlier ones).
-fn solve_dropping_dependent(mut a: [[f64; 10]; 10], mut b: [f64; 10]) -> [f64; 10] {
-    let mut kept = [true; 10];
-    for k in 0..10 {
-        let diag = a[k][k];
-        for j in 0..k {
-            a[k][k] -= a[k][j] * a[k][j];
-        }
-        if a[k][k].is_nan() || a[k][k] <= DEPENDENT * diag.max(f64::MIN_POSITIVE) {
-            kept[k] = false;
-            a[k][k] = 1.0;
-            for row in a.iter_mut().skip(k + 1) {
-                row[k] = 0.0;
-            }
-            a[k][..k].fill(0.0);
-            b[k] = 0.0;
-            continue;
-        }
-        a[k][k] = a[k][k].sqrt();
-        for i in k + 1..10 {
-            for j in 0..k {
-                a[i][k] -= a[i][j] * a[k][j];
-            }
-            a[i][k] /= a[k][k];
-        }
-    }
-    // Forward then back substitution with L (lower triangle of `a`).
-    let mut y = [0.0; 10];
-    for i in 0..10 {
-        if !kept[i] {
-            continue;
-        }
-        let s: f64 = (0..i).map(|j| a[i][j] * y[j]).sum();
-        y[i] = (b[i] - s) / a[i][i];
-    }
+/// Solves the symmetric positive semi-definite `a x = b` in the eigen-directions of `a`
+/// above [`DEPENDENT`] of its largest eigenvalue: a condition the points cannot carry
+/// apart from the others (no second moment across one layer) is dropped.
+fn pseudo_solve(a: [[f64; 10]; 10], b: [f64; 10]) -> [f64; 10] {
+    let (vals, vecs) = linalg::jacobi_eigen(a);
+    let largest = vals.iter().fold(0.0f64, |m, &v| m.max(v));
     let mut x = [0.0; 10];
-    for i in (0..10).rev() {
-        if !kept[i] {
+    for k in 0..10 {
+        if vals[k].is_nan() || vals[k] <= DEPENDENT * largest {
             continue;
         }
-        let s: f64 = (i + 1..10).map(|j| a[j][i] * x[j]).sum();
-        x[i] = (y[i] - s) / a[i][i];
+        let along = (0..10).map(|r| vecs[r][k] * b[r]).sum::<f64>() / vals[k];
+        for (r, xr) in x.iter_mut().enumerate() {
+            *xr += along * vecs[r][k];
+        }
     }
     x
 }
@@ -254,22 +219,10 @@ fn solve_dropping_dependent(mut a: [[f64; 10]; 10], mut b: [f64; 10]) -> [f64; 1
 mod tests {
     use super::*;
 
-    /// Every closed primitive in `shapes()` of the shape tests but the plane.
+    /// The shape tests' primitives with a volume (all but the plane).
     fn solids() -> Vec<Shape> {
-        vec![
-            Shape::Sphere { radius: 0.5 },
-            Shape::Box {
-                size: [0.4, 0.25, 0.1],
-            },
-            Shape::Capsule {
-                radius: 0.2,
-                length: 0.5,
-            },
-            Shape::Torus {
-                major: 0.5,
-                minor: 0.15,
-            },
-        ]
+        let all = crate::body::shape::tests::shapes();
+        all.into_iter().filter(|s| s.moments().is_some()).collect()
     }
 
     fn close(a: &Moments, b: &Moments, tol: f64) -> bool {
@@ -309,7 +262,7 @@ mod tests {
                 let spacing = shape.half_extents().min_element() * 2.0 / per;
                 let s = shape.sample_volume(spacing);
                 let v = fitted_volumes(&s.positions, s.cell_volume, &exact);
-                let scale = shape.half_extents().max_element() as f64;
+                let scale = shape.half_extents().as_dvec3();
                 let want = integrals(&exact, scale);
                 let mut got = [0.0; 10];
                 for (p, &w) in s.positions.iter().zip(&v) {

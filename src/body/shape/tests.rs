@@ -1,7 +1,7 @@
 use super::*;
 
 /// One valid instance of every shape, with non-trivial proportions.
-fn shapes() -> Vec<Shape> {
+pub(super) fn shapes() -> Vec<Shape> {
     vec![
         Shape::Sphere { radius: 0.5 },
         Shape::Box {
