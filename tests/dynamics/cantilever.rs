@@ -67,7 +67,7 @@ fn static_sag(mut scene: Scene, s: f32) -> (f64, f64, usize) {
 /// spacing `s` deeper, so the sag is that of a bar longer by `s/2`: `(1 + s/(2L))⁴`
 /// times Euler–Bernoulli's. Asserted: the odd counts within 3% of Euler–Bernoulli, and
 /// the even ones within 3% of it once that factor is applied (docs/ACCURACY.md,
-/// "Cantilever"; measured +1.8, +2.2, +1.0, +0.5% odd; +0.4, +1.5, +0.7% even).
+/// "Cantilever"; measured +1.9, +2.3, +1.1, +0.5% odd; +0.5, +1.6, +0.8% even).
 #[test]
 fn static_sag_at_every_count_through() {
     let scene = Scene::builtin("cantilever").unwrap();
