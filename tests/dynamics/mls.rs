@@ -611,6 +611,32 @@ fn bend(p: &mut Phyxels, kappa: f64, nu: f64) {
     });
 }
 
+/// The elastic energy (J) that `mls` reports for `shape`'s nodal sampling at `spacing`
+/// (m) bent by [`bend`] with curvature `kappa` (1/m), against the closed form
+/// `½(E + k_v(1 − 2ν)²) κ² ∫y² dV` for the shape's `y2` = `∫y² dV` (m⁵), and the
+/// phyxels (at rest, before the bend).
+fn bending_energy(
+    shape: &Shape,
+    spacing: f32,
+    mat: &Material,
+    kappa: f64,
+    y2: f64,
+) -> (f64, f64, Phyxels) {
+    let (e, nu, kv) = (mat.young as f64, mat.poisson as f64, mat.k_volume() as f64);
+    let v = shape.sample_volume_nodal(spacing);
+    let rest = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density)
+        .with_volumes(&v.volumes, mat.density);
+    let mut p = rest.clone();
+    let mut m = MlsDynamics::new(&p, mat);
+    bend(&mut p, kappa, nu);
+    m.compute_forces(&p, mat, 1e-4);
+    let energy = phyxel::Dynamics::diagnostics(&m, &p, mat)
+        .elastic_energy
+        .unwrap();
+    let exact = 0.5 * (e + kv * (1.0 - 2.0 * nu).powi(2)) * kappa * kappa * y2;
+    (energy, exact, rest)
+}
+
 /// A box's bending energy under nodal integration is exact (docs/ACCURACY.md,
 /// "Cantilever"): for the pure-bending field of linear elasticity (Saint-Venant:
 /// `u_x = −κxy`, `u_y = ½κ(x² + ν(y² − z²))`, `u_z = νκyz`, so `σ_xx = −Eκy` is the only
@@ -631,13 +657,12 @@ fn box_bending_energy_is_exact() {
         poisson: 0.3,
         ..Default::default()
     };
-    let (e, nu, kv) = (mat.young as f64, mat.poisson as f64, mat.k_volume() as f64);
     let (l, t, kappa) = (0.4f32, 0.1f32, 0.02f64);
+    let y2 = l as f64 * (t as f64).powi(4) / 12.0;
     for n in [3u32, 4, 5, 8] {
         let spacing = t / n as f32;
-        let v = Shape::Box { size: [l, t, t] }.sample_volume_nodal(spacing);
-        let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density)
-            .with_volumes(&v.volumes, mat.density);
+        let shape = Shape::Box { size: [l, t, t] };
+        let (energy, exact, p) = bending_energy(&shape, spacing, &mat, kappa, y2);
         // The rotational inertia about the long axis, `Σ m (y² + z²)`, is the same
         // quadrature: exact against a solid box's `M (t² + t²)/12`.
         let inertia: f64 = (0..p.len())
@@ -652,15 +677,6 @@ fn box_bending_energy_is_exact() {
             (inertia / solid - 1.0).abs() < 1e-5,
             "{n} through: rotational inertia {inertia:e} against {solid:e} kg m²"
         );
-        let mut m = MlsDynamics::new(&p, &mat);
-        bend(&mut p, kappa, nu);
-        m.compute_forces(&p, &mat, 1e-4);
-        let energy = phyxel::Dynamics::diagnostics(&m, &p, &mat)
-            .elastic_energy
-            .unwrap();
-        let (l, t) = (l as f64, t as f64);
-        let exact =
-            0.5 * (e + kv * (1.0 - 2.0 * nu).powi(2)) * kappa * kappa * l * t.powi(4) / 12.0;
         let err = energy / exact - 1.0;
         println!(
             "{n} through: energy {energy:.6e} J, exact {exact:.6e} J ({:+.3}%)",
@@ -721,7 +737,6 @@ fn bending_energy_is_exact_on_any_shape() {
         poisson: 0.3,
         ..Default::default()
     };
-    let (e, nu, kv) = (mat.young as f64, mat.poisson as f64, mat.k_volume() as f64);
     let kappa = 0.02f64;
     let sides = 64;
     let round: Vec<(f32, f32)> = (0..sides)
@@ -756,16 +771,7 @@ fn bending_energy_is_exact_on_any_shape() {
     ];
     for (name, shape, y2) in shapes {
         for n in [4u32, 6] {
-            let v = shape.sample_volume_nodal(0.1 / n as f32);
-            let mut p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density)
-                .with_volumes(&v.volumes, mat.density);
-            let mut m = MlsDynamics::new(&p, &mat);
-            bend(&mut p, kappa, nu);
-            m.compute_forces(&p, &mat, 1e-4);
-            let energy = phyxel::Dynamics::diagnostics(&m, &p, &mat)
-                .elastic_energy
-                .unwrap();
-            let exact = 0.5 * (e + kv * (1.0 - 2.0 * nu).powi(2)) * kappa * kappa * y2;
+            let (energy, exact, p) = bending_energy(&shape, 0.1 / n as f32, &mat, kappa, y2);
             let err = energy / exact - 1.0;
             println!(
                 "{name}, {n} across ({} phyxels): energy {energy:.6e} J, exact {exact:.6e} J \

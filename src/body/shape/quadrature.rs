@@ -117,8 +117,8 @@ pub fn mesh_moments(triangles: impl Iterator<Item = [DVec3; 3]>) -> Moments {
         let s = a + b + c;
         volume += v;
         first += v / 4.0 * s;
-        let outer = |p: DVec3, q: DVec3| DMat3::from_cols(p * q.x, p * q.y, p * q.z);
-        second += (outer(a, a) + outer(b, b) + outer(c, c) + outer(s, s)) * (v / 20.0);
+        let outer = |p: DVec3| linalg::outer(p, p);
+        second += (outer(a) + outer(b) + outer(c) + outer(s)) * (v / 20.0);
     }
     if volume < 0.0 {
         // Oriented inward: the same solid.
