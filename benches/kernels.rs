@@ -114,6 +114,7 @@ fn distribution(c: &mut Criterion) {
                 anchor_b: Vec3::ZERO,
                 velocity: Vec3::ZERO,
                 stick: Vec3::ZERO,
+                scale: 1.0,
             }
         })
         .collect();

@@ -153,6 +153,13 @@ pub fn split(
         piece.load = object.load * (mass / parent_mass.max(f64::MIN_POSITIVE)) as f32;
         piece.load_ramp = object.load_ramp;
         piece.distribution_support = object.distribution_support;
+        if object.graded {
+            piece.set_contact_spacings(
+                object.phyxel_spacing,
+                object.surfel_spacing,
+                object.contact_influence,
+            );
+        }
         piece.parent = Some(object.id);
         piece.self_collision = self_collision;
         piece.mesh = meshes.as_mut().and_then(|m| m[c].take());

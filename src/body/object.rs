@@ -47,6 +47,13 @@ pub struct Object {
     pub carrier_spacing: f32,
     /// Largest phyxel influence radius (m).
     pub max_influence: f32,
+    /// Largest influence radius of the phyxels that contact forces are sized for: all
+    /// of them, or a graded body's finest level ([`Object::use_finest_level`]). The
+    /// distribution's support follows it.
+    pub contact_influence: f32,
+    /// Sampled finer in places ([`Object::use_finest_level`]): the contact spacings
+    /// are its finest level's, and a fragment keeps them.
+    pub graded: bool,
     /// Support of the contact-force distribution in influence radii (default
     /// [`DISTRIBUTION_SUPPORT`]; the paper 2).
     pub distribution_support: f32,
@@ -139,7 +146,54 @@ impl Object {
     /// Radius (m) within which a contact force on this object reaches its phyxels:
     /// [`Object::distribution_support`] influence radii.
     pub fn distribution_radius(&self) -> f32 {
-        self.distribution_support * self.max_influence
+        self.distribution_support * self.contact_influence
+    }
+
+    /// Sizes the contact for a graded body's finest level (`phyxel_fine`,
+    /// `surfel_fine`: which phyxels and surfels belong to it): the phyxel and surfel
+    /// spacings become that level's means, the distribution's support its largest
+    /// influence radius, and the force carriers follow. A body is refined where its
+    /// contacts are meant to be; a contact on a coarser level then gets the finer
+    /// level's penalty (stiffer, and stable, its surface layer being heavier) and its
+    /// forces spread over at least the nearest phyxels (docs/ARCHITECTURE.md, "Graded
+    /// sampling").
+    ///
+    /// # Panics
+    /// If the masks do not hold one entry per phyxel and surfel, or select none.
+    pub fn use_finest_level(&mut self, phyxel_fine: &[bool], surfel_fine: &[bool]) {
+        assert_eq!(phyxel_fine.len(), self.phyxels.len(), "one flag per phyxel");
+        assert_eq!(surfel_fine.len(), self.surfels.len(), "one flag per surfel");
+        let mean = |v: &[f32], fine: &[bool]| {
+            let (sum, n) = v
+                .iter()
+                .zip(fine)
+                .filter(|e| *e.1)
+                .fold((0.0f32, 0usize), |(s, n), (x, _)| (s + x, n + 1));
+            assert!(n > 0, "the finest level holds no sample");
+            sum / n as f32
+        };
+        let phyxel = mean(&self.phyxels.spacing, phyxel_fine);
+        let influence = (0..self.phyxels.len())
+            .filter(|&i| phyxel_fine[i])
+            .map(|i| self.phyxels.radius[i])
+            .fold(0.0f32, f32::max);
+        let surfel = if self.surfels.is_empty() {
+            0.0
+        } else {
+            mean(&self.surfels.radius, surfel_fine) * std::f32::consts::FRAC_PI_2.sqrt()
+        };
+        self.set_contact_spacings(phyxel, surfel, influence);
+    }
+
+    /// Sets the spacings the contact is sized by (m; see [`Object::use_finest_level`])
+    /// and marks the body graded.
+    pub fn set_contact_spacings(&mut self, phyxel: f32, surfel: f32, influence: f32) {
+        self.phyxel_spacing = phyxel;
+        self.surfel_spacing = surfel;
+        self.contact_influence = influence;
+        self.carrier_spacing = (FORCE_CARRIER_SPACING * phyxel).max(surfel);
+        self.force_carrier = force_carriers(&self.surfels, surfel, self.carrier_spacing);
+        self.graded = true;
     }
 
     /// Assembles an object and binds its surfels to its phyxels.
@@ -241,6 +295,8 @@ impl Object {
             force_carrier,
             carrier_spacing,
             max_influence,
+            contact_influence: max_influence,
+            graded: false,
             distribution_support: DISTRIBUTION_SUPPORT,
             load: glam::Vec3::ZERO,
             load_ramp: 0.0,
@@ -336,6 +392,7 @@ impl Object {
                 ("phyxel_spacing", self.phyxel_spacing),
                 ("carrier_spacing", self.carrier_spacing),
                 ("max_influence", self.max_influence),
+                ("contact_influence", self.contact_influence),
             ] {
                 if !(v.is_finite() && v > 0.0) {
                     return Err(format!(

@@ -27,17 +27,21 @@ pub struct StickContext<'a> {
 /// The kernel is evaluated as `4/(π h²) · (1 − r²/h²)³`: written as `4/(π h⁸) · (h² −
 /// r²)³` its `h⁸` leaves f32's range for spacings below about 8 µm (every area 0, so no
 /// contact force) or above about 30 km (areas infinite, forces NaN).
+///
+/// Each surfel's support is `2 · spacing ·` [`ContactSurfel::scale`]: where a graded
+/// body's coarser level is in contact, its own spacing's (a balloon estimate).
 pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScratch) {
-    let hh = 2.0 * spacing;
-    let norm = 4.0 / (std::f32::consts::PI * (hh * hh));
+    let widest = surfels.iter().fold(1.0f32, |m, c| m.max(c.scale));
     let PatchScratch { grid, density, .. } = scratch;
-    grid.rebuild(surfels.iter().map(|c| c.pos), hh);
+    grid.rebuild(surfels.iter().map(|c| c.pos), 2.0 * spacing * widest);
     density.clear();
     density.resize(surfels.len(), 0.0);
     let grid = &*grid;
-    let inv_hh2 = f32x8::splat(1.0 / (hh * hh));
     // Eight neighbours at a time over the grid's lane groups (lanes off the mask weigh 0).
     density.par_iter_mut().enumerate().for_each(|(i, rho)| {
+        let hh = 2.0 * spacing * surfels[i].scale;
+        let norm = 4.0 / (std::f32::consts::PI * (hh * hh));
+        let inv_hh2 = f32x8::splat(1.0 / (hh * hh));
         let mut sum = f32x8::ZERO;
         grid.for_each_lanes_within(surfels[i].pos, hh, |_, mask, d2| {
             let q = f32x8::ONE - d2 * inv_hh2;

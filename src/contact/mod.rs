@@ -94,6 +94,19 @@ pub struct ContactSurfel {
     /// The friction spring's elongation after the forces (m): surface a's tangential
     /// displacement against b since the contact last stuck ([`stick`]).
     pub stick: Vec3,
+    /// The surfel spacing of Φ here over the pair's finest ([`ContactParams::spacing`]):
+    /// 1, or more where a graded body's coarser level is in contact
+    /// ([`local_scale`]); the area estimate's support follows it.
+    pub scale: f32,
+}
+
+/// [`ContactSurfel::scale`] from the finer of the two surfaces' disk radii (m) where a
+/// contact surfel lies: their spacing over the pair's `spacing`, or 1 below 1.5 (a
+/// uniform pair's surfels are within rounding of it, and each graded level is twice the
+/// next).
+pub fn local_scale(radius_a: f32, radius_b: f32, spacing: f32) -> f32 {
+    let ratio = radius_a.min(radius_b) * std::f32::consts::FRAC_PI_2.sqrt() / spacing;
+    if ratio < 1.5 { 1.0 } else { ratio }
 }
 
 /// [`ContactSurfel::surfel`] of a surfel inserted by resampling (no colliding surfel).

@@ -137,6 +137,7 @@ pub(super) fn fill_holes(
                     anchor_b: x,
                     velocity: Vec3::ZERO,
                     stick: Vec3::ZERO,
+                    scale: c.scale,
                 });
             }
         }

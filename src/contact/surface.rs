@@ -161,9 +161,10 @@ pub fn contact_surface(
         } else {
             (s.surfels_a, &s.a)
         };
-        let v_other = other_surface
-            .nearest(c.projection)
-            .map_or(Vec3::ZERO, |(k, _)| other_surfels.vel.get(k));
+        let nearest = other_surface.nearest(c.projection).map(|(k, _)| k);
+        let v_other = nearest.map_or(Vec3::ZERO, |k| other_surfels.vel.get(k));
+        let own_radius = own.radius[c.surfel as usize];
+        let other_radius = nearest.map_or(own_radius, |k| other_surfels.radius[k]);
         Some(ContactSurfel {
             pos: x,
             normal: (p.lambda_a * a.normal - p.lambda_b * b.normal).try_normalize()?,
@@ -179,6 +180,7 @@ pub fn contact_surface(
                 v_other - v_own
             },
             stick: Vec3::ZERO,
+            scale: local_scale(own_radius, other_radius, p.spacing),
         })
     };
     let n_a = det.a_in_b.len();

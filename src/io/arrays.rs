@@ -15,3 +15,11 @@ where
         serde::de::Error::invalid_length(len, &format!("an array of {N} numbers").as_str())
     })
 }
+
+/// [`exact_array`] for a key that may be omitted (`#[serde(default)]` gives `None`).
+pub fn exact_array_opt<'de, D, const N: usize>(d: D) -> Result<Option<[f32; N]>, D::Error>
+where
+    D: serde::Deserializer<'de>,
+{
+    exact_array(d).map(Some)
+}

@@ -1,13 +1,14 @@
 //! Building a world from a scene: each object sampled and given its backend, the
 //! overlap check, the warnings, and the time step.
 
-use super::check::{phyxel_estimate, sample_count, units_hint};
+use super::check::{phyxel_estimate, refined_estimate, sample_count, units_hint};
 use super::warnings::{
     Footprint, flat_warning, footprint, load_above, mass_warning, surface_warning, weight_warning,
 };
 use super::*;
 use crate::body::mesh::Surface;
 use crate::body::output_mesh::OutputMesh;
+use crate::body::shape::graded::{Grading, Refinement};
 use crate::spatial::broad_phase::Aabb;
 
 impl Scene {
@@ -432,6 +433,38 @@ impl ObjectSpec {
         Ok((spacing, surfel))
     }
 
+    /// The graded sampling of the `refine` zones at the base `spacing` (m), or `None`
+    /// for a uniform lattice. `Err` for a zone not finer than the spacing (which a
+    /// `phyxels = N` count sets only now).
+    pub(super) fn grading(&self, spacing: f32) -> Result<Option<Grading>, String> {
+        if self.refine.is_empty() {
+            return Ok(None);
+        }
+        let mut zones = Vec::with_capacity(self.refine.len());
+        for (k, r) in self.refine.iter().enumerate() {
+            let Some(zone) = r.zone() else {
+                return Err(format!(
+                    "refine[{k}]: give a box (`min`, `max`) or a sphere (`centre`, `radius`)"
+                ));
+            };
+            if r.spacing >= spacing || r.spacing.is_nan() {
+                let key = self.spacing_key(spacing);
+                return Err(format!(
+                    "refine[{k}].spacing = {}: not finer than the object's ({key})",
+                    r.spacing
+                ));
+            }
+            zones.push(Refinement {
+                zone,
+                spacing: r.spacing,
+            });
+        }
+        Ok(Some(Grading {
+            base: spacing,
+            zones,
+        }))
+    }
+
     /// What set the phyxel spacing, for errors: the count asked for, or the spacing.
     pub(super) fn spacing_key(&self, spacing: f32) -> String {
         match self.phyxels {
@@ -480,10 +513,14 @@ impl ObjectSpec {
             crate::backends::mls::NAME,
             crate::backends::mls::implicit::NAME,
         ];
-        let vol = if nodal.contains(&backend) {
-            shape.sample_volume_nodal(spacing)
-        } else {
-            shape.sample_volume(spacing)
+        let grading = self.grading(spacing)?;
+        let (vol, phyxel_levels) = match &grading {
+            Some(g) => {
+                let (v, levels) = shape.sample_volume_graded(g);
+                (v, levels)
+            }
+            None if nodal.contains(&backend) => (shape.sample_volume_nodal(spacing), Vec::new()),
+            None => (shape.sample_volume(spacing), Vec::new()),
         };
         // The estimates bound the sampling's cost; the count itself is known only now.
         if vol.positions.len() > MAX_PHYXELS {
@@ -507,7 +544,10 @@ impl ObjectSpec {
                 ));
             }
         }
-        let surf = shape.sample_surface(surfel_spacing);
+        let (surf, surfel_levels) = match &grading {
+            Some(g) => shape.sample_surface_graded(surfel_spacing, g),
+            None => (shape.sample_surface(surfel_spacing), Vec::new()),
+        };
         self_overlap(&shape, &surf.positions, &surf.normals, surfel_spacing)?;
         let points: Vec<Vec3> = vol.positions.iter().map(|&p| rot * p + pos).collect();
         let mut phyxels = Phyxels::at_rest(&points, vol.cell_volume, self.material.density)
@@ -568,6 +608,24 @@ impl ObjectSpec {
             self.name.clone()
         };
         let mut object = Object::new(id, name, surfels, phyxels, self.material.clone(), dynamics);
+        if let Some(g) = &grading {
+            let finest = g.finest_level();
+            let phyxel_fine: Vec<bool> = phyxel_levels.iter().map(|&l| l == finest).collect();
+            let surfel_fine: Vec<bool> =
+                order.iter().map(|&k| surfel_levels[k] == finest).collect();
+            if phyxel_fine.contains(&true)
+                && (surfel_fine.contains(&true) || surfel_fine.is_empty())
+            {
+                object.use_finest_level(&phyxel_fine, &surfel_fine);
+            } else {
+                return Err(format!(
+                    "refine: no phyxel or no surfel of the body lies in its finest zone (at \
+                     spacing {} m): the zones refine only the inside of the shape's bounding box \
+                     near them; move a zone onto the body",
+                    spacing / (1u32 << finest) as f32
+                ));
+            }
+        }
         object.load = Vec3::from(self.load);
         object.load_ramp = self.load_ramp;
         if self.self_collision && !self.is_static {
@@ -645,7 +703,11 @@ fn check_memory(
         let shape = &spec.shape;
         let (spacing, phyxels) = match spec.phyxels {
             Some(n) => ((shape.volume() as f64 / n as f64).cbrt(), n as f64),
-            None => (spec.spacing as f64, phyxel_estimate(shape, spec.spacing)),
+            None => (
+                spec.spacing as f64,
+                phyxel_estimate(shape, spec.spacing)
+                    + refined_estimate(shape, spec.spacing, &spec.refine),
+            ),
         };
         let surfels = match (spec.surfels, spec.surfel_spacing) {
             (Some(n), _) => n as f64,

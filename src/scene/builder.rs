@@ -20,7 +20,7 @@
 //! assert!(world.dt <= world.stable_dt().0);
 //! ```
 
-use super::{ObjectSpec, Output, Preset, Region, Scene, default_gravity, default_steps};
+use super::{ObjectSpec, Output, Preset, Refine, Region, Scene, default_gravity, default_steps};
 use crate::body::shape::Shape;
 use crate::material::Material;
 
@@ -91,6 +91,7 @@ impl ObjectSpec {
             velocity: [0.0; 3],
             material: Material::default(),
             fixed: Vec::new(),
+            refine: Vec::new(),
             load: [0.0; 3],
             load_ramp: 0.0,
             self_collision: false,
@@ -201,6 +202,12 @@ impl ObjectSpec {
     /// Holds the phyxels inside the box `min`..`max` (object coordinates, m) in place.
     pub fn anchored(mut self, min: [f32; 3], max: [f32; 3]) -> Self {
         self.fixed.push(Region { min, max });
+        self
+    }
+
+    /// Samples the zone of `refine` finer (graded sampling, [`Refine`]).
+    pub fn refined(mut self, refine: Refine) -> Self {
+        self.refine.push(refine);
         self
     }
 

@@ -2,6 +2,7 @@
 //! the field and the value; the hard limits of sampling and coordinates.
 
 use super::*;
+use crate::body::shape::graded;
 
 impl Scene {
     /// Checks every value; errors name the file, the field and the value.
@@ -100,6 +101,7 @@ impl ObjectSpec {
         self.check_motion()?;
         self.check_backend()?;
         self.check_fixed()?;
+        self.check_refine()?;
         kinematic_keys(self).map_err(|(key, m)| (key.to_string(), m))
     }
 
@@ -314,6 +316,161 @@ impl ObjectSpec {
         }
         Ok(())
     }
+}
+
+impl ObjectSpec {
+    /// Refined zones: a box or a sphere each, finer than the object's spacing (within
+    /// [`graded::MAX_LEVEL`] halvings), touching the shape, on a backend that takes a
+    /// graded cloud.
+    fn check_refine(&self) -> Result<(), KeyError> {
+        if self.refine.is_empty() {
+            return Ok(());
+        }
+        if matches!(self.shape, Shape::Plane { .. }) {
+            return at(
+                "refine",
+                "a plane has one layer of phyxels: there is no volume to refine (refine \
+                 the body that touches it)"
+                    .into(),
+            );
+        }
+        let backend = self.backend_name();
+        let graded = [
+            backends::mls::NAME,
+            backends::mls::implicit::NAME,
+            backends::KINEMATIC,
+        ];
+        if !self.is_static && !graded.contains(&backend) {
+            return at(
+                "refine",
+                format!(
+                    "backend = \"{backend}\" models a uniform lattice (its kernel or bonds \
+                     are defined on one spacing): graded sampling needs {} or {}",
+                    backends::mls::NAME,
+                    backends::mls::implicit::NAME
+                ),
+            );
+        }
+        let half = self.shape.half_extents();
+        for (k, r) in self.refine.iter().enumerate() {
+            let key = format!("refine[{k}]");
+            let numbers = r.min.iter().chain(&r.max).chain(&r.centre).flatten();
+            if numbers.chain(&r.radius).any(|c| !c.is_finite()) {
+                return at(
+                    &key,
+                    "min, max, centre and radius must be finite numbers".into(),
+                );
+            }
+            let Some(zone) = r.zone() else {
+                return at(
+                    &key,
+                    "give a box (`min` and `max`) or a sphere (`centre` and `radius`), \
+                     not both nor parts of one"
+                        .into(),
+                );
+            };
+            match zone {
+                graded::Zone::Box { min, max } if min.cmpgt(max).any() => {
+                    return at(
+                        &key,
+                        format!("min = {min}, max = {max}: min must not exceed max"),
+                    );
+                }
+                graded::Zone::Sphere { radius, .. } if radius <= 0.0 => {
+                    return at(&key, format!("radius = {radius}: must be > 0"));
+                }
+                _ => {}
+            }
+            if !(r.spacing.is_finite() && r.spacing > 0.0) {
+                return at(
+                    &format!("{key}.spacing"),
+                    format!("spacing = {}: must be a finite number > 0", r.spacing),
+                );
+            }
+            // With `phyxels = N` the base spacing is known once sampled (the build checks).
+            if self.spacing > 0.0 {
+                if r.spacing >= self.spacing {
+                    return at(
+                        &format!("{key}.spacing"),
+                        format!(
+                            "spacing = {}: not finer than the object's spacing {}: a zone \
+                             refines",
+                            r.spacing, self.spacing
+                        ),
+                    );
+                }
+                let finest = self.spacing / (1u32 << graded::MAX_LEVEL) as f32;
+                if r.spacing < finest * 0.999 {
+                    return at(
+                        &format!("{key}.spacing"),
+                        format!(
+                            "spacing = {}: more than {} times finer than the object's \
+                             spacing {} (at most {finest})",
+                            r.spacing,
+                            1u32 << graded::MAX_LEVEL,
+                            self.spacing
+                        ),
+                    );
+                }
+            }
+            if zone.distance_to_box(-half, half) > 0.0 {
+                return at(
+                    &key,
+                    format!(
+                        "{zone:?} lies outside the shape's bounding box (half extents \
+                         {half}; object-local coordinates, before rotation): it refines \
+                         nothing"
+                    ),
+                );
+            }
+        }
+        if self.spacing > 0.0 {
+            let n = phyxel_estimate(&self.shape, self.spacing)
+                + refined_estimate(&self.shape, self.spacing, &self.refine);
+            if n.is_finite() && n > MAX_PHYXELS as f64 {
+                return at(
+                    "refine",
+                    format!(
+                        "the zones give about {n:.2e} phyxels, more than the limit of \
+                         {MAX_PHYXELS} per object: smaller zones or coarser spacings in them"
+                    ),
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// About how many phyxels a graded sampling adds to the uniform lattice's
+/// ([`phyxel_estimate`]): per level, the zone grown by its band times the finer cells'
+/// density over the coarser's, each capped at the shape's volume.
+pub(super) fn refined_estimate(shape: &Shape, spacing: f32, refine: &[Refine]) -> f64 {
+    let volume = shape.volume() as f64;
+    let grading = graded::Grading {
+        base: spacing,
+        zones: Vec::new(),
+    };
+    let mut extra = 0.0;
+    for r in refine {
+        let Some(zone) = r.zone() else { continue };
+        for level in 1..=grading.level_of(r.spacing) {
+            let coarse = spacing as f64 / (1u64 << (level - 1)) as f64;
+            let grow = (graded::GRADE as f64 + 1.0) * coarse;
+            let zone_volume = match zone {
+                graded::Zone::Box { min, max } => (max - min)
+                    .as_dvec3()
+                    .to_array()
+                    .iter()
+                    .map(|e| e + 2.0 * grow)
+                    .product::<f64>(),
+                graded::Zone::Sphere { radius, .. } => {
+                    4.0 / 3.0 * std::f64::consts::PI * (radius as f64 + grow).powi(3)
+                }
+            };
+            extra += zone_volume.min(volume) * 7.0 / coarse.powi(3);
+        }
+    }
+    extra
 }
 
 /// Finest f32 resolution allowed at an object's position, as a fraction of its finest

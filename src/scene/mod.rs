@@ -186,6 +186,10 @@ pub struct ObjectSpec {
     /// Anchored phyxel regions: boxes in object-local coordinates (before rotation).
     #[serde(default)]
     pub fixed: Vec<Region>,
+    /// Zones sampled finer (graded sampling, `[[objects.refine]]`; the nodal backends
+    /// `mls` and `mls-implicit` only).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub refine: Vec<Refine>,
     /// Constant external force on the object (N), spread over its free phyxels in
     /// proportion to their mass (like gravity).
     #[serde(default, deserialize_with = "exact_array")]
@@ -211,6 +215,80 @@ pub struct Region {
     pub min: [f32; 3],
     #[serde(deserialize_with = "exact_array")]
     pub max: [f32; 3],
+}
+
+/// A zone of an object sampled finer (`[[objects.refine]]`): a box (`min`, `max`) or a
+/// sphere (`centre`, `radius`) in object-local coordinates (before rotation), and the
+/// phyxel `spacing` inside it, rounded down to the object's spacing over a power of 2
+/// (at most 64 times finer). Around the zone the sampling grades back to the object's
+/// spacing, neighbouring cells within a factor 2 (`body::shape::graded`); the surfels
+/// are finer by the same factor.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Refine {
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::io::arrays::exact_array_opt"
+    )]
+    pub min: Option<[f32; 3]>,
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::io::arrays::exact_array_opt"
+    )]
+    pub max: Option<[f32; 3]>,
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "crate::io::arrays::exact_array_opt"
+    )]
+    pub centre: Option<[f32; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub radius: Option<f32>,
+    /// Phyxel spacing inside the zone (m).
+    pub spacing: f32,
+}
+
+impl Refine {
+    /// A box zone, `min`..`max` (object coordinates, m), sampled at `spacing`.
+    pub fn boxed(min: [f32; 3], max: [f32; 3], spacing: f32) -> Self {
+        Refine {
+            min: Some(min),
+            max: Some(max),
+            centre: None,
+            radius: None,
+            spacing,
+        }
+    }
+
+    /// A sphere zone of `radius` about `centre` (object coordinates, m), sampled at
+    /// `spacing`.
+    pub fn sphere(centre: [f32; 3], radius: f32, spacing: f32) -> Self {
+        Refine {
+            min: None,
+            max: None,
+            centre: Some(centre),
+            radius: Some(radius),
+            spacing,
+        }
+    }
+
+    /// The zone, once checked (`ObjectSpec::validate`): a box or a sphere.
+    pub fn zone(&self) -> Option<crate::body::shape::graded::Zone> {
+        use crate::body::shape::graded::Zone;
+        match (self.min, self.max, self.centre, self.radius) {
+            (Some(min), Some(max), None, None) => Some(Zone::Box {
+                min: min.into(),
+                max: max.into(),
+            }),
+            (None, None, Some(centre), Some(radius)) => Some(Zone::Sphere {
+                centre: centre.into(),
+                radius,
+            }),
+            _ => None,
+        }
+    }
 }
 
 /// Command-line overrides applied when a scene is built.

@@ -627,3 +627,70 @@ fn builder_defaults_and_worlds_are_a_files() {
     let e = overlap.build(&BuildOptions::default()).unwrap_err().0;
     assert!(e.contains("overlap"), "{e}");
 }
+
+/// `refine` zones: each mistake named by its key and value, and a graded body that
+/// builds has phyxels of two spacings and the finest level's contact spacings.
+#[test]
+fn refine_zones_are_checked_and_build_a_graded_body() {
+    let object = |lines: &str| {
+        format!(
+            "name = \"x\"\n[[objects]]\nshape = {{ type = \"sphere\", radius = 0.1 }}\nspacing = 0.02\n{lines}\n"
+        )
+    };
+    for (lines, want) in [
+        (
+            "refine = [{ min = [0.0, 0.0, 0.0], max = [0.1, 0.1, 0.1], centre = [0.0, 0.0, 0.0], radius = 0.1, spacing = 0.01 }]",
+            "not both",
+        ),
+        (
+            "refine = [{ min = [0.0, 0.0, 0.0], spacing = 0.01 }]",
+            "not both nor parts",
+        ),
+        (
+            "refine = [{ centre = [0.0, 0.0, 0.0], radius = 0.05, spacing = 0.02 }]",
+            "not finer",
+        ),
+        (
+            "refine = [{ centre = [0.0, 0.0, 0.0], radius = 0.05, spacing = 1e-5 }]",
+            "more than 64 times finer",
+        ),
+        (
+            "refine = [{ centre = [0.0, 0.0, 0.0], radius = -1.0, spacing = 0.01 }]",
+            "must be > 0",
+        ),
+        (
+            "refine = [{ min = [0.1, 0.0, 0.0], max = [0.0, 0.1, 0.1], spacing = 0.01 }]",
+            "must not exceed",
+        ),
+        (
+            "refine = [{ centre = [1.0, 0.0, 0.0], radius = 0.05, spacing = 0.01 }]",
+            "outside the shape",
+        ),
+        (
+            "backend = \"sph\"\nrefine = [{ centre = [0.0, 0.0, 0.0], radius = 0.05, spacing = 0.01 }]",
+            "graded sampling needs",
+        ),
+    ] {
+        let e = Scene::parse(&object(lines), "x.toml").unwrap_err().0;
+        assert!(e.contains("refine") && e.contains(want), "{lines}: {e}");
+    }
+    let scene = Scene::parse(
+        &object("refine = [{ centre = [0.0, -0.1, 0.0], radius = 0.03, spacing = 0.01 }]"),
+        "x.toml",
+    )
+    .unwrap();
+    let w = scene.build(&BuildOptions::default()).unwrap();
+    let o = &w.objects[0];
+    let uniform = Scene::parse(&object(""), "x.toml")
+        .unwrap()
+        .build(&BuildOptions::default())
+        .unwrap();
+    let u = &uniform.objects[0];
+    assert!(o.graded && !u.graded);
+    assert!(o.phyxels.len() > u.phyxels.len());
+    // Mass is the sphere's on both (fitted volumes), and the contact is sized finer.
+    let exact = 1000.0 * 4.0 / 3.0 * std::f64::consts::PI * 0.001;
+    assert!((o.phyxels.total_mass() / exact - 1.0).abs() < 1e-4);
+    assert!(o.phyxel_spacing < 0.7 * u.phyxel_spacing);
+    assert!(o.surfel_spacing < 0.7 * u.surfel_spacing);
+}

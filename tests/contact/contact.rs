@@ -450,6 +450,7 @@ fn shell_surfels(
                 anchor_b: Vec3::ZERO,
                 velocity: Vec3::ZERO,
                 stick: Vec3::ZERO,
+                scale: 1.0,
             }
         })
         .collect();
@@ -1021,6 +1022,7 @@ fn contact_forces_match_hand_computed_penalty_and_friction() {
             anchor_b: pos - n * d2,
             velocity: n * vn + t * vt,
             stick: Vec3::ZERO,
+            scale: 1.0,
         }
     };
     let mut patch = ContactPatch {

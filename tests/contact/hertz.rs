@@ -13,6 +13,7 @@ fn case(radius: f32, young: f32, poisson: f32, per_radius: f32) -> HertzCase {
         per_radius,
         resampled_forces: false,
         contact_stiffness: None,
+        refined_per_radius: None,
     }
 }
 
@@ -228,6 +229,7 @@ fn hertz_sources() {
         for per in [8.0, 12.0, 16.0] {
             row(&HertzCase {
                 contact_stiffness: kappa,
+                refined_per_radius: None,
                 ..case(0.1, 1.0e5, 0.25, per)
             });
         }
@@ -254,4 +256,51 @@ fn hertz_sources() {
         100.0 * (runs[1].pressure / runs[1].hertz_pressure - 1.0),
         100.0 * (runs[2].pressure / runs[2].hertz_pressure - 1.0),
     );
+}
+
+/// Graded sampling against uniform on the same case (docs/ACCURACY.md, "Graded
+/// sampling"): `cargo test --release --test contact hertz::hertz_graded -- --ignored
+/// --nocapture`. R = 0.1 m, E = 1e5 Pa, ν = 0.3, a = 0.15 R: uniform at 8 and 16
+/// phyxels per radius, and 8 per radius refined to 16 within 0.4 R of the contact
+/// point (refined to 32, two levels deep, the contact is lost: docs/ACCURACY.md,
+/// "Known limits"). Prints phyxels, wall time and the errors against Hertz; asserts
+/// finite results, force balance within 1% and a graded run's phyxels under half the
+/// uniform run's at its fine spacing.
+#[test]
+#[ignore]
+fn hertz_graded() {
+    println!("| sampling | phyxels | dt (s) | wall (s) | force | a | p₀ | profile RMS |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let mut uniform_counts = Vec::new();
+    for (per, fine) in [(8.0, None), (8.0, Some(16.0)), (16.0, None)] {
+        let c = HertzCase {
+            refined_per_radius: fine,
+            ..case(0.1, 1.0e5, 0.3, per)
+        };
+        let r = hertz_plane(&c, load_for(&c, 0.15), "mls").unwrap();
+        let phyxels = r.info.phyxels;
+        println!(
+            "| {} | {phyxels} | {:.2e} | {:.0} | {:+.2}% | {:+.1}% | {:+.1}% | {:.3} |",
+            match fine {
+                Some(f) => format!("{per} → {f} per R"),
+                None => format!("{per} per R"),
+            },
+            r.info.dt,
+            // The run is 1 s at this case's time scale.
+            r.info.seconds_per_step / r.info.dt as f64,
+            100.0 * (r.contact_force / r.load - 1.0),
+            100.0 * (r.radius / r.hertz_radius - 1.0),
+            100.0 * (r.pressure / r.hertz_pressure - 1.0),
+            r.profile_rms,
+        );
+        assert!(finite(&r) && (r.contact_force / r.load - 1.0).abs() < 0.01);
+        match fine {
+            None => uniform_counts.push((per, phyxels)),
+            Some(f) => {
+                if let Some(&(_, n)) = uniform_counts.iter().find(|u| u.0 == f) {
+                    assert!(phyxels * 2 < n, "{phyxels} graded against {n} uniform");
+                }
+            }
+        }
+    }
 }

@@ -162,6 +162,7 @@ fn forces_on_the_resampled_surface_balance_and_conserve() {
         per_radius: 8.0,
         resampled_forces: true,
         contact_stiffness: None,
+        refined_per_radius: None,
     };
     let r = hertz_plane(&case, load_for(&case, 0.15), "mls").unwrap();
     println!("hertz-plane: {} N carried of {} N", r.contact_force, r.load);
@@ -205,6 +206,7 @@ fn resampled_forces_on_hertz() {
                 per_radius,
                 resampled_forces,
                 contact_stiffness: None,
+                refined_per_radius: None,
             };
             let r = hertz_plane(&case, load_for(&case, 0.15), "mls").unwrap();
             println!(

@@ -49,7 +49,16 @@ pub struct HertzCase {
     /// Both materials' `contact_stiffness` (penalty spring per area in `E*/h`); `None`:
     /// the default.
     pub contact_stiffness: Option<f32>,
+    /// Graded sampling: the sphere's phyxels this many per radius within
+    /// [`REFINED_ZONE`] R of its contact point (`per_radius` elsewhere), and the
+    /// plane's at the same spacing; `None`: uniform.
+    pub refined_per_radius: Option<f32>,
 }
+
+/// Radius of the graded sphere's refined zone about its contact point, in R: twice the
+/// largest patch radius the studies load to (0.19 R), so the patch and the bulk under
+/// it to a depth of about its radius are fine.
+pub const REFINED_ZONE: f32 = 0.4;
 
 /// What one loaded run measured, averaged over the run's last 0.3 s (scaled by
 /// [`time_scale`]).
@@ -96,7 +105,17 @@ fn e_star_plane(case: &HertzCase) -> f64 {
 pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
     let r = case.radius;
     let h = r / case.per_radius;
-    let s = h / 5.0;
+    // The contact's spacing: the refined zone's where there is one.
+    let fine = r / case.refined_per_radius.unwrap_or(case.per_radius);
+    let s = fine / 5.0;
+    let refine = match case.refined_per_radius {
+        Some(_) => format!(
+            "refine = [{{ centre = [0.0, {}, 0.0], radius = {}, spacing = {fine} }}]",
+            -r,
+            REFINED_ZONE * r
+        ),
+        None => String::new(),
+    };
     // Four times the largest patch radius measured (0.2 R).
     let patch = 0.8 * r;
     let text = format!(
@@ -107,7 +126,7 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         [[objects]]
         name = "plane"
         shape = {{ type = "plane", size = [{patch}, {patch}] }}
-        spacing = {h}
+        spacing = {fine}
         surfel_spacing = {s}
         static = true
         material = {{ young = {ep}, poisson = {np}, friction = 0.0{kappa} }}
@@ -115,12 +134,14 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         name = "sphere"
         shape = {{ type = "sphere", radius = {r} }}
         spacing = {h}
-        surfel_spacing = {s}
+        surfel_spacing = {sphere_s}
+        {refine}
         position = [0.0, {y}, 0.0]
         load = [0.0, {f}, 0.0]
         load_ramp = {ramp}
         material = {{ density = 1000.0, young = {e}, poisson = {nu}, damping = {damping}, contact_damping = 4.0, friction = 0.0{kappa} }}
         "#,
+        sphere_s = h / 5.0,
         ep = PLANE_STIFFNESS * case.young as f64,
         np = PLANE_POISSON,
         y = r + 0.05 * s,

@@ -5,6 +5,7 @@
 //! surfel sizing), phyxels on a cubic lattice (the simulated volume) and evenly spread
 //! surfels (the rendered and collided surface).
 
+pub mod graded;
 pub mod quadrature;
 #[cfg(test)]
 mod tests;
@@ -315,7 +316,7 @@ impl Shape {
         };
         if let Some(moments) = self.moments() {
             sample.volumes =
-                quadrature::fitted_volumes(&sample.positions, sample.cell_volume, &moments);
+                quadrature::fitted_volumes(&sample.positions, &sample.volumes, &moments);
         }
         sample
     }

@@ -153,25 +153,30 @@ fn integrals(m: &Moments, scale: DVec3) -> [f64; 10] {
 }
 
 /// Phyxel volumes at `points` (object coordinates) that integrate `moments` exactly
-/// (module doc), each within a factor `LARGEST_FACTOR` (4) of `cell_volume`. Where no
-/// such volumes exist: the cell volume scaled so that the volumes sum to the solid's, or
-/// the cell volume itself when even that is further off (a shape much thinner than the
-/// spacing).
-pub fn fitted_volumes(points: &[Vec3], cell_volume: f32, moments: &Moments) -> Vec<f32> {
-    let v0 = cell_volume as f64;
-    let n = points.len();
+/// (module doc), starting from each point's cell volume `cells[i]` (one lattice cell,
+/// or a graded lattice's leaf: [`super::graded`]) and each within a factor
+/// `LARGEST_FACTOR` (4) of it. Where no such volumes exist: the cell volumes scaled so
+/// that they sum to the solid's, or the cell volumes themselves when even that is
+/// further off (a shape much thinner than the spacing).
+///
+/// # Panics
+/// If `cells` does not hold one volume per point.
+pub fn fitted_volumes(points: &[Vec3], cells: &[f32], moments: &Moments) -> Vec<f32> {
+    assert_eq!(points.len(), cells.len(), "one cell volume per point");
+    let largest_cell = cells.iter().fold(0.0f32, |m, &c| m.max(c));
     // Per axis, so that a thin direction's conditions weigh as much as a long one's.
     let scale = points
         .iter()
         .fold(DVec3::ZERO, |m, p| m.max(p.abs().as_dvec3()))
-        .max(DVec3::splat(cell_volume.cbrt() as f64));
+        .max(DVec3::splat(largest_cell.cbrt() as f64));
     let basis: Vec<[f64; 10]> = points
         .iter()
         .map(|p| monomials(p.as_dvec3() / scale))
         .collect();
     let mut gram = [[0.0f64; 10]; 10];
     let mut rhs = integrals(moments, scale);
-    for p in &basis {
+    for (p, &v0) in basis.iter().zip(cells) {
+        let v0 = v0 as f64;
         for a in 0..10 {
             rhs[a] -= v0 * p[a];
             for b in 0..10 {
@@ -180,20 +185,26 @@ pub fn fitted_volumes(points: &[Vec3], cell_volume: f32, moments: &Moments) -> V
         }
     }
     let lambda = pseudo_solve(gram, rhs);
-    let fitted: Vec<f64> = basis
+    // The correction factor `λ·p(xᵢ)` per point.
+    let factor: Vec<f64> = basis
         .iter()
-        .map(|p| v0 * (1.0 + (0..10).map(|a| lambda[a] * p[a]).sum::<f64>()))
+        .map(|p| (0..10).map(|a| lambda[a] * p[a]).sum::<f64>())
         .collect();
-    let within = |v: f64| v >= v0 / LARGEST_FACTOR && v <= v0 * LARGEST_FACTOR;
-    if fitted.iter().all(|&v| (v / v0 - 1.0).abs() < ROUNDING) {
-        return vec![cell_volume; n];
+    if factor.iter().all(|&f| f.abs() < ROUNDING) {
+        return cells.to_vec();
     }
-    if fitted.iter().all(|&v| within(v)) {
-        return fitted.into_iter().map(|v| v as f32).collect();
+    let within = |f: f64| (1.0 / LARGEST_FACTOR..=LARGEST_FACTOR).contains(&f);
+    if factor.iter().all(|&f| within(1.0 + f)) {
+        return cells
+            .iter()
+            .zip(&factor)
+            .map(|(&v0, f)| (v0 as f64 * (1.0 + f)) as f32)
+            .collect();
     }
-    let scaled = moments.volume / n as f64;
-    let v = if within(scaled) { scaled } else { v0 };
-    vec![v as f32; n]
+    let total: f64 = cells.iter().map(|&c| c as f64).sum();
+    let scaled = moments.volume / total;
+    let s = if within(scaled) { scaled } else { 1.0 };
+    cells.iter().map(|&c| (c as f64 * s) as f32).collect()
 }
 
 /// Solves the symmetric positive semi-definite `a x = b` in the eigen-directions of `a`
@@ -261,7 +272,7 @@ mod tests {
             for per in [6.0, 12.0] {
                 let spacing = shape.half_extents().min_element() * 2.0 / per;
                 let s = shape.sample_volume(spacing);
-                let v = fitted_volumes(&s.positions, s.cell_volume, &exact);
+                let v = fitted_volumes(&s.positions, &s.volumes, &exact);
                 let scale = shape.half_extents().as_dvec3();
                 let want = integrals(&exact, scale);
                 let mut got = [0.0; 10];
@@ -301,7 +312,7 @@ mod tests {
         let y0 = s.positions[0].y;
         assert!(s.positions.iter().all(|p| p.y == y0), "one layer");
         let exact = plate.moments().unwrap();
-        let v = fitted_volumes(&s.positions, s.cell_volume, &exact);
+        let v = fitted_volumes(&s.positions, &s.volumes, &exact);
         let total: f64 = v.iter().map(|&w| w as f64).sum();
         assert!(
             (total / exact.volume - 1.0).abs() < 1e-5,
@@ -312,7 +323,7 @@ mod tests {
             size: [0.4, 0.002, 0.3],
         };
         let s = sheet.sample_volume(0.01);
-        let v = fitted_volumes(&s.positions, s.cell_volume, &sheet.moments().unwrap());
+        let v = fitted_volumes(&s.positions, &s.volumes, &sheet.moments().unwrap());
         assert!(v.iter().all(|&w| w == s.cell_volume));
     }
 }

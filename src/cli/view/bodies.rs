@@ -146,6 +146,7 @@ pub(super) fn add_body(world: &mut World, at: Vec3, name: &str, tool: bool) -> R
         velocity: [0.0; 3],
         material,
         fixed: Vec::new(),
+        refine: Vec::new(),
         load: [0.0; 3],
         load_ramp: 0.0,
         self_collision: false,
