@@ -42,6 +42,64 @@ impl Scene {
         Ok(world)
     }
 
+    /// Turns each `refine` zone `near` an object into a box in its object's coordinates:
+    /// the named object's bounding box at the start (`placed`: shapes and placements),
+    /// grown by `distance`, seen from the object's frame (the box of its corners).
+    fn place_near_zones(
+        &self,
+        specs: &mut [(ObjectSpec, String)],
+        placed: &[(Shape, (Quat, Vec3))],
+        origin: &str,
+    ) -> Result<(), SceneError> {
+        let named = |j: usize| match self.objects[j].name.as_str() {
+            "" => format!("object{j}"),
+            name => name.to_string(),
+        };
+        for k in 0..specs.len() {
+            let (rot, pos) = placed[k].1;
+            let half = placed[k].0.half_extents();
+            for r in 0..specs[k].0.refine.len() {
+                let zone = &mut specs[k].0.refine[r];
+                let Some(near) = zone.near.take() else {
+                    continue;
+                };
+                let distance = zone.distance.take().unwrap_or(0.0);
+                let Some(j) = (0..placed.len()).find(|&j| j != k && named(j) == near) else {
+                    continue; // `Scene::validate` names the mistake.
+                };
+                let (other, (other_rot, other_pos)) = &placed[j];
+                let h = other.half_extents();
+                let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+                for c in 0..8 {
+                    let corner = Vec3::new(
+                        if c & 1 == 0 { -h.x } else { h.x },
+                        if c & 2 == 0 { -h.y } else { h.y },
+                        if c & 4 == 0 { -h.z } else { h.z },
+                    );
+                    let local = rot.inverse() * (*other_rot * corner + *other_pos - pos);
+                    lo = lo.min(local);
+                    hi = hi.max(local);
+                }
+                let grow = Vec3::splat(distance);
+                let (lo, hi) = (lo - grow, hi + grow);
+                // Cells within the zone's band of it are refined too (`shape::graded`).
+                let band = crate::body::shape::graded::GRADE * specs[k].0.spacing;
+                let gap = (lo - half).max(-half - hi).max_element();
+                if !(lo.is_finite() && hi.is_finite()) || gap > band {
+                    return Err(SceneError(format!(
+                        "{origin}: objects[{k}].refine[{r}]: near = {near:?} with distance \
+                         {distance}: that object's box at the start ({lo} to {hi} in this \
+                         object's coordinates) does not reach this object's (half extents \
+                         {half}): nothing to refine; a larger distance reaches it"
+                    )));
+                }
+                zone.min = Some(lo.to_array());
+                zone.max = Some(hi.to_array());
+            }
+        }
+        Ok(())
+    }
+
     /// Samples each object with its backend (overrides applied), then checks that no two
     /// start overlapping; returns them with the build's warnings.
     fn build_objects(
@@ -86,6 +144,7 @@ impl Scene {
             };
             specs.push((spec, backend));
         }
+        self.place_near_zones(&mut specs, &placed, origin)?;
         check_memory(&specs, opts, origin)?;
         for (k, (spec, backend)) in specs.into_iter().enumerate() {
             let mut obj = spec
@@ -514,6 +573,20 @@ impl ObjectSpec {
             crate::backends::mls::implicit::NAME,
         ];
         let grading = self.grading(spacing)?;
+        let graded_backends = [
+            crate::backends::mls::NAME,
+            crate::backends::mls::implicit::NAME,
+            crate::backends::KINEMATIC,
+            "static",
+        ];
+        if grading.is_some() && !graded_backends.contains(&backend) {
+            return Err(format!(
+                "refine: backend {backend} (from --backend) models a uniform lattice: \
+                 graded sampling needs {} or {}",
+                crate::backends::mls::NAME,
+                crate::backends::mls::implicit::NAME
+            ));
+        }
         let (vol, phyxel_levels) = match &grading {
             Some(g) => {
                 let (v, levels) = shape.sample_volume_graded(g);

@@ -15,6 +15,37 @@ impl Scene {
                 .map_err(|m| err(&format!("{at}.name"), m))?;
             o.check()
                 .map_err(|(key, m)| err(&format!("{at}.{key}"), m))?;
+            self.check_near(k)
+                .map_err(|(key, m)| err(&format!("{at}.{key}"), m))?;
+        }
+        Ok(())
+    }
+
+    /// A `refine` zone `near` an object names another object of the scene.
+    fn check_near(&self, k: usize) -> Result<(), KeyError> {
+        let named = |j: usize| match self.objects[j].name.as_str() {
+            "" => format!("object{j}"),
+            name => name.to_string(),
+        };
+        for (r, zone) in self.objects[k].refine.iter().enumerate() {
+            let Some(near) = &zone.near else { continue };
+            if !(0..self.objects.len()).any(|j| j != k && named(j) == *near) {
+                let others: Vec<String> = (0..self.objects.len())
+                    .filter(|&j| j != k)
+                    .map(named)
+                    .collect();
+                return at(
+                    &format!("refine[{r}].near"),
+                    format!(
+                        "near = {near:?}: no other object is called so (the others: {})",
+                        if others.is_empty() {
+                            "none".to_string()
+                        } else {
+                            others.join(", ")
+                        }
+                    ),
+                );
+            }
         }
         Ok(())
     }
@@ -361,22 +392,46 @@ impl ObjectSpec {
                     "min, max, centre and radius must be finite numbers".into(),
                 );
             }
-            let Some(zone) = r.zone() else {
+            if r.near.is_some() || r.distance.is_some() {
+                let alone = r.min.is_none()
+                    && r.max.is_none()
+                    && r.centre.is_none()
+                    && r.radius.is_none()
+                    && r.near.is_some();
+                if !alone {
+                    return at(
+                        &key,
+                        "`near` (with an optional `distance`) replaces a box or a sphere: \
+                         give one of them"
+                            .into(),
+                    );
+                }
+                if let Some(d) = r.distance
+                    && !(d.is_finite() && d >= 0.0)
+                {
+                    return at(
+                        &format!("{key}.distance"),
+                        format!("distance = {d}: must be a finite number >= 0"),
+                    );
+                }
+            }
+            let zone = r.zone();
+            if zone.is_none() && r.near.is_none() {
                 return at(
                     &key,
-                    "give a box (`min` and `max`) or a sphere (`centre` and `radius`), \
-                     not both nor parts of one"
+                    "give a box (`min` and `max`), a sphere (`centre` and `radius`) or \
+                     `near` an object, not both nor parts of one"
                         .into(),
                 );
-            };
+            }
             match zone {
-                graded::Zone::Box { min, max } if min.cmpgt(max).any() => {
+                Some(graded::Zone::Box { min, max }) if min.cmpgt(max).any() => {
                     return at(
                         &key,
                         format!("min = {min}, max = {max}: min must not exceed max"),
                     );
                 }
-                graded::Zone::Sphere { radius, .. } if radius <= 0.0 => {
+                Some(graded::Zone::Sphere { radius, .. }) if radius <= 0.0 => {
                     return at(&key, format!("radius = {radius}: must be > 0"));
                 }
                 _ => {}
@@ -413,7 +468,10 @@ impl ObjectSpec {
                     );
                 }
             }
-            if zone.distance_to_box(-half, half) > 0.0 {
+            // A `near` zone is placed, and checked so, by the build.
+            if let Some(zone) = zone
+                && zone.distance_to_box(-half, half) > 0.0
+            {
                 return at(
                     &key,
                     format!(

@@ -246,6 +246,12 @@ pub struct Refine {
     pub centre: Option<[f32; 3]>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub radius: Option<f32>,
+    /// Instead of a box or sphere: the named object's bounding box at the start, grown
+    /// by `distance` (m, default 0), as a box in this object's coordinates.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub near: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub distance: Option<f32>,
     /// Phyxel spacing inside the zone (m).
     pub spacing: f32,
 }
@@ -258,6 +264,8 @@ impl Refine {
             max: Some(max),
             centre: None,
             radius: None,
+            near: None,
+            distance: None,
             spacing,
         }
     }
@@ -270,13 +278,33 @@ impl Refine {
             max: None,
             centre: Some(centre),
             radius: Some(radius),
+            near: None,
+            distance: None,
             spacing,
         }
     }
 
-    /// The zone, once checked (`ObjectSpec::validate`): a box or a sphere.
+    /// The zone within `distance` (m) of object `name`'s bounding box at the start,
+    /// sampled at `spacing`.
+    pub fn near(name: &str, distance: f32, spacing: f32) -> Self {
+        Refine {
+            min: None,
+            max: None,
+            centre: None,
+            radius: None,
+            near: Some(name.to_string()),
+            distance: Some(distance),
+            spacing,
+        }
+    }
+
+    /// The zone, once checked (`ObjectSpec::validate`): a box or a sphere (`None` for a
+    /// `near` zone until the build places it).
     pub fn zone(&self) -> Option<crate::body::shape::graded::Zone> {
         use crate::body::shape::graded::Zone;
+        if self.near.is_some() || self.distance.is_some() {
+            return None;
+        }
         match (self.min, self.max, self.centre, self.radius) {
             (Some(min), Some(max), None, None) => Some(Zone::Box {
                 min: min.into(),

@@ -694,3 +694,59 @@ fn refine_zones_are_checked_and_build_a_graded_body() {
     assert!(o.phyxel_spacing < 0.7 * u.phyxel_spacing);
     assert!(o.surfel_spacing < 0.7 * u.surfel_spacing);
 }
+
+/// A `refine` zone `near` another object: the named object's box at the start, in the
+/// refined object's coordinates; a name that is not another object's, and a zone that
+/// mixes `near` with a box, are refused naming the key.
+#[test]
+fn refine_near_an_object_refines_where_it_rests() {
+    let scene = |refine: &str| {
+        format!(
+            "name = \"x\"\n[[objects]]\nname = \"ground\"\nstatic = true\nshape = {{ type = \"plane\", size = [1.0, 1.0] }}\nspacing = 0.02\n[[objects]]\nname = \"ball\"\nshape = {{ type = \"sphere\", radius = 0.1 }}\nspacing = 0.02\nposition = [0.0, 0.101, 0.0]\nrotation = [90.0, 0.0, 0.0]\nrefine = [{refine}]\n"
+        )
+    };
+    for (refine, want) in [
+        ("{ near = \"nothing\", spacing = 0.01 }", "no other object"),
+        ("{ near = \"ball\", spacing = 0.01 }", "no other object"),
+        (
+            "{ near = \"ground\", min = [0.0, 0.0, 0.0], max = [1.0, 1.0, 1.0], spacing = 0.01 }",
+            "replaces a box",
+        ),
+        (
+            "{ near = \"ground\", distance = -1.0, spacing = 0.01 }",
+            "distance",
+        ),
+    ] {
+        let e = Scene::parse(&scene(refine), "x.toml").unwrap_err().0;
+        assert!(e.contains("refine[0]") && e.contains(want), "{refine}: {e}");
+    }
+    let s = Scene::parse(
+        &scene("{ near = \"ground\", distance = 0.02, spacing = 0.01 }"),
+        "x.toml",
+    )
+    .unwrap();
+    let w = s.build(&BuildOptions::default()).unwrap();
+    let ball = &w.objects[1];
+    assert!(ball.graded);
+    // The finest phyxels (those under the finest level's mean spacing) lie at the
+    // bottom, within the zone's reach of the ground (2 cm plus the grading band).
+    let p = &ball.phyxels;
+    let fine: Vec<f32> = (0..p.len())
+        .filter(|&i| p.spacing[i] < 0.75 * 0.02)
+        .map(|i| p.pos.y[i])
+        .collect();
+    assert!(!fine.is_empty());
+    assert!(
+        fine.iter().all(|&y| y < 0.101 - 0.1 + 0.02 + 0.06),
+        "{fine:?}"
+    );
+    let far = Scene::parse(
+        &scene("{ near = \"ground\", spacing = 0.01 }").replace("0.101, 0.0]", "0.5, 0.0]"),
+        "x.toml",
+    )
+    .unwrap()
+    .build(&BuildOptions::default())
+    .unwrap_err()
+    .0;
+    assert!(far.contains("does not reach"), "{far}");
+}

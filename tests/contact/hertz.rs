@@ -272,7 +272,14 @@ fn hertz_graded() {
     println!("| sampling | phyxels | dt (s) | wall (s) | force | a | p₀ | profile RMS |");
     println!("|---|---|---|---|---|---|---|---|");
     let mut uniform_counts = Vec::new();
-    for (per, fine) in [(8.0, None), (8.0, Some(16.0)), (16.0, None)] {
+    for (per, fine) in [
+        (8.0, None),
+        (8.0, Some(16.0)),
+        (16.0, None),
+        (8.0, Some(32.0)),
+        (16.0, Some(32.0)),
+        (32.0, None),
+    ] {
         let c = HertzCase {
             refined_per_radius: fine,
             ..case(0.1, 1.0e5, 0.3, per)

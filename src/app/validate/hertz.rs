@@ -122,6 +122,8 @@ pub fn hertz_plane_scene(case: &HertzCase, load: f64) -> Scene {
         r#"
         name = "hertz-plane"
         gravity = [0.0, 0.0, 0.0]
+        # Measured at rest: a sleeping body's contact is not evaluated.
+        sleep = false
         {resampled}
         [[objects]]
         name = "plane"
