@@ -573,6 +573,9 @@ impl ObjectSpec {
             crate::backends::mls::implicit::NAME,
         ];
         let grading = self.grading(spacing)?;
+        if let Some(g) = &grading {
+            graded_surfel_work(&shape, surfel_spacing, g)?;
+        }
         let graded_backends = [
             crate::backends::mls::NAME,
             crate::backends::mls::implicit::NAME,
@@ -706,6 +709,23 @@ impl ObjectSpec {
         }
         Ok(object)
     }
+}
+
+/// Refuses a grading whose surfel sampling would exceed [`MAX_SURFELS`]: each level's
+/// surfels are drawn over the whole surface at that level's spacing, then cut to the
+/// level's leaves (`Shape::sample_surface_graded`), so the finest level costs the whole
+/// surface at its spacing, however small its zone.
+fn graded_surfel_work(shape: &Shape, surfel_spacing: f32, grading: &Grading) -> Result<(), String> {
+    let finest = surfel_spacing as f64 / (1u64 << grading.finest_level()) as f64;
+    let drawn = shape.area() as f64 / (finest * finest);
+    if drawn > MAX_SURFELS as f64 {
+        return Err(format!(
+            "refine: the finest zone's surfels ({finest:.3e} m apart) are drawn over the \
+             whole surface before the zone is cut out: about {drawn:.2e}, more than the \
+             limit of {MAX_SURFELS}; a coarser zone `spacing` or `surfel_spacing`"
+        ));
+    }
+    Ok(())
 }
 
 /// Edge length of the primitives' output meshes, in surfel spacings: a sphere's mesh

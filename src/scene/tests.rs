@@ -693,6 +693,19 @@ fn refine_zones_are_checked_and_build_a_graded_body() {
     assert!((o.phyxels.total_mass() / exact - 1.0).abs() < 1e-4);
     assert!(o.phyxel_spacing < 0.7 * u.phyxel_spacing);
     assert!(o.surfel_spacing < 0.7 * u.surfel_spacing);
+    // A tiny zone 64× finer still draws the whole surface at its surfel spacing: refused
+    // before sampling (5e8 surfels), naming the key.
+    let e = Scene::parse(
+        &object(
+            "surfel_spacing = 0.001\nrefine = [{ centre = [0.0, -0.1, 0.0], radius = 0.001, spacing = 0.0003125 }]",
+        ),
+        "x.toml",
+    )
+    .unwrap()
+    .build(&BuildOptions::default())
+    .unwrap_err()
+    .0;
+    assert!(e.contains("refine") && e.contains("drawn over"), "{e}");
 }
 
 /// A `refine` zone `near` another object: the named object's box at the start, in the

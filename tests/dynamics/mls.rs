@@ -40,6 +40,27 @@ fn ball(material: &Material) -> (Phyxels, MlsDynamics) {
     (p, m)
 }
 
+/// A graded sphere (`shape::graded`): 0.02 m spacing, 4× finer within 4 cm of its
+/// bottom, with the shape's grading for its surfels.
+fn graded_ball() -> (
+    phyxel::body::shape::VolumeSample,
+    phyxel::body::shape::graded::Grading,
+) {
+    use phyxel::body::shape::graded::{Grading, Refinement, Zone};
+    let grading = Grading {
+        base: 0.02,
+        zones: vec![Refinement {
+            zone: Zone::Sphere {
+                centre: Vec3::new(0.0, -0.1, 0.0),
+                radius: 0.04,
+            },
+            spacing: 0.005,
+        }],
+    };
+    let (v, _) = Shape::Sphere { radius: 0.1 }.sample_volume_graded(&grading);
+    (v, grading)
+}
+
 fn deform(p: &mut Phyxels, f: impl Fn(Vec3) -> Vec3) {
     for i in 0..p.len() {
         let x = f(p.rest.get(i));
@@ -52,13 +73,21 @@ fn max_abs(m: Mat3) -> f32 {
 }
 
 /// MLS is first-order consistent (Müller et al. 2004, eq. 7): for a random affine
-/// displacement `u = B x + c`, the gradient equals B at every phyxel, boundary included.
-/// Tolerance: 1e-4 relative to |B| (f32 arithmetic).
+/// displacement `u = B x + c`, the gradient equals B at every phyxel, boundary included,
+/// on a box, a sphere and a graded sphere (three levels, each phyxel with its own
+/// spacing and influence radius). Tolerance: 1e-4 relative to |B| (f32 arithmetic).
 #[test]
 fn affine_fields_give_exact_gradient() {
     let mat = Material::default();
     let mut rng = Rng(0x9E37_79B9_7F4A_7C15);
-    for (mut p, mut m) in [block(&mat), ball(&mat)] {
+    let graded = {
+        let (v, _) = graded_ball();
+        let p = Phyxels::at_rest(&v.positions, v.cell_volume, mat.density)
+            .with_volumes(&v.volumes, mat.density);
+        let m = MlsDynamics::new(&p, &mat);
+        (p, m)
+    };
+    for (mut p, mut m) in [block(&mat), ball(&mat), graded] {
         assert_eq!(
             m.ill_conditioned(),
             0,
@@ -274,16 +303,29 @@ fn coplanar_neighbourhoods_are_detected_and_handled() {
 /// Surfel advection reproduces an affine motion exactly: with phyxels at `x = F x₀ + c`,
 /// every surfel lands at `F s₀ + c` (to 1e-4 of the radius, f32 positions) and its normal at
 /// `normalize(F⁻ᵀ n₀)` (to 1e-4), since `u(s) = Σ w (u_i + ∇u_i (s₀ − x₀ᵢ))` is exact for
-/// affine fields (Müller et al. 2004, §5).
+/// affine fields (Müller et al. 2004, §5). On a uniform and a graded sphere (surfels of
+/// three disk radii over phyxels of three spacings).
 #[test]
 fn surfels_follow_affine_motion_exactly() {
+    let shape = Shape::Sphere { radius: 0.1 };
+    let (vol, surf) = (shape.sample_volume(0.02), shape.sample_surface(0.01));
+    affine_advection(&vol, &surf);
+    let (vol, grading) = graded_ball();
+    let (surf, levels) = shape.sample_surface_graded(0.01, &grading);
+    assert_eq!(levels.iter().max(), Some(&2));
+    affine_advection(&vol, &surf);
+}
+
+/// `surfels_follow_affine_motion_exactly` on one sampling.
+fn affine_advection(
+    vol: &phyxel::body::shape::VolumeSample,
+    surf: &phyxel::body::shape::SurfaceSample,
+) {
     use phyxel::Object;
     use phyxel::points::surfels::Surfels;
     let mat = Material::default();
-    let shape = Shape::Sphere { radius: 0.1 };
-    let vol = shape.sample_volume(0.02);
-    let surf = shape.sample_surface(0.01);
-    let p = Phyxels::at_rest(&vol.positions, vol.cell_volume, mat.density);
+    let p = Phyxels::at_rest(&vol.positions, vol.cell_volume, mat.density)
+        .with_volumes(&vol.volumes, mat.density);
     let s = Surfels::at_rest(&surf.positions, &surf.normals, &surf.radii);
     let dynamics = MlsDynamics::new(&p, &mat);
     let mut obj = Object::new(0, "ball", s, p, mat.clone(), Box::new(dynamics));
