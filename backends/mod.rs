@@ -24,6 +24,11 @@ pub const NAMES: &[&str] = &[mls::NAME, mls::implicit::NAME, sph::NAME, lj::NAME
 /// `plastic_max`); the others treat a plastic material as elastic.
 pub const PLASTIC: &[&str] = &[mls::NAME, mls::implicit::NAME];
 
+/// The backends that take a graded cloud (`refine` zones: phyxels of several spacings);
+/// SPH's kernel and LJ's bonds are defined on one lattice spacing. A `kinematic` tool
+/// moves rigidly, whatever its sampling.
+pub const GRADED: &[&str] = &[mls::NAME, mls::implicit::NAME, KINEMATIC];
+
 /// Creates backend `name` for `phyxels`, or explains which names exist.
 pub fn create(
     name: &str,

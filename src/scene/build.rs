@@ -51,10 +51,7 @@ impl Scene {
         placed: &[(Shape, (Quat, Vec3))],
         origin: &str,
     ) -> Result<(), SceneError> {
-        let named = |j: usize| match self.objects[j].name.as_str() {
-            "" => format!("object{j}"),
-            name => name.to_string(),
-        };
+        let named = |j: usize| self.object_name(j);
         for k in 0..specs.len() {
             let (rot, pos) = placed[k].1;
             let half = placed[k].0.half_extents();
@@ -576,13 +573,7 @@ impl ObjectSpec {
         if let Some(g) = &grading {
             graded_surfel_work(&shape, surfel_spacing, g)?;
         }
-        let graded_backends = [
-            crate::backends::mls::NAME,
-            crate::backends::mls::implicit::NAME,
-            crate::backends::KINEMATIC,
-            "static",
-        ];
-        if grading.is_some() && !graded_backends.contains(&backend) {
+        if grading.is_some() && !self.is_static && !backends::GRADED.contains(&backend) {
             return Err(format!(
                 "refine: backend {backend} (from --backend) models a uniform lattice: \
                  graded sampling needs {} or {}",

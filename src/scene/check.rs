@@ -21,12 +21,17 @@ impl Scene {
         Ok(())
     }
 
-    /// A `refine` zone `near` an object names another object of the scene.
-    fn check_near(&self, k: usize) -> Result<(), KeyError> {
-        let named = |j: usize| match self.objects[j].name.as_str() {
+    /// Object `j`'s name as the world gives it: its `name`, or `object<j>`.
+    pub(super) fn object_name(&self, j: usize) -> String {
+        match self.objects[j].name.as_str() {
             "" => format!("object{j}"),
             name => name.to_string(),
-        };
+        }
+    }
+
+    /// A `refine` zone `near` an object names another object of the scene.
+    fn check_near(&self, k: usize) -> Result<(), KeyError> {
+        let named = |j: usize| self.object_name(j);
         for (r, zone) in self.objects[k].refine.iter().enumerate() {
             let Some(near) = &zone.near else { continue };
             if !(0..self.objects.len()).any(|j| j != k && named(j) == *near) {
@@ -88,10 +93,7 @@ impl Scene {
                 o.name
             ));
         }
-        let named = |j: usize| match self.objects[j].name.as_str() {
-            "" => format!("object{j}"),
-            name => name.to_string(),
-        };
+        let named = |j: usize| self.object_name(j);
         let name = named(k);
         let Some(first) = (0..k).find(|&j| named(j) == name) else {
             return Ok(());
@@ -366,12 +368,7 @@ impl ObjectSpec {
             );
         }
         let backend = self.backend_name();
-        let graded = [
-            backends::mls::NAME,
-            backends::mls::implicit::NAME,
-            backends::KINEMATIC,
-        ];
-        if !self.is_static && !graded.contains(&backend) {
+        if !self.is_static && !backends::GRADED.contains(&backend) {
             return at(
                 "refine",
                 format!(

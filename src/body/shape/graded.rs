@@ -116,8 +116,8 @@ impl Grading {
         }
     }
 
-    /// Level of the leaf containing `x`, the base cells those of a lattice whose cell
-    /// centres are `axes` (a point beyond the lattice is taken at its nearest cell).
+    /// Level of the leaf containing `x`, the base cells tiling
+    /// `[−half_lattice, half_lattice]` (a point beyond them is taken at the nearest).
     fn level_at(&self, x: Vec3, half_lattice: Vec3) -> u32 {
         // The base cell containing x: cells tile [−half_lattice, half_lattice].
         let b = self.base;
