@@ -582,10 +582,7 @@ impl ObjectSpec {
             ));
         }
         let (vol, phyxel_levels) = match &grading {
-            Some(g) => {
-                let (v, levels) = shape.sample_volume_graded(g);
-                (v, levels)
-            }
+            Some(g) => shape.sample_volume_graded(g),
             None if nodal.contains(&backend) => (shape.sample_volume_nodal(spacing), Vec::new()),
             None => (shape.sample_volume(spacing), Vec::new()),
         };
