@@ -91,6 +91,11 @@ impl LaneSums {
         let q = d2 * load8(&rows.inv_sigma2, k);
         // Beyond the cutoff (and ∞ or NaN from a zero radius) weigh 0.
         let on = lane_mask(mask) & q.simd_lt(f32x8::splat(CUTOFF_SIGMAS * CUTOFF_SIGMAS));
+        // A group wholly beyond its kernels adds nothing: on a graded body most groups
+        // of a fine region lie within the coarse kernels' reach but beyond their own.
+        if on.none() {
+            return;
+        }
         let w = on.select(exp_neg(q), f32x8::ZERO);
         self.w += w;
         for ((s, n), (p, nc)) in self
