@@ -543,23 +543,56 @@ fn disjoint_objects_cost_no_narrow_phase() {
     assert_eq!(world.record.max_penetration, 0.0);
 }
 
+/// A sphere of radius `r` sampled at `spacing`, and the same sphere graded: surfels at
+/// `spacing` within 0.06 m of (r, 0, 0) and 4× coarser far from it (the kernels'
+/// cutoffs then differ fourfold, so a query in the fine region reads only as far as
+/// its own kernels reach: `SurfelRows::reach_near`).
+fn uniform_and_graded(r: f32, spacing: f32) -> [Sampled; 2] {
+    use phyxel::body::shape::graded::{Grading, Refinement, Zone};
+    let shape = Shape::Sphere { radius: r };
+    let grading = Grading {
+        base: 4.0 * spacing,
+        zones: vec![Refinement {
+            zone: Zone::Sphere {
+                centre: Vec3::new(r, 0.0, 0.0),
+                radius: 0.06,
+            },
+            spacing,
+        }],
+    };
+    let (graded, _) = shape.sample_surface_graded(4.0 * spacing, &grading);
+    [Sampled::new(&shape, spacing), Sampled::of(graded)]
+}
+
 /// The SIMD kernel sums of the implicit surface (each lane group of the grid query
-/// with a hit: eight weights by a lane-wise `exp`, added into lane sums) against the scalar
-/// reference (`weighted_sums_scalar`: the scalar grid query, libm `exp`, one hit at a
-/// time), at 2000 points within ±1.5 spacings of a sampled sphere (R = 0.1 m, spacing 3.5 mm). Tolerance: relative 1e-5 of Σθ and of
-/// |Σθ s|, |Σθ n| (f32 summation order and `exp` rounding differ, nothing else).
+/// with a hit: eight weights by a lane-wise `exp`, added into lane sums, read as far as
+/// the kernels near the point reach) against the scalar reference
+/// (`weighted_sums_scalar`: the scalar grid query to the widest kernel's reach, libm
+/// `exp`, one hit at a time), at 2000 points within ±1.5 spacings of a sampled sphere
+/// (R = 0.1 m, spacing 3.5 mm), uniform and graded ([`uniform_and_graded`]; half the
+/// points near the fine region). Tolerance: relative 1e-5 of Σθ and of |Σθ s|, |Σθ n|
+/// (f32 summation order and `exp` rounding differ, nothing else).
 #[test]
 fn simd_kernel_sums_match_scalar_reference() {
     let r = 0.1;
     let spacing = 0.0035;
-    let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);
+    for (k, sampled) in uniform_and_graded(r, spacing).iter().enumerate() {
+        kernel_sums_match_scalar(sampled, r, spacing, k == 1);
+    }
+}
+
+fn kernel_sums_match_scalar(sampled: &Sampled, r: f32, spacing: f32, graded: bool) {
     let rows = sampled.rows();
     let surface = sampled.surface().with_rows(&rows);
     let reference = sampled.surface();
     let mut rng = Rng(7);
     let mut compared = 0;
-    for _ in 0..2000 {
-        let x = rng.dir() * (r + 1.5 * spacing * rng.next());
+    for k in 0..2000 {
+        let mut d = rng.dir();
+        if graded && k % 2 == 0 {
+            d = (d * 0.3 + Vec3::X).normalize();
+        }
+        let x = d * (r + 1.5 * spacing * rng.next());
         let (w, s, n) = surface.weighted_sums(x);
         let (w0, s0, n0) = phyxel::testing::weighted_sums_scalar(&reference, x);
         assert!(
@@ -580,25 +613,34 @@ fn simd_kernel_sums_match_scalar_reference() {
 }
 
 /// Samples from kept hits (`SurfaceField::sample_near_kept`, as Brent's evaluations
-/// take them) against fresh `sample_near` queries, on the sphere of the test above: at
+/// take them) against fresh `sample_near` queries, on the spheres of the test above: at
 /// 2000 random points, each followed by points 0.2, 1 and 1.9% of a kernel reach away
 /// (within `NEAR_HITS_SLACK` = 2%: read from the kept hits) and one 5% away (a fresh
 /// query). Tolerance: `f` within 1e-6 m and normals within 1e-5 (summation order only),
 /// and `None` exactly where `sample_near` gives `None`.
 #[test]
 fn kept_hits_sample_like_fresh_queries() {
-    use phyxel::contact::field::NearHits;
     let r = 0.1;
     let spacing = 0.0035;
-    let sampled = Sampled::new(&Shape::Sphere { radius: r }, spacing);
+    for (k, sampled) in uniform_and_graded(r, spacing).iter().enumerate() {
+        kept_hits_sample_like_fresh(sampled, r, spacing, k == 1);
+    }
+}
+
+fn kept_hits_sample_like_fresh(sampled: &Sampled, r: f32, spacing: f32, graded: bool) {
+    use phyxel::contact::field::NearHits;
     let rows = sampled.rows();
     let surface = sampled.surface().with_rows(&rows);
     let reach = surface.reach();
     let mut rng = Rng(11);
     let mut kept = NearHits::default();
     let mut compared = 0;
-    for _ in 0..2000 {
-        let x0 = rng.dir() * (r + 2.0 * spacing * rng.next());
+    for k in 0..2000 {
+        let mut d = rng.dir();
+        if graded && k % 2 == 0 {
+            d = (d * 0.3 + Vec3::X).normalize();
+        }
+        let x0 = d * (r + 2.0 * spacing * rng.next());
         let step = rng.dir();
         for frac in [0.0, 0.002, 0.01, 0.019, 0.05] {
             let x = x0 + frac * reach * step;

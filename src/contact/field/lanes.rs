@@ -40,6 +40,9 @@ pub struct SurfelRows {
     normal: [Vec<f32>; 3],
     /// `1/σ²`: the weight's exponent is a product, not a division (∞ for a zero radius).
     inv_sigma2: Vec<f32>,
+    /// Per grid bucket, the widest cutoff `CUTOFF_SIGMAS σ` of its surfels (m): a query
+    /// reads only as far as the kernels near it reach ([`SurfelRows::reach_near`]).
+    bucket_reach: Vec<f32>,
 }
 
 impl SurfelRows {
@@ -63,6 +66,28 @@ impl SurfelRows {
             let sigma = SIGMA_PER_RADIUS * radius[i];
             *w = 1.0 / (sigma * sigma);
         }
+        let starts = grid.bucket_starts();
+        let inv_sigma2 = &self.inv_sigma2;
+        self.bucket_reach.clear();
+        self.bucket_reach.extend(starts.windows(2).map(|b| {
+            let widest = inv_sigma2[b[0] as usize..b[1] as usize]
+                .iter()
+                .fold(f32::INFINITY, |a, &w| a.min(w));
+            // ∞ (an empty bucket, or zero radii) reaches nothing. Widened past the
+            // rounding of `add`'s cutoff test.
+            CUTOFF_SIGMAS / widest.sqrt() * (1.0 + 1.0e-5)
+        }));
+    }
+
+    /// How far from `x` a kernel of `grid`'s surfels (those these rows were rebuilt
+    /// from) can weigh: the widest cutoff among the surfels a query of radius `reach`
+    /// (every kernel's cutoff or more) would read, at most `reach`. A graded surface's
+    /// fine region is read as far as its own kernels reach, not its coarse ones': the
+    /// sums are the same, since a surfel beyond its own cutoff weighs nothing.
+    #[inline]
+    pub fn reach_near(&self, grid: &Grid, x: Vec3, reach: f32) -> f32 {
+        grid.max_over_query_buckets(x, reach, &self.bucket_reach)
+            .map_or(reach, |r| r.min(reach))
     }
 }
 

@@ -405,10 +405,10 @@ impl<'a> SurfaceField<'a> {
         };
         let points = self.grid.sorted_points();
         let mut sums = LaneSums::default();
-        self.grid
-            .for_each_lanes_within(x, self.reach, |k, mask, d2| {
-                sums.add(points, rows, k, mask, d2);
-            });
+        let reach = rows.reach_near(self.grid, x, self.reach);
+        self.grid.for_each_lanes_within(x, reach, |k, mask, d2| {
+            sums.add(points, rows, k, mask, d2);
+        });
         sums.totals()
     }
 
@@ -432,15 +432,19 @@ impl<'a> SurfaceField<'a> {
                 sums.add(points, rows, k, mask, LaneSums::d2(points, k, x));
             }
         } else {
-            // Hits between `reach` and `wide` weigh 0 here (beyond every cutoff).
+            // The widest kernel that can weigh anywhere within the slack of `x`: the
+            // groups kept hold every surfel within its reach of such a point. Hits beyond
+            // `reach` weigh 0 here (beyond their cutoffs).
+            let reach = rows.reach_near(self.grid, x, wide).min(self.reach);
             let mut len = 0;
-            self.grid.for_each_lanes_within(x, wide, |k, mask, d2| {
-                sums.add(points, rows, k, mask, d2);
-                if let Some(slot) = hits.groups.get_mut(len) {
-                    *slot = (k as u32, mask);
-                }
-                len += 1;
-            });
+            self.grid
+                .for_each_lanes_within(x, reach + slack, |k, mask, d2| {
+                    sums.add(points, rows, k, mask, d2);
+                    if let Some(slot) = hits.groups.get_mut(len) {
+                        *slot = (k as u32, mask);
+                    }
+                    len += 1;
+                });
             hits.centre = x;
             hits.len = if len <= NEAR_HITS { len } else { usize::MAX };
         }

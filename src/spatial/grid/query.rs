@@ -336,6 +336,31 @@ impl Grid {
         }
     }
 
+    /// The largest `per_bucket[b]` over the buckets of the cells that a query of
+    /// radius `r` at `x` reads ([`Grid::for_each_lanes_within`]), so over every point
+    /// that query could report; `None` when it reads no cell or scans every point.
+    /// `per_bucket` has one entry per bucket ([`Grid::bucket_starts`]).
+    pub fn max_over_query_buckets(&self, x: Vec3, r: f32, per_bucket: &[f32]) -> Option<f32> {
+        let Query::Rows { lo, hi, .. } = self.plan::<true>(x, r) else {
+            return None;
+        };
+        let mut most = 0.0f32;
+        for cz in lo[2]..=hi[2] {
+            for cy in lo[1]..=hi[1] {
+                for cx in lo[0]..=hi[0] {
+                    most = most.max(per_bucket[hash([cx, cy, cz], self.layout)]);
+                }
+            }
+        }
+        Some(most)
+    }
+
+    /// Where each bucket's points lie in the sorted order: bucket `b` holds sorted
+    /// positions `starts[b]..starts[b + 1]` (one entry more than there are buckets).
+    pub fn bucket_starts(&self) -> &[u32] {
+        &self.start[..self.layout.mask + 2]
+    }
+
     /// The lane groups of sorted positions `s..e` with their distance masks; with
     /// `FILTER`, only points whose cell is in row `(cy, cz)` (rows sharing buckets).
     #[inline(always)]
