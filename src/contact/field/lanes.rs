@@ -43,6 +43,9 @@ pub struct SurfelRows {
     /// Per grid bucket, the widest cutoff `CUTOFF_SIGMAS σ` of its surfels (m): a query
     /// reads only as far as the kernels near it reach ([`SurfelRows::reach_near`]).
     bucket_reach: Vec<f32>,
+    /// Whether some surfel's kernel reaches less than 3/4 as far as the widest: only
+    /// then does reading the buckets near a query pay ([`SurfelRows::reach_near`]).
+    graded: bool,
 }
 
 impl SurfelRows {
@@ -60,15 +63,24 @@ impl SurfelRows {
             col.resize(len, 0.0);
         }
         let columns = nx.iter_mut().zip(ny.iter_mut()).zip(nz.iter_mut());
+        let (mut narrowest, mut widest) = (0.0f32, f32::INFINITY);
         for ((((x, y), z), w), &i) in columns.zip(self.inv_sigma2.iter_mut()).zip(sorted) {
             let i = i as usize;
             (*x, *y, *z) = (normal.x[i], normal.y[i], normal.z[i]);
             let sigma = SIGMA_PER_RADIUS * radius[i];
             *w = 1.0 / (sigma * sigma);
+            if w.is_finite() {
+                (narrowest, widest) = (narrowest.max(*w), widest.min(*w));
+            }
+        }
+        // Kernels 3/4 as wide (1/σ² 16/9 as large) or more: the query reads its reach.
+        self.graded = narrowest > 16.0 / 9.0 * widest;
+        self.bucket_reach.clear();
+        if !self.graded {
+            return;
         }
         let starts = grid.bucket_starts();
         let inv_sigma2 = &self.inv_sigma2;
-        self.bucket_reach.clear();
         self.bucket_reach.extend(starts.windows(2).map(|b| {
             let widest = inv_sigma2[b[0] as usize..b[1] as usize]
                 .iter()
@@ -81,11 +93,15 @@ impl SurfelRows {
 
     /// How far from `x` a kernel of `grid`'s surfels (those these rows were rebuilt
     /// from) can weigh: the widest cutoff among the surfels a query of radius `reach`
-    /// (every kernel's cutoff or more) would read, at most `reach`. A graded surface's
-    /// fine region is read as far as its own kernels reach, not its coarse ones': the
-    /// sums are the same, since a surfel beyond its own cutoff weighs nothing.
+    /// (every kernel's cutoff or more) would read, at most `reach` (`reach` itself when
+    /// the kernels differ little). A graded surface's fine region is read as far as its
+    /// own kernels reach, not its coarse ones': the sums are the same, since a surfel
+    /// beyond its own cutoff weighs nothing.
     #[inline]
     pub fn reach_near(&self, grid: &Grid, x: Vec3, reach: f32) -> f32 {
+        if !self.graded {
+            return reach;
+        }
         grid.max_over_query_buckets(x, reach, &self.bucket_reach)
             .map_or(reach, |r| r.min(reach))
     }

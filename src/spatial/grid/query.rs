@@ -345,10 +345,13 @@ impl Grid {
             return None;
         };
         let mut most = 0.0f32;
+        let nx = (hi[0] - lo[0]) as usize + 1;
         for cz in lo[2]..=hi[2] {
             for cy in lo[1]..=hi[1] {
-                for cx in lo[0]..=hi[0] {
-                    most = most.max(per_bucket[hash([cx, cy, cz], self.layout)]);
+                // A row's cells are consecutive buckets (see `row_runs`).
+                let b0 = hash([lo[0], cy, cz], self.layout);
+                for b in b0..b0 + nx {
+                    most = most.max(per_bucket[b & self.layout.mask]);
                 }
             }
         }
