@@ -310,3 +310,43 @@ fn hertz_graded() {
         }
     }
 }
+
+/// A rigid sphere indenting a block to a tenth of its radius (`validate::indent`, E =
+/// 1e5 Pa, ν = 0.3, Hertz's force `4/3 E* √R δ^{3/2}` as reference), the block uniform
+/// against graded (refined within three contact radii of the first touch):
+/// `cargo test --release --test contact hertz::indent_graded -- --ignored --nocapture`.
+/// Prints phyxels, wall seconds per simulated second and the force's and patch radius's
+/// errors; asserts finite forces and a graded block's phyxels under half the uniform
+/// one's at its fine spacing.
+#[test]
+#[ignore]
+fn indent_graded() {
+    use phyxel::validate::indent_graded;
+    println!("| block, spacings per contact radius | phyxels | dt (s) | wall (s/s) | force | a |");
+    println!("|---|---|---|---|---|---|");
+    let mut uniform = Vec::new();
+    for (per, fine) in [(4.0, None), (2.0, Some(4.0)), (1.0, Some(4.0))] {
+        let r = indent_graded(per, fine, "mls", None).unwrap();
+        let phyxels = r.run.phyxels;
+        println!(
+            "| {} | {phyxels} | {:.2e} | {:.0} | {:+.1}% | {:+.1}% |",
+            match fine {
+                Some(f) => format!("{per} → {f}"),
+                None => format!("{per}"),
+            },
+            r.run.dt,
+            r.run.seconds_per_step / r.run.dt as f64,
+            100.0 * (r.force / r.hertz - 1.0),
+            100.0 * (r.radius / r.hertz_radius - 1.0),
+        );
+        assert!(r.force.is_finite() && r.force > 0.0);
+        match fine {
+            None => uniform.push((per, phyxels)),
+            Some(f) => {
+                if let Some(&(_, n)) = uniform.iter().find(|u| u.0 == f) {
+                    assert!(phyxels * 2 < n, "{phyxels} graded against {n} uniform");
+                }
+            }
+        }
+    }
+}

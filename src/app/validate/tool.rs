@@ -366,8 +366,29 @@ pub struct Indent {
 /// phyxels under the sphere run away from 2.5 per contact radius on (docs/ACCURACY.md,
 /// "Known limits").
 pub fn indent(per_contact: f64, backend: &str, dt: Option<f32>) -> Result<Indent, String> {
+    indent_graded(per_contact, None, backend, dt)
+}
+
+/// [`indent`] with the block graded: `per_contact` spacings per contact radius at
+/// its base, `refined` (`Some`) within three contact radii of the point the sphere
+/// first touches, the sphere sampled at the fine spacing.
+pub fn indent_graded(
+    per_contact: f64,
+    refined: Option<f64>,
+    backend: &str,
+    dt: Option<f32>,
+) -> Result<Indent, String> {
     let spacing = (indent_contact_radius() / per_contact) as f32;
+    let fine = refined.map_or(spacing, |n| (indent_contact_radius() / n) as f32);
     let (width, depth) = (0.14f32, 0.08f32);
+    let refine = match refined {
+        Some(_) => format!(
+            "refine = [{{ centre = [0.0, {}, 0.0], radius = {}, spacing = {fine} }}]",
+            0.5 * depth,
+            3.0 * indent_contact_radius()
+        ),
+        None => String::new(),
+    };
     let r = INDENT_RADIUS as f32;
     let gap = 1e-4f32;
     let y_sphere = 0.5 * depth + gap + r;
@@ -380,6 +401,7 @@ gravity = [0.0, 0.0, 0.0]
 name = "block"
 shape = {{ type = "box", size = [{width}, {depth}, {width}] }}
 spacing = {spacing}
+{refine}
 influence = 3
 material = {{ young = 1.0e5, poisson = 0.3 }}
 fixed = [{{ min = [-1.0, -1.0, -1.0], max = [1.0, {hold}, 1.0] }}]
@@ -388,7 +410,7 @@ fixed = [{{ min = [-1.0, -1.0, -1.0], max = [1.0, {hold}, 1.0] }}]
 name = "sphere"
 backend = "kinematic"
 shape = {{ type = "sphere", radius = {r} }}
-spacing = {spacing}
+spacing = {fine}
 position = [0.0, {y_sphere}, 0.0]
 velocity = [0.0, -0.01, 0.0]
 material = {{ young = 1.0e9, poisson = 0.3 }}
