@@ -387,20 +387,7 @@ fn early_outside_agrees_with_the_inside_test() {
 /// (1e-6 m on positions, 1e-5 relative on weights), nearest surfels exactly equal.
 #[test]
 fn region_grid_matches_the_whole_surface() {
-    use phyxel::body::shape::graded::{Grading, Refinement, Zone};
-    let shape = Shape::Sphere { radius: R };
-    let grading = Grading {
-        base: 0.02,
-        zones: vec![Refinement {
-            zone: Zone::Sphere {
-                centre: Vec3::new(R, 0.0, 0.0),
-                radius: 0.06,
-            },
-            spacing: 0.005,
-        }],
-    };
-    let (graded, _) = shape.sample_surface_graded(0.01, &grading);
-    for sphere in [Sampled::new(&shape, 0.005), Sampled::of(graded)] {
+    for sphere in uniform_and_graded(R, 0.005, 0.01) {
         region_matches_whole(&sphere);
     }
 }
@@ -543,11 +530,12 @@ fn disjoint_objects_cost_no_narrow_phase() {
     assert_eq!(world.record.max_penetration, 0.0);
 }
 
-/// A sphere of radius `r` sampled at `spacing`, and the same sphere graded: surfels at
-/// `spacing` within 0.06 m of (r, 0, 0) and 4× coarser far from it (the kernels'
-/// cutoffs then differ fourfold, so a query in the fine region reads only as far as
-/// its own kernels reach: `SurfelRows::reach_near`).
-fn uniform_and_graded(r: f32, spacing: f32) -> [Sampled; 2] {
+/// A sphere of radius `r` sampled at `spacing`, and the same sphere graded from a base
+/// 4× coarser to `spacing` within 0.06 m of (r, 0, 0) (two levels), its surfels at
+/// `surfels` on the base level and 4× finer in the zone (the kernels' cutoffs then
+/// differ fourfold, so a query in the fine region reads only as far as its own kernels
+/// reach: `SurfelRows::reach_near`).
+fn uniform_and_graded(r: f32, spacing: f32, surfels: f32) -> [Sampled; 2] {
     use phyxel::body::shape::graded::{Grading, Refinement, Zone};
     let shape = Shape::Sphere { radius: r };
     let grading = Grading {
@@ -560,7 +548,7 @@ fn uniform_and_graded(r: f32, spacing: f32) -> [Sampled; 2] {
             spacing,
         }],
     };
-    let (graded, _) = shape.sample_surface_graded(4.0 * spacing, &grading);
+    let (graded, _) = shape.sample_surface_graded(surfels, &grading);
     [Sampled::new(&shape, spacing), Sampled::of(graded)]
 }
 
@@ -576,7 +564,10 @@ fn uniform_and_graded(r: f32, spacing: f32) -> [Sampled; 2] {
 fn simd_kernel_sums_match_scalar_reference() {
     let r = 0.1;
     let spacing = 0.0035;
-    for (k, sampled) in uniform_and_graded(r, spacing).iter().enumerate() {
+    for (k, sampled) in uniform_and_graded(r, spacing, 4.0 * spacing)
+        .iter()
+        .enumerate()
+    {
         kernel_sums_match_scalar(sampled, r, spacing, k == 1);
     }
 }
@@ -622,7 +613,10 @@ fn kernel_sums_match_scalar(sampled: &Sampled, r: f32, spacing: f32, graded: boo
 fn kept_hits_sample_like_fresh_queries() {
     let r = 0.1;
     let spacing = 0.0035;
-    for (k, sampled) in uniform_and_graded(r, spacing).iter().enumerate() {
+    for (k, sampled) in uniform_and_graded(r, spacing, 4.0 * spacing)
+        .iter()
+        .enumerate()
+    {
         kept_hits_sample_like_fresh(sampled, r, spacing, k == 1);
     }
 }
