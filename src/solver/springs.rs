@@ -52,6 +52,8 @@ pub struct ContactSpring {
     pub a: SpringSide,
     /// `None` when the other side is a static object (it does not move).
     pub b: Option<SpringSide>,
+    /// The object of side b, static or not (index into `World::objects`).
+    pub b_object: u32,
     /// Velocity of side b at the build when its motion is prescribed (a tool, m/s): the
     /// solve takes it as given. `None` for a static side (at rest) and a side that
     /// moves by its own dynamics.
@@ -201,6 +203,7 @@ pub fn build(
                 key,
                 a,
                 b,
+                b_object: second as u32,
                 given,
             });
         }
@@ -223,16 +226,13 @@ pub fn keep_parted(
     max_gap: f32,
     out: &mut ContactSprings,
 ) {
-    // A patch of the pair (against a static side: any patch of side a).
-    let touching = |a: u32, b: Option<SpringSide>| {
+    let touching = |a: u32, b: u32| {
         let involves = |p: &ContactPatch, k: u32| p.a == k as usize || p.b == k as usize;
-        patches
-            .iter()
-            .any(|p| involves(p, a) && b.is_none_or(|b| involves(p, b.object)))
+        patches.iter().any(|p| involves(p, a) && involves(p, b))
     };
     let mean = |s: &SpringSide| last.velocity(s, |j| objects[s.object as usize].phyxels.vel.get(j));
     for sp in &last.springs {
-        if touching(sp.a.object, sp.b) {
+        if touching(sp.a.object, sp.b_object) {
             continue;
         }
         let rel = mean(&sp.a) - sp.b.as_ref().map_or(Vec3::ZERO, mean);

@@ -317,3 +317,68 @@ fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
         assert!(s.max_residual < 0.1, "{}: {s:?}", o.name);
     }
 }
+
+/// Two soft boxes set side by side on a static plane, overlapping each other by 2 mm, on
+/// `mls-implicit`: when a box's contact with the plane has no patch for a step (the box
+/// lifts off by a hair) while it still touches the other box, its springs against the
+/// plane are kept as gaps (`solver::springs::keep_parted`), exactly as when it touches
+/// nothing else, so that it is caught where the surfaces meet rather than landing in a
+/// full overlap (a block rocking against a wall in `pile-20` gained energy at each
+/// return). Reference: the springs kept for a step whose only patch is the boxes' own are
+/// the plane springs of the step before, one for one (each at rest, its gap well under
+/// the spacing).
+#[test]
+fn springs_against_a_static_plane_are_kept_while_the_body_touches_another() {
+    let text = r#"
+        name = "two-boxes"
+        gravity = [0.0, -9.81, 0.0]
+        [[objects]]
+        name = "ground"
+        shape = { type = "plane", size = [0.6, 0.6] }
+        spacing = 0.025
+        surfel_spacing = 0.0125
+        static = true
+        material = { young = 1.0e6 }
+        [[objects]]
+        name = "left"
+        shape = { type = "box", size = [0.1, 0.1, 0.1] }
+        spacing = 0.02
+        position = [-0.049, 0.0499, 0.0]
+        material = { young = 1.0e5 }
+        [[objects]]
+        name = "right"
+        shape = { type = "box", size = [0.1, 0.1, 0.1] }
+        spacing = 0.02
+        position = [0.049, 0.0499, 0.0]
+        material = { young = 1.0e5 }
+    "#;
+    let scene = Scene::parse(text, "two-boxes").unwrap();
+    let mut world = implicit_world(&scene, phyxel::solver::DEFAULT_DT);
+    world.step();
+    let pair = |p: &phyxel::contact::ContactPatch, a: usize, b: usize| {
+        (p.a, p.b) == (a, b) || (p.a, p.b) == (b, a)
+    };
+    let patches = &world.contact.patches;
+    assert!(patches.iter().any(|p| pair(p, 1, 2)), "the boxes touch");
+    assert!(patches.iter().any(|p| pair(p, 0, 1)), "the left box rests");
+    // The left box's contact with the plane gone for a step, the boxes' own kept.
+    let only_boxes: Vec<_> = patches.iter().filter(|p| pair(p, 1, 2)).cloned().collect();
+    let last = &world.contact.springs;
+    let on_plane = |sp: &&phyxel::solver::ContactSpring| sp.a.object == 1 && sp.b.is_none();
+    let before = last.springs.iter().filter(on_plane).count();
+    assert!(before > 0, "no springs against the plane");
+    let mut kept = phyxel::solver::ContactSprings::default();
+    let spacing = world.objects[1].phyxel_spacing;
+    phyxel::solver::springs::keep_parted(
+        last,
+        &only_boxes,
+        &world.objects,
+        world.dt,
+        spacing,
+        &mut kept,
+    );
+    let after = kept.springs.iter().filter(on_plane).count();
+    assert_eq!(after, before, "plane springs kept as gaps");
+    // The boxes' springs are in the patch: not gaps.
+    assert!(kept.springs.iter().all(|sp| sp.b.is_none()));
+}
