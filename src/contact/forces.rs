@@ -20,37 +20,70 @@ pub struct StickContext<'a> {
     pub dt: f32,
 }
 
-/// Area each contact surfel stands for: `1 / Σ_j W(|x_i − x_j|)` with the normalised
-/// 2-D poly6 kernel of support 2 spacings (a kernel density estimate of surfels per m²,
-/// exact for any uniform sampling, unlike a k-nearest radius).
+/// Area each contact surfel stands for (m²): the area its own surfel samples
+/// ([`carrier_area`], set by [`super::contact_surface`] in [`ContactSurfel::area`]),
+/// times its object's share of the contact surfels about it, `Σ_own W / Σ_all W`, with
+/// the normalised 2-D poly6 kernel of support 2 spacings (both objects' colliding
+/// surfels sample the same overlap, so inside a patch of two uniform samplings each
+/// takes `1 / (ρ_a + ρ_b)`, the density estimate's area). A patch resampled evenly
+/// ([`NO_SURFEL`]: no own surfel) takes the density estimate `1 / Σ_all W`.
 ///
-/// The kernel is evaluated as `4/(π h²) · (1 − r²/h²)³`: written as `4/(π h⁸) · (h² −
-/// r²)³` its `h⁸` leaves f32's range for spacings below about 8 µm (every area 0, so no
-/// contact force) or above about 30 km (areas infinite, forces NaN).
+/// The share, not the density, because a kernel density falls off at a patch's rim:
+/// there `1 / ρ` grows, so a patch one or two surfel rows wide (a capsule or a ball
+/// resting on a plane) lost total force each time a shallow row entered and took area
+/// from the deep ones, and a force that falls as the overlap grows feeds energy into
+/// every rocking cycle (a capsule left at rest on a plane rolled ever faster). The
+/// share's rim bias cancels between its two sums.
+///
+/// The kernel is evaluated as `(1 − r²/h²)³`: written as `(h² − r²)³ / h⁶` its `h⁶`
+/// leaves f32's range for spacings below about 8 µm or above about 30 km.
 ///
 /// Each surfel's support is `2 · spacing ·` [`ContactSurfel::scale`]: where a graded
 /// body's coarser level is in contact, its own spacing's (a balloon estimate).
-pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, scratch: &mut PatchScratch) {
+/// `a`: the patch's object a.
+pub fn areas(surfels: &mut [ContactSurfel], spacing: f32, a: usize, scratch: &mut PatchScratch) {
     let widest = surfels.iter().fold(1.0f32, |m, c| m.max(c.scale));
-    let PatchScratch { grid, density, .. } = scratch;
+    let PatchScratch {
+        grid,
+        density,
+        side,
+        ..
+    } = scratch;
     grid.rebuild(surfels.iter().map(|c| c.pos), 2.0 * spacing * widest);
+    // 1 for each of a's surfels, in the grid's lane order (padded).
+    side.clear();
+    side.extend(
+        grid.sorted()
+            .iter()
+            .map(|&i| f32::from(u8::from(surfels[i as usize].object == a))),
+    );
+    side.resize(side.len() + LANES, 0.0);
     density.clear();
     density.resize(surfels.len(), 0.0);
-    let grid = &*grid;
+    let (grid, side, surfels_ro) = (&*grid, &*side, &*surfels);
     // Eight neighbours at a time over the grid's lane groups (lanes off the mask weigh 0).
-    density.par_iter_mut().enumerate().for_each(|(i, rho)| {
-        let hh = 2.0 * spacing * surfels[i].scale;
-        let norm = 4.0 / (std::f32::consts::PI * (hh * hh));
+    density.par_iter_mut().enumerate().for_each(|(i, out)| {
+        let c = &surfels_ro[i];
+        let hh = 2.0 * spacing * c.scale;
         let inv_hh2 = f32x8::splat(1.0 / (hh * hh));
-        let mut sum = f32x8::ZERO;
-        grid.for_each_lanes_within(surfels[i].pos, hh, |_, mask, d2| {
+        let (mut all, mut of_a) = (f32x8::ZERO, f32x8::ZERO);
+        grid.for_each_lanes_within(c.pos, hh, |at, mask, d2| {
             let q = f32x8::ONE - d2 * inv_hh2;
-            sum += lane_mask(mask).select(q * q * q, f32x8::ZERO);
+            let w = lane_mask(mask).select(q * q * q, f32x8::ZERO);
+            all += w;
+            of_a = w.mul_add(load8(side, at), of_a);
         });
-        *rho = norm * sum.reduce_add();
+        let (all, of_a) = (all.reduce_add(), of_a.reduce_add());
+        *out = if c.surfel == NO_SURFEL {
+            std::f32::consts::PI * (hh * hh) / (4.0 * all)
+        } else if c.object == a {
+            of_a / all
+        } else {
+            (all - of_a) / all
+        };
     });
-    for (c, &rho) in surfels.iter_mut().zip(density.iter()) {
-        c.area = 1.0 / rho;
+    for (c, &x) in surfels.iter_mut().zip(density.iter()) {
+        c.area = if c.surfel == NO_SURFEL { x } else { c.area * x };
     }
 }
 
@@ -85,7 +118,7 @@ pub fn forces(
     scratch: &mut PatchScratch,
     stick: &StickContext<'_>,
 ) {
-    areas(&mut patch.surfels, p.force_spacing, scratch);
+    areas(&mut patch.surfels, p.force_spacing, patch.a, scratch);
     let one_side = |d: Vec3, n: Vec3, v_rel: Vec3| -> Vec3 {
         let d = d.dot(n) * n;
         let len = d.length();

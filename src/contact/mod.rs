@@ -109,6 +109,24 @@ pub fn local_scale(radius_a: f32, radius_b: f32, spacing: f32) -> f32 {
     if ratio < 1.5 { 1.0 } else { ratio }
 }
 
+/// The surface area (m²) a force carrier of disk radius `radius` and rest normal
+/// `rest_normal` stands for, on an object of carrier spacing `carrier` (m). The
+/// samplers' disks cover the surface twice over (a surfel's spacing is `r √(π/2)`), so
+/// a surfel stands for `π r² / 2`. Carriers thinned to one per cell of edge `carrier`
+/// (finer surfels: [`crate::body::object::FORCE_CARRIER_SPACING`]) stand for their
+/// cell's share of the surface, `carrier² / |n|₁`: a plane of unit normal n crosses
+/// `|n|₁ / carrier²` cells of a cubic grid per m² (exact where surfels are much finer
+/// than the cells, as at the sizes that thin).
+pub fn carrier_area(radius: f32, rest_normal: Vec3, carrier: f32) -> f32 {
+    let own = radius * radius * std::f32::consts::FRAC_PI_2;
+    if carrier * carrier > own * 1.0002 {
+        let l1 = rest_normal.abs().element_sum();
+        carrier * carrier / l1.max(1.0)
+    } else {
+        own
+    }
+}
+
 /// [`ContactSurfel::surfel`] of a surfel inserted by resampling (no colliding surfel).
 pub const NO_SURFEL: u32 = u32::MAX;
 
@@ -138,6 +156,9 @@ pub struct PairSurfaces<'a> {
     /// Which surfels of a and b carry contact forces.
     pub carriers_a: &'a [bool],
     pub carriers_b: &'a [bool],
+    /// Their carrier spacings (m; [`Object::carrier_spacing`](crate::body::object::Object::carrier_spacing)), for [`carrier_area`].
+    pub carrier_spacing_a: f32,
+    pub carrier_spacing_b: f32,
 }
 
 impl PairSurfaces<'_> {
@@ -166,4 +187,6 @@ pub struct PatchScratch {
     placed: Vec<Option<ContactSurfel>>,
     grid: Grid,
     density: Vec<f32>,
+    /// [`areas`]' side column in the grid's lane order.
+    side: Vec<f32>,
 }

@@ -170,7 +170,15 @@ pub fn contact_surface(
             normal: (p.lambda_a * a.normal - p.lambda_b * b.normal).try_normalize()?,
             object,
             surfel: c.surfel,
-            area: 0.0,
+            area: carrier_area(
+                own_radius,
+                own.rest_normal.get(c.surfel as usize),
+                if from_a {
+                    s.carrier_spacing_a
+                } else {
+                    s.carrier_spacing_b
+                },
+            ),
             force: Vec3::ZERO,
             anchor_a: if a.f <= 0.0 { anchor_a.0 } else { x },
             anchor_b: if b.f <= 0.0 { anchor_b.0 } else { x },

@@ -81,6 +81,8 @@ impl<'w> SurfaceView<'w> {
             surfels_b: &ob.surfels,
             carriers_a: &oa.force_carrier,
             carriers_b: &ob.force_carrier,
+            carrier_spacing_a: oa.carrier_spacing,
+            carrier_spacing_b: ob.carrier_spacing,
         }
     }
 

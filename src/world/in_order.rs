@@ -70,6 +70,8 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
             surfels_b,
             carriers_a,
             carriers_b,
+            carrier_spacing_a: w.objects[a].carrier_spacing,
+            carrier_spacing_b: w.objects[b].carrier_spacing,
         };
         let d = if wa.is_none() && wb.is_none() {
             d0

@@ -354,7 +354,7 @@ fn pile_comes_to_rest_without_passing_through() {
 /// Force carriers (`object::FORCE_CARRIER_SPACING`): the `scale` spheres with 100k
 /// surfels each on 390 phyxels (surfel spacing 1.1 mm; an eighth of the phyxel spacing
 /// is 2.8 mm) move only a fixed subset of their colliding surfels onto Φ. Reference: the
-/// same run with every surfel a carrier. After 40 steps of pressing into each other the
+/// same run with every surfel a carrier (at the surfel spacing). After 40 steps of pressing into each other the
 /// total contact force on the left sphere agrees within 5% and the sphere's centre
 /// within 2% of its travel; the subset is a few times smaller.
 #[test]
@@ -370,6 +370,7 @@ fn force_carriers_match_every_surfel_carrying() {
         if all_carry {
             for o in &mut w.objects {
                 o.force_carrier.iter_mut().for_each(|c| *c = true);
+                o.carrier_spacing = o.surfel_spacing;
             }
         }
         for _ in 0..40 {
@@ -1016,7 +1017,8 @@ fn contact_forces_match_hand_computed_penalty_and_friction() {
             normal: n,
             object: 0,
             surfel: k as u32,
-            area: 0.0,
+            // Its own surfel's area (`contact_surface` sets it): alone, it keeps it.
+            area: std::f32::consts::PI * s * s,
             force: Vec3::ZERO,
             anchor_a: pos + n * d1 + t * 3.0e-4,
             anchor_b: pos - n * d2,
@@ -1336,4 +1338,54 @@ fn a_body_under_a_heavy_stack_warns() {
     );
     assert!(scene(0.2, 1e4).is_empty(), "{:?}", scene(0.2, 1e4));
     assert!(scene(0.0, 1e3).is_empty(), "{:?}", scene(0.0, 1e3));
+}
+
+/// The area estimate of a contact strip one surfel row wide on each object (the line
+/// contact of a cylinder on a plane): a third row entering at the strip's rim with no
+/// overlap carries no force, so the strip's force, `Σ d A` over its deep rows, must not
+/// change. Reference: that invariance, to 2% (the rows' kernel sums differ by their
+/// offsets). A density estimate's area (`1/ρ`) gave the deep rows a third less area, so
+/// a strip's force fell as it sank and a resting capsule rocked with ever more energy.
+#[test]
+fn a_shallow_row_entering_a_strip_keeps_its_force() {
+    use phyxel::contact::{ContactSurfel, PatchScratch, areas};
+    let s = 0.01f32;
+    let surfel = |object: usize, k: usize, x: f32, z: f32| ContactSurfel {
+        pos: Vec3::new(x, 0.0, z),
+        normal: Vec3::Y,
+        object,
+        surfel: k as u32,
+        area: s * s,
+        force: Vec3::ZERO,
+        anchor_a: Vec3::ZERO,
+        anchor_b: Vec3::ZERO,
+        velocity: Vec3::ZERO,
+        stick: Vec3::ZERO,
+        scale: 1.0,
+    };
+    // Object 0's row and object 1's, staggered by half a spacing; both 1 mm deep.
+    let deep: Vec<ContactSurfel> = (0..40)
+        .map(|k| surfel(0, k, k as f32 * s, 0.0))
+        .chain((0..40).map(|k| surfel(1, k, (k as f32 + 0.5) * s, 0.0)))
+        .collect();
+    let depth = 1e-3f32;
+    // The middle of the strip (its ends are ends of a line, not of a row's width).
+    let force = |surfels: &[ContactSurfel]| -> f32 {
+        surfels[..80]
+            .iter()
+            .filter(|c| (10.0 * s..30.0 * s).contains(&c.pos.x))
+            .map(|c| depth * c.area)
+            .sum()
+    };
+    let mut scratch = PatchScratch::default();
+    let mut before = deep.clone();
+    areas(&mut before, s, 0, &mut scratch);
+    let mut after = deep.clone();
+    after.extend((0..40).map(|k| surfel(0, 40 + k, k as f32 * s, s)));
+    areas(&mut after, s, 0, &mut scratch);
+    let (f0, f1) = (force(&before), force(&after));
+    assert!(
+        (f1 / f0 - 1.0).abs() < 0.02,
+        "strip force {f0} -> {f1} (d·A, m³) as a row with no overlap entered"
+    );
 }

@@ -24,7 +24,12 @@ fn implicit_world(scene: &Scene, dt: f32) -> World {
 /// Steps two spheres flying at each other along x (objects 0 and 1) `steps` times:
 /// the total momentum stays within 1e-4 of `incoming` (one sphere's) at every step,
 /// `touching` holds at some step, the state stays finite, and they end moving apart.
-fn collide(world: &mut World, steps: usize, incoming: f64, touching: impl Fn(&World) -> bool) {
+fn collide(
+    world: &mut World,
+    steps: usize,
+    incoming: f64,
+    mut touching: impl FnMut(&World) -> bool,
+) {
     let mut collided = false;
     for _ in 0..steps {
         world.step();
@@ -146,8 +151,10 @@ fn an_implicit_body_collides_with_an_explicit_one() {
 /// it is detected in), and no energy is gained (the rebound takes 76% of the incoming
 /// kinetic energy; docs/BACKENDS.md measures it against dt). Every solve converges or
 /// stagnates; at most one (the impact's) stagnates above the rounding estimate (a stall,
-/// counted unconverged: 1 of 60 measured, at a residual of 0.7% of its scale), and under
-/// 1% of its scale.
+/// counted unconverged: 1 of 60 measured, at a residual of 0.09% of its scale), and under
+/// 1% of its scale. (Steps at the floor are certified by their rounding estimate: a
+/// stiff sphere vibrating after the impact stagnates at about 1% of its own small
+/// scale.)
 #[test]
 fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     let mut scene = Scene::builtin("two-spheres").unwrap();
@@ -159,7 +166,17 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     let mut world = implicit_world(&scene, dt);
     let incoming = world.objects[0].phyxels.momentum()[0];
     let e0 = world.energy().total();
+    // The largest residual of a stalled step (at-floor steps are certified by their
+    // rounding estimate instead).
+    let (mut stalled_residual, mut stalls) = ([0.0f32; 2], [0u64; 2]);
     collide(&mut world, 60, incoming, |w| {
+        for (k, o) in w.objects.iter().enumerate() {
+            let s = o.dynamics_as::<MlsImplicit>().unwrap().solver_stats();
+            if s.stalled > stalls[k] {
+                stalled_residual[k] = stalled_residual[k].max(s.last_residual);
+            }
+            stalls[k] = s.stalled;
+        }
         !w.contact.springs.springs.is_empty()
     });
     let approach = 2.0 * 1.0 * dt;
@@ -173,8 +190,12 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     for o in &world.objects {
         let s = o.dynamics_as::<MlsImplicit>().unwrap().solver_stats();
         assert_eq!(s.unconverged, s.stalled, "{s:?}");
-        assert!(s.stalled <= 1 && s.max_residual < 0.01, "{s:?}");
+        assert!(s.stalled <= 1, "{s:?}");
     }
+    assert!(
+        stalled_residual.iter().all(|&r| r < 0.01),
+        "stalled residuals {stalled_residual:?}"
+    );
 }
 
 /// A stiff box (E = 1e8 Pa, 0.2 m, spacing 2.5 cm) set down on a static plane and stepped
@@ -266,14 +287,21 @@ fn friction_at_a_frame_rate_step_sticks_and_slides() {
 /// bodies' initial overlaps) by more than 1% of the gravitational energy released:
 /// friction and damping only take energy out. (The contact term is left out along the
 /// way: at an impact found one step late it holds the penalty energy of the whole
-/// overlap, 6 J at the first one here, which the solve then dissipates.) The bodies come
-/// to rest (kinetic energy under 1e-3 of the start's total; 4e-4 measured), none sinks
+/// overlap, 6 J at the first one here, which the solve then dissipates.) None sinks
 /// deeper than one phyxel spacing (2 cm), and at most 4% of a body's solves are
 /// unconverged (stopped at the iteration cap, or stalled: stagnated far above the
 /// rounding estimate; 6 of 480 body steps measured, with the stick anchors), each under
 /// 10% of its scale.
+///
+/// Whether the pile is at rest after 1 s is not asserted: the ball lands on the box's
+/// top and is kicked by the capsule and the ring, and whether it then rolls across the
+/// box depends on the fifth digit of its start (kinetic energy at 1 s for the ball
+/// started at x = 28, 29, 30, 31, 32 mm: 0.007–0.24 J, from under to 18 times the old
+/// limit of 1e-3 of the start's total, in no order). Coming to rest is asserted where it
+/// is not chaotic: `a_rolling_capsule_on_a_coarse_plane_comes_to_rest`,
+/// `a_stiff_box_rests_on_a_plane_at_a_frame_rate_step` and the incline's stick.
 #[test]
-fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
+fn a_frictional_pile_keeps_its_energy_at_the_default_frame_rate_step() {
     let scene = Scene::builtin("pile").unwrap();
     let mut world = scene
         .build(&BuildOptions {
@@ -300,11 +328,6 @@ fn a_frictional_pile_settles_at_the_default_frame_rate_step() {
     assert!(
         start - lowest > 1.0,
         "the bodies fell: {start} -> {lowest} J"
-    );
-    let kinetic = world.energy().kinetic;
-    assert!(
-        kinetic < 1e-3 * start,
-        "kinetic energy {kinetic} J at the end"
     );
     assert!(
         world.record.max_penetration < 0.02,
@@ -381,4 +404,61 @@ fn springs_against_a_static_plane_are_kept_while_the_body_touches_another() {
     assert_eq!(after, before, "plane springs kept as gaps");
     // The boxes' springs are in the patch: not gaps.
     assert!(kept.springs.iter().all(|sp| sp.b.is_none()));
+}
+
+/// A capsule (radius 4 cm, E = 2e5 Pa, surfels 8 mm apart) set on its side on a static
+/// plane whose surfels are 1 cm apart and rolled at 5 cm/s, on `mls-implicit` at
+/// dt = 1/120 s: its contact is a strip one or two surfel rows wide, rows entering and
+/// leaving as it rolls. Reference: energy conservation; nothing drives it, so from
+/// 0.25 s on (once it has landed from 0.2 mm up) its total energy (kinetic, elastic,
+/// potential and contact) never rises more than 1e-4 J above its value then (an eighth
+/// of the 0.84 mJ it was rolled with), and it comes to rest and sleeps within 5 s (the
+/// scene's own criterion, `world::sleep`). With each contact surfel's area the patch's
+/// local density estimate, a shallow row entering took area from the deep ones, the
+/// strip's force fell as it sank, and the capsule rolled ever faster (2.6 mJ gained).
+#[test]
+fn a_rolling_capsule_on_a_coarse_plane_comes_to_rest() {
+    let text = r#"
+        name = "capsule-on-plane"
+        gravity = [0.0, -9.81, 0.0]
+        [[objects]]
+        name = "floor"
+        static = true
+        shape = { type = "plane", size = [0.64, 0.64] }
+        spacing = 0.025
+        surfel_spacing = 0.01
+        material = { young = 1.0e7, contact_damping = 4.0, friction = 0.5 }
+        [[objects]]
+        name = "capsule"
+        shape = { type = "capsule", radius = 0.04, length = 0.08 }
+        spacing = 0.0135
+        surfel_spacing = 0.008
+        position = [0.0, 0.0402, 0.0]
+        rotation = [0.0, 0.0, 90.0]
+        velocity = [0.0, 0.0, 0.05]
+        material = { young = 2.0e5, damping = 2.0e-3, contact_damping = 4.0, friction = 0.5 }
+    "#;
+    let scene = Scene::parse(text, "capsule-on-plane").unwrap();
+    let mut world = scene
+        .build(&BuildOptions {
+            backend: Some("mls-implicit".into()),
+            ..BuildOptions::default()
+        })
+        .unwrap();
+    assert_eq!(world.dt, phyxel::solver::DEFAULT_DT);
+    for _ in 0..30 {
+        world.step();
+    }
+    let start = world.energy().total();
+    let (mut rise, mut asleep_at) = (0.0f64, None);
+    for _ in 30..600 {
+        world.step();
+        assert!(world.all_finite());
+        rise = rise.max(world.energy().total() - start);
+        if asleep_at.is_none() && world.objects[1].is_asleep() {
+            asleep_at = Some(world.time);
+        }
+    }
+    assert!(rise <= 1e-4, "energy rose {rise} J above {start} J");
+    assert!(asleep_at.is_some(), "still awake after {} s", world.time);
 }
