@@ -17,7 +17,8 @@ pub struct Colliding {
     pub projection: Vec3,
     /// The other surface's normal at the projection.
     pub normal: Vec3,
-    /// Penetration depth `−(x − x_proj)·n(x_proj)` (m, > 0).
+    /// Penetration depth `−(x − x_proj)·n(x_proj)` (m): > 0 inside; for a gap
+    /// ([`Candidates::margin`]) minus the gap, ≤ 0.
     pub depth: f32,
     /// The other surface's `sample_near` at the surfel and at the projection (`None`
     /// where no kernel reaches): the contact surface's root search starts from them.
@@ -34,6 +35,10 @@ pub struct PairDetection {
     /// Surfels of `a` inside `b`, and of `b` inside `a`, in surfel order.
     pub a_in_b: Vec<Colliding>,
     pub b_in_a: Vec<Colliding>,
+    /// Surfels of `a` outside `b` within the pair's margin, and of `b` outside `a`
+    /// ([`Candidates::margin`]; empty without one), in surfel order.
+    pub a_near_b: Vec<Colliding>,
+    pub b_near_a: Vec<Colliding>,
     /// Candidates tested (surfels of either object in the intersection box).
     pub candidates: usize,
 }
@@ -105,10 +110,15 @@ pub struct Candidates<'a> {
     /// When set, the surfels `s` with `only[s]` false are not tested (the force carriers
     /// when no render surface needs the others: see `World::render_contacts`).
     pub only: Option<&'a [bool]>,
+    /// Surfels outside the other object by at most this gap (m) are found too, as gaps:
+    /// an implicit solve takes them as springs that push once the step closes their
+    /// gap ([`crate::solver::springs::speculate`]). 0: none.
+    pub margin: f32,
 }
 
 /// The surfels of `side` in `pair.bounds` that are inside `other`, in surfel order,
-/// written to `out`; returns the number of candidates tested. Candidates far from
+/// written to `out`, and those outside it within `side.margin`, written to `gaps`;
+/// returns the number of candidates tested. Candidates far from
 /// `other`'s surface are classified by `volume` alone (one grid query) and projected only
 /// when inside (deep penetration); candidates near it whose `f` is clearly positive
 /// ([`OUTSIDE_FRACTION`]) are outside without a projection.
@@ -119,11 +129,13 @@ pub fn colliding_surfels(
     pair: &Pair,
     scratch: &mut DetectScratch,
     out: &mut Vec<Colliding>,
+    gaps: &mut Vec<Colliding>,
 ) -> usize {
     let Candidates {
         surfels,
         blocks,
         only,
+        margin,
     } = side;
     let DetectScratch {
         candidates,
@@ -132,7 +144,7 @@ pub fn colliding_surfels(
         hints,
         owner,
     } = scratch;
-    let outside = OUTSIDE_FRACTION * other.reach();
+    let outside = (OUTSIDE_FRACTION * other.reach()).max(margin);
     candidates.clear();
     points_in_blocks(&surfels.pos, blocks, &pair.bounds, candidates);
     if let Some(only) = only {
@@ -162,7 +174,8 @@ pub fn colliding_surfels(
                     None
                 } else {
                     other.inside_hinted(x, near, hint).and_then(|(inside, p)| {
-                        inside.then_some(Colliding {
+                        let gap = !inside && p.signed_distance <= margin && margin > 0.0;
+                        (inside || gap).then_some(Colliding {
                             surfel: s,
                             projection: p.point,
                             normal: p.normal,
@@ -178,6 +191,8 @@ pub fn colliding_surfels(
         far_hints[s as usize] = h;
     }
     out.clear();
-    out.extend(found.iter().flatten());
+    out.extend(found.iter().flatten().filter(|c| c.depth > 0.0));
+    gaps.clear();
+    gaps.extend(found.iter().flatten().filter(|c| c.depth <= 0.0));
     candidates.len()
 }

@@ -28,6 +28,7 @@ pub use springs::{ContactSpring, ContactSprings, SpringSide};
 
 use crate::body::object::Object;
 use crate::contact::ContactPatch;
+use crate::contact::detect::PairDetection;
 use crate::contact::stick::StickMemory;
 use crate::dynamics::StepContext;
 use crate::par;
@@ -218,13 +219,16 @@ impl Solver {
     }
 
     /// Renews `springs` from this step's `patches`: those of pairs whose contact joins a
-    /// solve ([`Object::contact_in_solve`]), and the springs of the last step whose pair
-    /// has just parted ([`springs::keep_parted`]). `grids[k]`: object k's phyxel grid,
-    /// built this step for its pairs.
+    /// solve ([`Object::contact_in_solve`]), the springs of the last step whose pair
+    /// has just parted ([`springs::keep_parted`]), and the gaps found within the pairs'
+    /// margins in `detections` ([`springs::speculate`]). `grids[k]`: object k's phyxel
+    /// grid, built this step for its pairs.
+    #[allow(clippy::too_many_arguments)]
     pub fn renew_springs(
         &mut self,
         springs: &mut ContactSprings,
         patches: &[ContactPatch],
+        detections: &[PairDetection],
         objects: &[Object],
         grids: &[Option<Grid>],
         dt: f32,
@@ -241,12 +245,23 @@ impl Solver {
             // (`last` is empty unless it was built on this object list: the world drops
             // it otherwise.)
             springs::keep_parted(&last, patches, objects, dt, max_gap, springs);
+            let parted = springs.springs.len();
             springs::build(
                 patches,
                 objects,
                 grids,
                 &self.stick,
                 dt,
+                springs,
+                &mut self.near,
+                &mut self.knn,
+            );
+            springs::speculate(
+                detections,
+                objects,
+                grids,
+                dt,
+                parted,
                 springs,
                 &mut self.near,
                 &mut self.knn,

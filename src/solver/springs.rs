@@ -4,10 +4,11 @@
 //! solve ([`super::solve`]).
 
 use crate::body::object::Object;
-use crate::contact::ContactPatch;
+use crate::contact::detect::PairDetection;
 use crate::contact::distribute::{Couple, moments, spread_weights};
 use crate::contact::params::contact_params;
 use crate::contact::stick::{StickKey, StickMemory};
+use crate::contact::{ContactPatch, carrier_area};
 use crate::spatial::grid::Grid;
 use glam::{Mat3, Vec3};
 
@@ -142,48 +143,10 @@ pub fn build(
         };
         for c in &patch.surfels {
             let normal = -flip * c.normal;
-            let mut side = |k: usize| -> Option<SpringSide> {
-                let o = &objects[k];
-                if o.is_static() {
-                    return None;
-                }
-                let grid = grids[k].as_ref()?;
-                let h = o.distribution_radius();
-                let widened = spread_weights::<false>(c.pos, grid, h, near, knn);
-                // The couple of `distribute`, from the weights' moments about the surfel.
-                let (total, m1, m2) = moments(near, &o.phyxels, c.pos);
-                if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-                    return None;
-                }
-                let (centroid, map) = Couple::map(c.pos, total, m1, m2);
-                let couple = if widened { Mat3::ZERO } else { map.as_mat3() };
-                let start = out.weights.len() as u32;
-                for &(j, w) in near.iter() {
-                    out.weights.push((j as u32, w / total));
-                    out.offsets.push(o.phyxels.pos.get(j) - centroid);
-                }
-                Some(SpringSide {
-                    object: k as u32,
-                    start,
-                    end: out.weights.len() as u32,
-                    couple,
-                })
-            };
-            let Some(a) = side(first) else {
+            let Some((a, b, given)) = sides(objects, grids, first, second, c.pos, near, knn, out)
+            else {
                 continue;
             };
-            let b = side(second);
-            if b.is_none() && !objects[second].is_static() {
-                // No phyxels to spread to (no grid): no spring rather than a wrong one.
-                out.weights.truncate(a.start as usize);
-                out.offsets.truncate(a.start as usize);
-                continue;
-            }
-            let ob = &objects[second];
-            let given = b
-                .as_ref()
-                .filter(|_| ob.is_prescribed())
-                .map(|b| out.velocity(b, |j| ob.phyxels.vel.get(j)));
             let key = StickKey::of(oa.serial(), ob_patch.serial(), patch.b, c);
             // The spring turns with the contact: its part along the new normal is gone.
             let stick = match key.filter(|_| p.friction > 0.0) {
@@ -206,6 +169,178 @@ pub fn build(
                 b_object: second as u32,
                 given,
             });
+        }
+    }
+}
+
+/// The sides of a spring at `at` between objects `first` (side a, which moves) and
+/// `second`, their weights appended to `out`, and side b's velocity when its motion is
+/// given (a tool); `None` (nothing appended) when a moving side has no phyxels to
+/// spread to (no grid, or no weight), so that no spring is made rather than a wrong one.
+#[allow(clippy::too_many_arguments)]
+fn sides(
+    objects: &[Object],
+    grids: &[Option<Grid>],
+    first: usize,
+    second: usize,
+    at: Vec3,
+    near: &mut Vec<(usize, f32)>,
+    knn: &mut Vec<(usize, f32)>,
+    out: &mut ContactSprings,
+) -> Option<(SpringSide, Option<SpringSide>, Option<Vec3>)> {
+    let a = side(objects, grids, first, at, near, knn, out)?;
+    let b = side(objects, grids, second, at, near, knn, out);
+    let ob = &objects[second];
+    if b.is_none() && !ob.is_static() {
+        out.weights.truncate(a.start as usize);
+        out.offsets.truncate(a.start as usize);
+        return None;
+    }
+    let given = b
+        .as_ref()
+        .filter(|_| ob.is_prescribed())
+        .map(|b| out.velocity(b, |j| ob.phyxels.vel.get(j)));
+    Some((a, b, given))
+}
+
+/// One side of a spring at `at` on object `k`: the phyxels that take a force there in
+/// `contact::distribute`, with its normalised weights and couple, appended to `out`;
+/// `None` for a static object (it does not move) and when there are none.
+fn side(
+    objects: &[Object],
+    grids: &[Option<Grid>],
+    k: usize,
+    at: Vec3,
+    near: &mut Vec<(usize, f32)>,
+    knn: &mut Vec<(usize, f32)>,
+    out: &mut ContactSprings,
+) -> Option<SpringSide> {
+    let o = &objects[k];
+    if o.is_static() {
+        return None;
+    }
+    let grid = grids[k].as_ref()?;
+    let h = o.distribution_radius();
+    let widened = spread_weights::<false>(at, grid, h, near, knn);
+    // The couple of `distribute`, from the weights' moments about the surfel.
+    let (total, m1, m2) = moments(near, &o.phyxels, at);
+    if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let (centroid, map) = Couple::map(at, total, m1, m2);
+    let couple = if widened { Mat3::ZERO } else { map.as_mat3() };
+    let start = out.weights.len() as u32;
+    for &(j, w) in near.iter() {
+        out.weights.push((j as u32, w / total));
+        out.offsets.push(o.phyxels.pos.get(j) - centroid);
+    }
+    Some(SpringSide {
+        object: k as u32,
+        start,
+        end: out.weights.len() as u32,
+        couple,
+    })
+}
+
+/// Speed factor of [`margin`]: a step's travel at the body's fastest phyxel's speed, and
+/// half again for a speed that grows within the step.
+pub const MARGIN_SPEED_FACTOR: f32 = 1.5;
+
+/// How far outside another object an implicit body's surfels are found as gaps (m):
+/// [`MARGIN_SPEED_FACTOR`] times a step's travel at its fastest phyxel's speed, plus
+/// gravity's `|g| dt²`, at most two phyxel spacings (beyond the surface's kernels no
+/// gap is found anyway). 0 for a body that is not implicit, is asleep or is prescribed:
+/// only a solve can take a contact before it closes ([`speculate`]).
+pub fn margin(o: &Object, dt: f32, gravity: Vec3) -> f32 {
+    if !o.is_implicit() || o.is_frozen() || o.is_prescribed() {
+        return 0.0;
+    }
+    let v = &o.phyxels.vel;
+    let speed2 = (0..o.phyxels.len()).fold(0.0f32, |m, j| m.max(v.get(j).length_squared()));
+    let reach = MARGIN_SPEED_FACTOR * dt * speed2.sqrt() + gravity.length() * dt * dt;
+    reach.min(2.0 * o.phyxel_spacing)
+}
+
+/// Appends to `out` a gap spring for each surfel found outside the other object of a
+/// pair in a solve within the pair's margin ([`PairDetection::a_near_b`], `b_near_a`),
+/// for pairs that do not touch yet (no colliding surfel) and that none of the first
+/// `parted` springs of `out` join (those [`keep_parted`] kept): the spring pushes only
+/// once the step closes its gap (its force is `−k gap` at the step's start, with no
+/// dashpot until the contact is made), so that the solve stops an approach where the
+/// surfaces meet instead of finding it one step late at a whole step's overlap, whose
+/// spring energy the approach did not supply. It acts midway between the surfel and its
+/// projection, along the other surface's normal there; its area is the surfel's own
+/// ([`carrier_area`]) times its object's share of the pair's density
+/// (`A_other / (A_own + A_other)`, each object's carrier spacing squared standing for
+/// the other's area), as a contact surfel's would be.
+#[allow(clippy::too_many_arguments)]
+pub fn speculate(
+    detections: &[PairDetection],
+    objects: &[Object],
+    grids: &[Option<Grid>],
+    dt: f32,
+    parted: usize,
+    out: &mut ContactSprings,
+    near: &mut Vec<(usize, f32)>,
+    knn: &mut Vec<(usize, f32)>,
+) {
+    for d in detections {
+        // A touching pair's springs already act there: a gap spring beside a contact
+        // surfel would double its stiffness, and its friction would have no anchor.
+        let touching = !d.a_in_b.is_empty() || !d.b_in_a.is_empty();
+        if touching || (d.a_near_b.is_empty() && d.b_near_a.is_empty()) {
+            continue;
+        }
+        let (oa, ob) = (&objects[d.a], &objects[d.b]);
+        if !oa.contact_in_solve(ob) {
+            continue;
+        }
+        let pair = |s: &ContactSpring| {
+            let (x, y) = (s.a.object as usize, s.b_object as usize);
+            (x, y) == (d.a, d.b) || (x, y) == (d.b, d.a)
+        };
+        if out.springs[..parted].iter().any(pair) {
+            continue;
+        }
+        let p = contact_params(oa, ob, dt);
+        for (own, other, gaps) in [(d.a, d.b, &d.a_near_b), (d.b, d.a, &d.b_near_a)] {
+            let (o, other_object) = (&objects[own], &objects[other]);
+            let other_area = other_object.carrier_spacing * other_object.carrier_spacing;
+            for c in gaps {
+                let s = c.surfel as usize;
+                let x = o.surfels.pos.get(s);
+                let at = 0.5 * (x + c.projection);
+                // Side a moves: the surfel's object pushed out along the other's normal.
+                let (first, second, normal) = if o.is_prescribed() {
+                    (other, own, -c.normal)
+                } else {
+                    (own, other, c.normal)
+                };
+                let Some((a, b, given)) = sides(objects, grids, first, second, at, near, knn, out)
+                else {
+                    continue;
+                };
+                let own_area = carrier_area(
+                    o.surfels.radius[s],
+                    o.surfels.rest_normal.get(s),
+                    o.carrier_spacing,
+                );
+                let area = own_area * other_area / (own_area + other_area);
+                let stiffness = 0.5 * p.stiffness * area;
+                out.springs.push(ContactSpring {
+                    normal,
+                    stiffness,
+                    damping: 0.0,
+                    force: stiffness * c.depth.min(0.0),
+                    friction: p.friction,
+                    stick: Vec3::ZERO,
+                    key: None,
+                    a,
+                    b,
+                    b_object: second as u32,
+                    given,
+                });
+            }
         }
     }
 }

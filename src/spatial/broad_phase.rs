@@ -127,6 +127,14 @@ impl Aabb {
         }
     }
 
+    /// This box grown by `margin` on every side.
+    pub fn widened(&self, margin: f32) -> Aabb {
+        Aabb {
+            min: self.min - Vec3::splat(margin),
+            max: self.max + Vec3::splat(margin),
+        }
+    }
+
     /// Is `p` inside (boundary included)?
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()

@@ -18,8 +18,12 @@ use std::sync::atomic::AtomicBool;
 /// Grids, boxes and scratch of the step.
 #[derive(Default)]
 pub(super) struct StepCache {
-    /// Surfel bounding box per object (static objects: computed once).
+    /// Surfel bounding box per object (static objects: computed once), widened by its
+    /// margin.
     pub boxes: Vec<Aabb>,
+    /// Per object, how far outside another object its surfels are found as gaps for an
+    /// implicit solve (m; [`crate::solver::springs::margin`]).
+    pub margins: Vec<f32>,
     /// `boxes` of the step before (empty for an object new at its index): how far each
     /// body moved in a step ([`super::guard::crossing_warning`]).
     pub previous_boxes: Vec<Aabb>,

@@ -86,6 +86,7 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
                 surfels,
                 blocks: None,
                 only: (!render).then_some(carriers),
+                margin: 0.0,
             };
             let det = &mut scratch.detection;
             let [sa, sb] = &mut scratch.detect;
@@ -98,6 +99,7 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
                 pair,
                 sa,
                 &mut det.a_in_b,
+                &mut det.a_near_b,
             ) + colliding_surfels(
                 side(s.surfels_b, s.carriers_b),
                 &s.a,
@@ -105,6 +107,7 @@ pub(super) fn contact_in_order(w: &mut World) -> u64 {
                 pair,
                 sb,
                 &mut det.b_in_a,
+                &mut det.b_near_a,
             );
             &scratch.detection
         };

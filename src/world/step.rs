@@ -147,6 +147,7 @@ pub(super) fn run(w: &mut World, phase: Phase, blocks_current: bool) -> u64 {
             springs(
                 &w.objects,
                 &w.contact.patches,
+                &w.contact.detections,
                 &s,
                 &c.grids,
                 &mut c.solver,
@@ -333,6 +334,12 @@ fn broad_phase(
     let n = objects.len();
     cache.boxes.resize(n, Aabb::EMPTY);
     cache.previous_boxes.clone_from(&cache.boxes);
+    cache.margins.clear();
+    cache.margins.extend(
+        objects
+            .iter()
+            .map(|o| crate::solver::springs::margin(o, s.dt, s.gravity)),
+    );
     cache.grids.surfel.resize_with(n, || None);
     cache.owner.resize(n, u64::MAX);
     for (k, o) in objects.iter().enumerate() {
@@ -363,6 +370,8 @@ fn broad_phase(
             // count as deep inside.
             cache.boxes[k] = if o.is_static() {
                 surface.union(&Aabb::of(&o.phyxels.pos))
+            } else if cache.margins[k] > 0.0 {
+                surface.widened(cache.margins[k])
             } else {
                 surface
             };
@@ -489,17 +498,19 @@ fn detect(
     cache.detect.resize_with(n, Default::default);
     let view = SurfaceView::new(objects, &cache.grids);
     let phyxel_grids = &cache.grids.phyxel;
+    let cache_margins = &cache.margins;
     // Without a render surface only the force carriers' contacts are used: the
     // other surfels are not tested (a million-surfel sphere on 20k phyxels has one
     // carrier in four or five surfels).
     let render = s.render_contacts;
     let current = s.blocks_current;
-    let side = |surfels, k: usize| {
+    let side = |surfels, k: usize, margin: f32| {
         let o = &view.objects[k];
         Candidates {
             surfels,
             blocks: current_blocks(current, o),
             only: (!render).then(|| &o.force_carrier[..]),
+            margin,
         }
     };
     let volume = |k: usize| Volume {
@@ -514,26 +525,35 @@ fn detect(
             let s = view.pair(pair.a, pair.b);
             d.a = pair.a;
             d.b = pair.b;
+            // Gaps only for a contact that an implicit solve takes as springs.
+            let (oa, ob) = (&objects[pair.a], &objects[pair.b]);
+            let margin = if oa.contact_in_solve(ob) {
+                cache_margins[pair.a] + cache_margins[pair.b]
+            } else {
+                0.0
+            };
             // Both sides at once: each writes its own list from its own scratch.
             let (na, nb) = rayon::join(
                 || {
                     colliding_surfels(
-                        side(s.surfels_a, pair.a),
+                        side(s.surfels_a, pair.a, margin),
                         &s.b,
                         &volume(pair.b),
                         pair,
                         sa,
                         &mut d.a_in_b,
+                        &mut d.a_near_b,
                     )
                 },
                 || {
                     colliding_surfels(
-                        side(s.surfels_b, pair.b),
+                        side(s.surfels_b, pair.b, margin),
                         &s.a,
                         &volume(pair.a),
                         pair,
                         sb,
                         &mut d.b_in_a,
+                        &mut d.b_near_a,
                     )
                 },
             );
@@ -715,12 +735,13 @@ fn distribute(objects: &mut [Object], patches: &[ContactPatch], cache: &mut Step
 fn springs(
     objects: &[Object],
     patches: &[ContactPatch],
+    detections: &[PairDetection],
     s: &Settings,
     grids: &ObjectGrids,
     solver: &mut Solver,
     springs: &mut ContactSprings,
 ) -> u64 {
-    solver.renew_springs(springs, patches, objects, &grids.phyxel, s.dt);
+    solver.renew_springs(springs, patches, detections, objects, &grids.phyxel, s.dt);
     springs.springs.len() as u64
 }
 

@@ -345,14 +345,16 @@ fn run_one(seed: u64, tally: &mut Tally) {
     }
 }
 
-/// The pass-through check sees a pass-through: two spheres closing at 2 m/s stepped at
-/// dt = 0.05 s by `mls-implicit` pass through each other (each step moves them 0.1 m,
-/// half a sphere), and at some step one centre is inside the other sphere.
+/// The pass-through check sees a pass-through: two spheres (R = 0.1 m, 0.1 m apart)
+/// closing at 2 m/s stepped at dt = 0.12 s by `mls-implicit` pass through each other
+/// (each step closes 0.24 m, more than a sphere; their gap is beyond the solve's gap
+/// springs, `solver::springs::margin`, which catch them at dt = 0.05 s), and at some
+/// step one centre is inside the other sphere.
 #[test]
 fn the_pass_through_check_sees_two_spheres_crossing() {
     let scene = Scene::builtin("two-spheres").unwrap();
     let opts = BuildOptions {
-        dt: Some(0.05),
+        dt: Some(0.12),
         backend: Some("mls-implicit".into()),
         ..Default::default()
     };
