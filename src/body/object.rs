@@ -448,6 +448,19 @@ impl Object {
         self.still_from.clear();
     }
 
+    /// Wakes the body as still since `still` seconds, from where it is: it counts as
+    /// settled (`world::sleep`) until it moves, so that waking it does not wake the
+    /// sleeping bodies it touches.
+    pub(crate) fn wake_still(&mut self, still: f32) {
+        self.asleep = false;
+        let (p, carry) = (&self.phyxels.pos, &self.phyxels.pos_carry);
+        self.still_from.clear();
+        self.still_from
+            .extend((0..self.phyxels.len()).map(|j| (p.get(j), carry.get(j))));
+        self.still_for = still;
+        self.still_checked = still;
+    }
+
     /// Puts the body to sleep at rest: velocities and pending forces zero.
     pub(crate) fn fall_asleep(&mut self) {
         self.asleep = true;

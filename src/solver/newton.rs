@@ -133,7 +133,8 @@ pub fn solve(
             Some(b) => match (slot(b.object), sp.given) {
                 (Some(mb), _) => (Some(side(&s.offset, mb, b)), Vec3::ZERO),
                 (None, Some(given)) => (None, given),
-                (None, None) => continue,
+                // A body asleep since the springs were built: held where it is.
+                (None, None) => (None, Vec3::ZERO),
             },
         };
         s.springs

@@ -136,7 +136,7 @@ pub fn build(
         }
         let p = contact_params(oa, ob_patch, dt);
         // Side a pushes along −n (Φ's normal points from a into b).
-        let (first, second, flip) = if oa.is_prescribed() {
+        let (first, second, flip) = if oa.is_prescribed() || oa.is_asleep() {
             (patch.b, patch.a, -1.0f32)
         } else {
             (patch.a, patch.b, 1.0)
@@ -191,7 +191,7 @@ fn sides(
     let a = side(objects, grids, first, at, near, knn, out)?;
     let b = side(objects, grids, second, at, near, knn, out);
     let ob = &objects[second];
-    if b.is_none() && !ob.is_static() {
+    if b.is_none() && !ob.is_frozen() {
         out.weights.truncate(a.start as usize);
         out.offsets.truncate(a.start as usize);
         return None;
@@ -205,7 +205,8 @@ fn sides(
 
 /// One side of a spring at `at` on object `k`: the phyxels that take a force there in
 /// `contact::distribute`, with its normalised weights and couple, appended to `out`;
-/// `None` for a static object (it does not move) and when there are none.
+/// `None` for a frozen object (static or asleep: it does not move) and when there are
+/// none.
 fn side(
     objects: &[Object],
     grids: &[Option<Grid>],
@@ -216,7 +217,7 @@ fn side(
     out: &mut ContactSprings,
 ) -> Option<SpringSide> {
     let o = &objects[k];
-    if o.is_static() {
+    if o.is_frozen() {
         return None;
     }
     let grid = grids[k].as_ref()?;
@@ -311,7 +312,7 @@ pub fn speculate(
                 let x = o.surfels.pos.get(s);
                 let at = 0.5 * (x + c.projection);
                 // Side a moves: the surfel's object pushed out along the other's normal.
-                let (first, second, normal) = if o.is_prescribed() {
+                let (first, second, normal) = if o.is_prescribed() || o.is_asleep() {
                     (other, own, -c.normal)
                 } else {
                     (own, other, c.normal)
@@ -341,6 +342,34 @@ pub fn speculate(
                     given,
                 });
             }
+        }
+    }
+}
+
+/// Fixes the sides of `springs` whose bodies have fallen asleep since they were built:
+/// a sleeping side b is held where it is (as a static one), and a spring whose side a
+/// sleeps while side b moves by its own dynamics is turned round (side b becomes side a,
+/// the normal and the friction anchor's elongation reversed; it keeps no friction
+/// memory, whose key names the other orientation).
+pub fn fix_sleeping(springs: &mut ContactSprings, objects: &[Object]) {
+    let asleep = |s: &SpringSide| objects[s.object as usize].is_asleep();
+    for sp in &mut springs.springs {
+        if sp.b.as_ref().is_some_and(asleep) {
+            (sp.b, sp.given) = (None, None);
+        }
+        if asleep(&sp.a)
+            && let Some(b) = sp.b.filter(|b| !objects[b.object as usize].is_prescribed())
+        {
+            *sp = ContactSpring {
+                normal: -sp.normal,
+                stick: -sp.stick,
+                key: None,
+                b_object: sp.a.object,
+                a: b,
+                b: None,
+                given: None,
+                ..*sp
+            };
         }
     }
 }

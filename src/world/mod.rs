@@ -390,6 +390,7 @@ impl World {
             sleep::settle(
                 &mut self.objects,
                 &self.contact.pairs,
+                &mut self.contact.springs,
                 self.dt,
                 self.time,
                 &mut self.cache.sleep,

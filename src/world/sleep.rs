@@ -1,19 +1,24 @@
-//! Sleeping: a group of bodies in contact that has stayed still stops being stepped,
-//! advected and tested for contact among itself and with static objects, until
-//! something moving touches it ("model only what a scene needs").
+//! Sleeping: a body that has stayed still, among neighbours that have too, stops being
+//! stepped, advected and tested for contact with static objects and other sleeping
+//! bodies, until something moving touches it ("model only what a scene needs").
 //!
 //! A body is still while every phyxel stays within [`SLEEP_SPEED`] times its
 //! [`still_time`] of where it was when its still time began, checked [`SLEEP_SAMPLES`]
-//! times per still time (a smaller vibration, or a slower creep, counts as still). A
-//! group (bodies joined by overlapping boxes, static objects left out) falls asleep once
-//! every body in it has been still for its [`still_time`], none is a tool, and no load
-//! is still ramping. Its velocities are set to zero and its state is kept as it is.
-//! The broad phase wakes a sleeping body whose box overlaps an awake moving one (a
-//! tool, a body falling onto it), and with it every sleeping body it touches.
+//! times per still time (a smaller vibration, or a slower creep, counts as still). It is
+//! settled once it has been still for its [`still_time`] (a sleeping body is settled; a
+//! tool or a body whose load is ramping never is). A settled body falls asleep when
+//! every moving body whose box overlaps its own is settled too: its velocities are set
+//! to zero and its state is kept as it is. An awake body then touches it as it would a
+//! static object. So a heap sleeps around a ball still rolling on it, except for the
+//! ball's neighbours.
+//! The broad phase wakes a sleeping body whose box overlaps an awake body that is not
+//! settled (a tool, a body falling onto it, a neighbour that started to move); it wakes
+//! as settled, from where it is, so the bodies it touches wake only once it moves.
 //! Everything is decided in object order from the step's state, so it does not depend
 //! on the thread count. Scene key `sleep` (default on), [`crate::World::sleep`].
 
 use crate::body::object::Object;
+use crate::solver::ContactSprings;
 use crate::spatial::broad_phase::Pair;
 
 /// Mean speed (m/s) below which a body counts as at rest: each phyxel stays within
@@ -44,16 +49,23 @@ pub fn still_time(o: &Object) -> f32 {
     }
 }
 
-/// Wakes every sleeping body in a pair with a body that is neither static nor asleep,
-/// and returns whether any woke (the pairs must then be found again: the woken body's
-/// pairs with other sleeping bodies were skipped).
+/// Whether `o` is settled: asleep, or awake and still for its [`still_time`].
+fn settled(o: &Object) -> bool {
+    o.is_asleep() || (!o.is_static() && o.still_checked >= still_time(o))
+}
+
+/// Wakes every sleeping body in a pair with an awake moving body that is not settled,
+/// as settled from where it is, and returns whether any woke (the pairs must then be
+/// found again: the woken body's pairs with other sleeping bodies were skipped).
 pub(super) fn wake_touched(objects: &mut [Object], pairs: &[Pair]) -> bool {
     let mut woke = false;
     for p in pairs {
-        let (a, b) = (!objects[p.a].is_frozen(), !objects[p.b].is_frozen());
-        for (k, other) in [(p.a, b), (p.b, a)] {
-            if other && objects[k].is_asleep() {
-                objects[k].wake();
+        for (k, other) in [(p.a, p.b), (p.b, p.a)] {
+            let o = &objects[other];
+            let moving = !o.is_frozen() && !settled(o);
+            if moving && objects[k].is_asleep() {
+                let still = still_time(&objects[k]);
+                objects[k].wake_still(still);
                 woke = true;
             }
         }
@@ -62,17 +74,18 @@ pub(super) fn wake_touched(objects: &mut [Object], pairs: &[Pair]) -> bool {
 }
 
 /// After a step of `dt` ending at `time` (s): advances each awake body's still time
-/// (restarted, from the current positions, when a phyxel has moved too far),
-/// then puts to sleep the groups, joined by this step's `pairs`, whose bodies have all
-/// been still for their [`still_time`].
+/// (restarted, from the current positions, when a phyxel has moved too far), then puts
+/// to sleep the settled bodies whose overlapping moving bodies (this step's `pairs`)
+/// are all settled, and fixes their side of the contact `springs` the next solve reads.
 pub(super) fn settle(
     objects: &mut [Object],
     pairs: &[Pair],
+    springs: &mut ContactSprings,
     dt: f32,
     time: f64,
     scratch: &mut SleepScratch,
 ) {
-    let SleepScratch { group, ready } = scratch;
+    let SleepScratch { still, ready } = scratch;
     for o in objects.iter_mut() {
         if o.is_frozen() {
             continue;
@@ -108,45 +121,34 @@ pub(super) fn settle(
             o.still_checked = o.still_for;
         }
     }
-    // Union–find over the pairs of moving objects (static objects join nothing).
-    group.clear();
-    group.extend(0..objects.len());
-    fn root(group: &mut [usize], mut k: usize) -> usize {
-        while group[k] != k {
-            group[k] = group[group[k]];
-            k = group[k];
-        }
-        k
-    }
+    // A settled body sleeps when no moving body whose box overlaps its own is unsettled
+    // (the verdicts are taken before any body falls asleep).
+    still.clear();
+    still.extend(objects.iter().map(settled));
+    ready.clone_from(still);
     for p in pairs {
-        if objects[p.a].is_static() || objects[p.b].is_static() {
-            continue;
-        }
-        let (ra, rb) = (root(group, p.a), root(group, p.b));
-        if ra != rb {
-            group[ra.max(rb)] = ra.min(rb);
+        let (sa, sb) = (objects[p.a].is_static(), objects[p.b].is_static());
+        if !sa && !sb {
+            ready[p.a] &= still[p.b];
+            ready[p.b] &= still[p.a];
         }
     }
-    // A group is ready when each body in it is asleep or has been still long enough
-    // (the verdict is kept at the group's root).
-    ready.clear();
-    ready.resize(objects.len(), true);
-    for (k, o) in objects.iter().enumerate() {
-        if !o.is_static() {
-            let r = root(group, k);
-            ready[r] &= o.is_asleep() || o.still_checked >= still_time(o);
-        }
-    }
+    let mut fell = false;
     for (k, o) in objects.iter_mut().enumerate() {
-        if !o.is_frozen() && ready[root(group, k)] {
+        if !o.is_frozen() && ready[k] {
             o.fall_asleep();
+            fell = true;
         }
+    }
+    if fell {
+        crate::solver::springs::fix_sleeping(springs, objects);
     }
 }
 
 /// Buffers of [`settle`] (no allocation in the steady step).
 #[derive(Default)]
 pub(super) struct SleepScratch {
-    group: Vec<usize>,
+    /// Per object, settled; and settled with every overlapping moving body settled.
+    still: Vec<bool>,
     ready: Vec<bool>,
 }

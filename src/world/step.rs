@@ -704,7 +704,7 @@ fn distribute(objects: &mut [Object], patches: &[ContactPatch], cache: &mut Step
         takes[p.b] = true;
     }
     for (t, o) in takes.iter_mut().zip(objects.iter()) {
-        *t &= !o.is_static();
+        *t &= !o.is_frozen();
     }
     let takes = &takes[..];
     let grain = par::grain(takes.iter().copied());
