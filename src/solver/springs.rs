@@ -286,8 +286,11 @@ pub fn speculate(
     knn: &mut Vec<(usize, f32)>,
 ) {
     for d in detections {
-        // A touching pair's springs already act there: a gap spring beside a contact
-        // surfel would double its stiffness, and its friction would have no anchor.
+        // None for a touching pair: a contact surfel's area is its object's share of
+        // the contact surfels about it, so at a rim whose other side carries the whole
+        // area a gap spring would add to it, and the rim's force would fall as the
+        // gap's surfel entered (a negative stiffness: the rolling capsule on a coarse
+        // plane gained 0.4 mJ); and its friction would have no anchor.
         let touching = !d.a_in_b.is_empty() || !d.b_in_a.is_empty();
         if touching || (d.a_near_b.is_empty() && d.b_near_a.is_empty()) {
             continue;
