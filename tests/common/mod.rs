@@ -42,17 +42,21 @@ impl Drop for TempDir {
 /// two runs that must agree bitwise compare these.
 #[allow(dead_code)]
 pub fn state_bits(w: &phyxel::World) -> Vec<u32> {
+    w.objects.iter().flat_map(object_bits).collect()
+}
+
+/// [`state_bits`] of one object.
+#[allow(dead_code)]
+pub fn object_bits(o: &phyxel::body::object::Object) -> Vec<u32> {
     let mut out = Vec::new();
-    for o in &w.objects {
-        for col in [
-            &o.phyxels.pos,
-            &o.phyxels.vel,
-            &o.surfels.pos,
-            &o.surfels.vel,
-        ] {
-            for v in [&col.x, &col.y, &col.z] {
-                out.extend(v.iter().map(|x| x.to_bits()));
-            }
+    for col in [
+        &o.phyxels.pos,
+        &o.phyxels.vel,
+        &o.surfels.pos,
+        &o.surfels.vel,
+    ] {
+        for v in [&col.x, &col.y, &col.z] {
+            out.extend(v.iter().map(|x| x.to_bits()));
         }
     }
     out

@@ -228,13 +228,7 @@ fn a_body_sleeps_beside_a_neighbour_that_still_moves() {
     );
     assert!(!w.objects[4].is_asleep() && !w.objects[1].is_asleep());
     let asleep_at = w.time;
-    let before: Vec<u32> = {
-        let o = &w.objects[end];
-        [&o.phyxels.pos, &o.phyxels.vel]
-            .iter()
-            .flat_map(|c| c.x.iter().chain(&c.y).chain(&c.z).map(|v| v.to_bits()))
-            .collect()
-    };
+    let before = common::object_bits(&w.objects[end]);
     for _ in 0..60 {
         w.step();
         assert!(w.all_finite());
@@ -242,11 +236,7 @@ fn a_body_sleeps_beside_a_neighbour_that_still_moves() {
     }
     let o = &w.objects[end];
     assert!(o.is_asleep(), "woke after {} s", w.time - asleep_at);
-    let after: Vec<u32> = [&o.phyxels.pos, &o.phyxels.vel]
-        .iter()
-        .flat_map(|c| c.x.iter().chain(&c.y).chain(&c.z).map(|v| v.to_bits()))
-        .collect();
-    assert!(before == after, "a sleeping body moved");
+    assert!(before == common::object_bits(o), "a sleeping body moved");
     println!(
         "end box asleep at {asleep_at:.2} s; ball at {:.3} m/s; max penetration {:.2e} m",
         speed(&w, 4),
