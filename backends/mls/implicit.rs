@@ -31,7 +31,7 @@ use phyxel::dynamics::implicit::{F32_UNIT_ROUNDOFF, Implicit, SolveReport, Solve
 pub use phyxel::dynamics::implicit::{FLOOR_TOLERANCE, MAX_CG, MAX_NEWTON, NEWTON_TOLERANCE};
 use phyxel::math::linalg::polar_rotation;
 use phyxel::par;
-use phyxel::solver::skyline::{Skyline, rcm_order};
+use phyxel::solver::skyline::{Rounding, Skyline, rcm_order};
 use phyxel::solver::{self, Member, SolveScratch};
 
 /// The backend's name in scenes and on the command line.
@@ -51,6 +51,33 @@ pub const REFACTOR_CHANGE: f32 = 0.25;
 /// (At dt = 1e-4 s, `incline`'s sticking block takes 10.0 CG iterations per step with
 /// them against 7.7 without: docs/BACKENDS.md.)
 pub const CONTACT_SHARE: f64 = 0.25;
+
+/// The largest share of a body's mass that the preconditioner's rounding may stand for
+/// when it is kept in bfloat16 ([`rounding_for`]).
+pub const BF16_SHARE: f64 = 0.5;
+
+/// How to round the factor of `m` (`M + c K₀`, perhaps with contact blocks; rows in RCM
+/// `position`): the rounding perturbs `L Lᵀ` by about the unit roundoff times its
+/// diagonal, and a rigid motion of the body is held by the mass alone (`K₀` does not
+/// resist it), so the perturbation's share of its Rayleigh quotient is about
+/// `u · tr A / tr M` over the free phyxels. bfloat16 while that is at most
+/// [`BF16_SHARE`] (soft bodies at a frame-rate step: `pile-20`'s 0.2–0.35, the squeezed
+/// cube's 0.13), f32 above (the stiff cantilever's 33: in bfloat16 a stiff sphere's
+/// impact stalled Newton at 5% of its scale).
+fn rounding_for(m: &Skyline, position: &[u32], phyxels: &Phyxels) -> Rounding {
+    let (mut trace, mut mass) = (0.0f64, 0.0f64);
+    for (node, &at) in position.iter().enumerate() {
+        if phyxels.fixed[node] == 0 {
+            trace += (0..3).map(|a| m.diagonal(3 * at as usize + a)).sum::<f64>();
+            mass += 3.0 * phyxels.mass[node] as f64;
+        }
+    }
+    if mass > 0.0 && Rounding::Bf16.unit_roundoff() * trace <= BF16_SHARE * mass {
+        Rounding::Bf16
+    } else {
+        Rounding::F32
+    }
+}
 
 /// Warm-started polar iterations (of four steps each) for the body's rotation per step.
 const ROTATION_FITS: usize = 4;
@@ -250,7 +277,8 @@ impl MlsImplicit {
             }
         }
         let system = m.clone();
-        m.factor().ok()?;
+        let rounding = rounding_for(&m, &position, phyxels);
+        m.factor(rounding).ok()?;
         Some(Preconditioner {
             contact: m.clone(),
             blocks: Vec::new(),
@@ -304,7 +332,7 @@ impl MlsImplicit {
                 } else {
                     &pre.factor
                 };
-                factor.solve_f32(&mut self.dofs);
+                factor.solve_rounded(&mut self.dofs);
                 for (j, z) in z.iter_mut().enumerate() {
                     let p = 3 * pre.position[j] as usize;
                     let d = &self.dofs[p..p + 3];
@@ -541,7 +569,8 @@ impl Implicit for MlsImplicit {
                 }
             }
         }
-        pre.with_contact = pre.contact.factor().is_ok();
+        let rounding = rounding_for(&pre.contact, &pre.position, phyxels);
+        pre.with_contact = pre.contact.factor(rounding).is_ok();
         pre.blocks.clear();
         if pre.with_contact {
             pre.blocks.extend_from_slice(rest);

@@ -8,7 +8,8 @@
 //! The implicit backend factors its rest-state system once and applies the factor as
 //! the preconditioner of its conjugate gradients.
 
-use wide::{f32x8, f64x4};
+use wide::bytemuck::cast;
+use wide::{f32x8, f64x4, i32x8, u16x8};
 
 /// Reverse Cuthill–McKee order of a graph given by adjacency lists: `order[k]` is the
 /// node placed at position k. Each connected part starts from a pseudo-peripheral node
@@ -98,26 +99,136 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     sum.reduce_add() + ta.iter().zip(tb).map(|(x, y)| x * y).sum::<f64>()
 }
 
-/// `Σ aᵢ bᵢ` in eight-lane f32 vectors, two running sums ([`Skyline::solve_f32`]'s
-/// inner loop).
+/// How [`Skyline::factor`] rounds the factor that [`Skyline::solve_rounded`] reads.
+/// The triangular solves stream the factor once each, so its bytes are their time; the
+/// rounding perturbs `L Lᵀ` by about the unit roundoff times its diagonal, which must
+/// stay small against the matrix's smallest eigenvalues.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Rounding {
+    /// f32: 24 significant bits.
+    F32,
+    /// bfloat16, the upper half of an f32's bits: f32's range, 8 significant bits, half
+    /// the bytes of f32.
+    Bf16,
+}
+
+impl Rounding {
+    /// The unit roundoff: a value is rounded to within this fraction of itself.
+    pub fn unit_roundoff(self) -> f64 {
+        match self {
+            Rounding::F32 => f64::from(f32::EPSILON) / 2.0,
+            Rounding::Bf16 => 2f64.powi(-8) / 2.0,
+        }
+    }
+}
+
+/// An entry of the rounded factor, widened to f32 for the solves.
+trait Entry: Copy {
+    /// `x` rounded to nearest.
+    fn round(x: f64) -> Self;
+    /// The entry as an f32 (exact).
+    fn widen(self) -> f32;
+    /// The first eight entries of `h` as f32 lanes.
+    fn widen8(h: &[Self]) -> f32x8;
+}
+
+impl Entry for f32 {
+    #[inline]
+    fn round(x: f64) -> Self {
+        x as f32
+    }
+    #[inline]
+    fn widen(self) -> f32 {
+        self
+    }
+    #[inline]
+    fn widen8(h: &[Self]) -> f32x8 {
+        f32x8::new(h[..8].try_into().expect("a chunk of 8"))
+    }
+}
+
+/// A bfloat16 by its bits.
+#[derive(Clone, Copy, Debug)]
+struct Bf16(u16);
+
+impl Entry for Bf16 {
+    /// Rounded to nearest, ties to even (the f32 first: a double rounding, within
+    /// bfloat16's own unit roundoff and an f32 one).
+    #[inline]
+    fn round(x: f64) -> Self {
+        let b = (x as f32).to_bits();
+        Bf16(((b + 0x7fff + ((b >> 16) & 1)) >> 16) as u16)
+    }
+    #[inline]
+    fn widen(self) -> f32 {
+        f32::from_bits((self.0 as u32) << 16)
+    }
+    #[inline]
+    fn widen8(h: &[Self]) -> f32x8 {
+        let h = u16x8::new(std::array::from_fn(|k| h[k].0));
+        cast::<i32x8, f32x8>(i32x8::from_u16x8(h) << 16)
+    }
+}
+
+/// The first eight entries of `x` as lanes.
 #[inline]
-fn dot32(a: &[f32], b: &[f32]) -> f32 {
+fn load(x: &[f32]) -> f32x8 {
+    f32x8::new(x[..8].try_into().expect("a chunk of 8"))
+}
+
+/// `Σ aᵢ bᵢ` in eight-lane f32 vectors, four running sums (the rounded solve's inner
+/// loop, a row at a time).
+#[inline]
+fn dot_rounded<T: Entry>(a: &[T], b: &[f32]) -> f32 {
     let n = a.len().min(b.len());
     let (a, b) = (&a[..n], &b[..n]);
-    let load = |x: &[f32]| f32x8::new(x[..8].try_into().expect("a chunk of 8"));
-    let mut acc = [f32x8::ZERO; 2];
-    let (ca, cb) = (a.chunks_exact(16), b.chunks_exact(16));
+    let mut acc = [f32x8::ZERO; 4];
+    let (ca, cb) = (a.chunks_exact(32), b.chunks_exact(32));
     let (ra, rb) = (ca.remainder(), cb.remainder());
     for (x, y) in ca.zip(cb) {
-        acc[0] = load(x).mul_add(load(y), acc[0]);
-        acc[1] = load(&x[8..]).mul_add(load(&y[8..]), acc[1]);
+        for k in 0..4 {
+            acc[k] = T::widen8(&x[8 * k..]).mul_add(load(&y[8 * k..]), acc[k]);
+        }
     }
     let (qa, qb) = (ra.chunks_exact(8), rb.chunks_exact(8));
     let (ta, tb) = (qa.remainder(), qb.remainder());
     for (x, y) in qa.zip(qb) {
-        acc[0] = load(x).mul_add(load(y), acc[0]);
+        acc[0] = T::widen8(x).mul_add(load(y), acc[0]);
     }
-    (acc[0] + acc[1]).reduce_add() + ta.iter().zip(tb).map(|(x, y)| x * y).sum::<f32>()
+    ((acc[0] + acc[1]) + (acc[2] + acc[3])).reduce_add()
+        + ta.iter().zip(tb).map(|(&x, y)| x.widen() * y).sum::<f32>()
+}
+
+/// The three sums `Σ aₖᵢ bᵢ` (k = 0, 1, 2) of three rows against one vector, in one
+/// pass over it.
+#[inline]
+fn dot3_rounded<T: Entry>(a: [&[T]; 3], b: &[f32]) -> [f32; 3] {
+    let n = b.len();
+    // Two running sums per row: one would wait on each fused multiply-add's latency.
+    let mut acc = [[f32x8::ZERO; 3]; 2];
+    let pairs = n - n % 16;
+    for i in (0..pairs).step_by(16) {
+        for (h, acc) in acc.iter_mut().enumerate() {
+            let y = load(&b[i + 8 * h..]);
+            for k in 0..3 {
+                acc[k] = T::widen8(&a[k][i + 8 * h..]).mul_add(y, acc[k]);
+            }
+        }
+    }
+    let body = n - n % 8;
+    if body > pairs {
+        let y = load(&b[pairs..]);
+        for k in 0..3 {
+            acc[0][k] = T::widen8(&a[k][pairs..]).mul_add(y, acc[0][k]);
+        }
+    }
+    let mut out = [0, 1, 2].map(|k| (acc[0][k] + acc[1][k]).reduce_add());
+    for i in body..n {
+        for k in 0..3 {
+            out[k] += a[k][i].widen() * b[i];
+        }
+    }
+    out
 }
 
 /// A symmetric matrix stored by rows from each row's first nonzero column to the
@@ -129,9 +240,14 @@ pub struct Skyline {
     /// Start of each row in `values` (row r holds columns first[r]..=r).
     start: Vec<usize>,
     values: Vec<f64>,
-    /// The factor rounded to f32 (empty until [`Skyline::factor`] succeeds): what
-    /// [`Skyline::solve_f32`] reads, half the bytes of `values`.
-    lower: Vec<f32>,
+    /// The factor rounded as `rounding` says (the other one empty; both empty until
+    /// [`Skyline::factor`] succeeds): what [`Skyline::solve_rounded`] reads.
+    lower_f32: Vec<f32>,
+    lower_bf16: Vec<Bf16>,
+    rounding: Rounding,
+    /// The rows come in triples that start at the same column, a multiple of three (the
+    /// three coordinates of a node): [`Skyline::solve_rounded`] takes a node at a time.
+    by_node: bool,
 }
 
 impl Skyline {
@@ -144,11 +260,18 @@ impl Skyline {
             len += r + 1 - f;
         }
         start.push(len);
+        let by_node = first.len().is_multiple_of(3)
+            && first
+                .chunks_exact(3)
+                .all(|f| f[0].is_multiple_of(3) && f[1] == f[0] && f[2] == f[0]);
         Self {
             first,
             start,
             values: vec![0.0; len],
-            lower: Vec::new(),
+            lower_f32: Vec::new(),
+            lower_bf16: Vec::new(),
+            rounding: Rounding::F32,
+            by_node,
         }
     }
 
@@ -180,9 +303,10 @@ impl Skyline {
         self.values[self.start[r] + c - self.first[r]] += v;
     }
 
-    /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`); `Err` with the row
+    /// Replaces the matrix by its Cholesky factor `L` (`A = L Lᵀ`), and keeps `L`
+    /// rounded as `rounding` says for [`Skyline::solve_rounded`]; `Err` with the row
     /// whose pivot is not positive (the matrix is not positive definite).
-    pub fn factor(&mut self) -> Result<(), usize> {
+    pub fn factor(&mut self, rounding: Rounding) -> Result<(), usize> {
         for r in 0..self.len() {
             let (fr, sr) = (self.first[r], self.start[r]);
             for c in fr..r {
@@ -201,30 +325,88 @@ impl Skyline {
             }
             self.values[sr + r - fr] = pivot.sqrt();
         }
-        self.lower.clear();
-        self.lower.extend(self.values.iter().map(|&v| v as f32));
+        self.rounding = rounding;
+        self.lower_f32.clear();
+        self.lower_bf16.clear();
+        match rounding {
+            Rounding::F32 => self.lower_f32.extend(self.values.iter().map(|&v| v as f32)),
+            Rounding::Bf16 => self
+                .lower_bf16
+                .extend(self.values.iter().map(|&v| Bf16::round(v))),
+        }
         Ok(())
     }
 
-    /// Solves `L̃ L̃ᵀ x = b` in place in f32, with `L̃` the factor rounded to f32 (after
-    /// [`Skyline::factor`]). `L̃ L̃ᵀ` is symmetric positive definite whatever the
-    /// rounding, so as a preconditioner it is as valid as the f64 factor; the
-    /// triangular solves read memory-bound rows, and f32 halves their bytes.
-    pub fn solve_f32(&self, b: &mut [f32]) {
+    /// Solves `L̃ L̃ᵀ x = b` in place in f32, with `L̃` the factor rounded as
+    /// [`Skyline::factor`] was told. `L̃ L̃ᵀ` is symmetric positive definite whatever the
+    /// rounding, so as a preconditioner it is as valid as the f64 factor.
+    pub fn solve_rounded(&self, b: &mut [f32]) {
+        match (self.rounding, self.by_node) {
+            (Rounding::F32, false) => self.solve_by_row(&self.lower_f32, b),
+            (Rounding::F32, true) => self.solve_by_node(&self.lower_f32, b),
+            (Rounding::Bf16, false) => self.solve_by_row(&self.lower_bf16, b),
+            (Rounding::Bf16, true) => self.solve_by_node(&self.lower_bf16, b),
+        }
+    }
+
+    /// [`Skyline::solve_rounded`] a row at a time.
+    fn solve_by_row<T: Entry>(&self, lower: &[T], b: &mut [f32]) {
         let n = self.len();
-        let lower = &self.lower;
         for r in 0..n {
             let (fr, sr) = (self.first[r], self.start[r]);
             let row = &lower[sr..sr + r - fr];
-            b[r] = (b[r] - dot32(row, &b[fr..r])) / lower[sr + r - fr];
+            b[r] = (b[r] - dot_rounded(row, &b[fr..r])) / lower[sr + r - fr].widen();
         }
         for r in (0..n).rev() {
             let (fr, sr) = (self.first[r], self.start[r]);
-            b[r] /= lower[sr + r - fr];
+            b[r] /= lower[sr + r - fr].widen();
             let x = b[r];
             let row = &lower[sr..sr + r - fr];
-            for (y, a) in b[fr..r].iter_mut().zip(row) {
-                *y -= a * x;
+            for (y, &a) in b[fr..r].iter_mut().zip(row) {
+                *y -= a.widen() * x;
+            }
+        }
+    }
+
+    /// [`Skyline::solve_rounded`] a node (three rows of one envelope) at a time: the
+    /// three rows' products with the solution so far share one pass over it, and the
+    /// rows wait on each other only inside their 3×3 diagonal block (a row at a time,
+    /// each row's division waits on the last row's sum).
+    fn solve_by_node<T: Entry>(&self, lower: &[T], b: &mut [f32]) {
+        let l = |i: usize| lower[i].widen();
+        for r0 in (0..self.len()).step_by(3) {
+            let f = self.first[r0];
+            let m = r0 - f;
+            let s = [self.start[r0], self.start[r0 + 1], self.start[r0 + 2]];
+            let sums = dot3_rounded(
+                [
+                    &lower[s[0]..s[0] + m],
+                    &lower[s[1]..s[1] + m],
+                    &lower[s[2]..s[2] + m],
+                ],
+                &b[f..r0],
+            );
+            let x0 = (b[r0] - sums[0]) / l(s[0] + m);
+            let x1 = (b[r0 + 1] - sums[1] - l(s[1] + m) * x0) / l(s[1] + m + 1);
+            let x2 =
+                (b[r0 + 2] - sums[2] - l(s[2] + m) * x0 - l(s[2] + m + 1) * x1) / l(s[2] + m + 2);
+            b[r0..r0 + 3].copy_from_slice(&[x0, x1, x2]);
+        }
+        for r0 in (0..self.len()).step_by(3).rev() {
+            let f = self.first[r0];
+            let m = r0 - f;
+            let s = [self.start[r0], self.start[r0 + 1], self.start[r0 + 2]];
+            let x2 = b[r0 + 2] / l(s[2] + m + 2);
+            let x1 = (b[r0 + 1] - l(s[2] + m + 1) * x2) / l(s[1] + m + 1);
+            let x0 = (b[r0] - l(s[2] + m) * x2 - l(s[1] + m) * x1) / l(s[0] + m);
+            b[r0..r0 + 3].copy_from_slice(&[x0, x1, x2]);
+            let (a0, a1, a2) = (
+                &lower[s[0]..s[0] + m],
+                &lower[s[1]..s[1] + m],
+                &lower[s[2]..s[2] + m],
+            );
+            for (k, y) in b[f..r0].iter_mut().enumerate() {
+                *y -= a0[k].widen() * x0 + a1[k].widen() * x1 + a2[k].widen() * x2;
             }
         }
     }
@@ -253,8 +435,12 @@ impl Skyline {
 mod tests {
     use super::*;
 
+    /// Both roundings.
+    const ROUNDINGS: [Rounding; 2] = [Rounding::F32, Rounding::Bf16];
+
     /// The factor solves a banded SPD system to round-off (1e-10 relative), against
-    /// the product of the dense matrix with the solution (independent of the factor).
+    /// the product of the dense matrix with the solution (independent of the factor);
+    /// the rounded solves as [`assert_rounded_solve`] says.
     #[test]
     fn factor_solves_a_banded_spd_system() {
         let n = 40;
@@ -268,56 +454,135 @@ mod tests {
                 0.0
             }
         };
-        let mut m = Skyline::new(first);
-        for r in 0..n {
-            for c in r.saturating_sub(3)..=r {
-                m.add(r, c, entry(r, c));
+        for rounding in ROUNDINGS {
+            let mut m = Skyline::new(first.clone());
+            for r in 0..n {
+                for c in r.saturating_sub(3)..=r {
+                    m.add(r, c, entry(r, c));
+                }
             }
-        }
-        m.factor().expect("SPD");
-        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
-        let mut x = b.clone();
-        m.solve(&mut x);
-        for (r, &br) in b.iter().enumerate() {
-            let ax: f64 = (0..n).map(|c| entry(r.max(c), r.min(c)) * x[c]).sum();
-            assert!((ax - br).abs() < 1e-10, "row {r}: {ax} against {br}");
-        }
-        // The f32 solve: the same solution to f32's rounding (|x| ≈ 0.1 here; rows of
-        // up to 8 products: 1e-6 of |b| is about twenty ulps).
-        let mut x32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
-        m.solve_f32(&mut x32);
-        for (r, (&a, &e)) in x32.iter().zip(&x).enumerate() {
-            assert!((a as f64 - e).abs() < 1e-6, "row {r}: {a} against {e}");
+            m.factor(rounding).expect("SPD");
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+            let mut x = b.clone();
+            m.solve(&mut x);
+            for (r, &br) in b.iter().enumerate() {
+                let ax: f64 = (0..n).map(|c| entry(r.max(c), r.min(c)) * x[c]).sum();
+                assert!((ax - br).abs() < 1e-10, "row {r}: {ax} against {br}");
+            }
+            assert_rounded_solve(&m, &b, &x);
         }
     }
 
-    /// The f32 solve on an irregular envelope (rows reaching 0 to 24 columns back, the
-    /// dot products' vector chunks and tails all taken) agrees with the f64 solve to
-    /// f32's rounding (1e-5 of the solution's largest entry: rows of up to 25 products).
+    /// `L̃ (L̃ᵀ x)` in f64, with `L̃` the rounded factor.
+    fn rounded_product(m: &Skyline, x: &[f32]) -> Vec<f64> {
+        let n = m.len();
+        let entry = |r: usize, c: usize| {
+            let i = m.start[r] + c - m.first[r];
+            f64::from(match m.rounding {
+                Rounding::F32 => m.lower_f32[i],
+                Rounding::Bf16 => m.lower_bf16[i].widen(),
+            })
+        };
+        let mut y = vec![0.0f64; n];
+        for (r, &xr) in x.iter().enumerate() {
+            for (c, yc) in y.iter_mut().enumerate().take(r + 1).skip(m.first[r]) {
+                *yc += entry(r, c) * xr as f64;
+            }
+        }
+        (0..n)
+            .map(|r| (m.first[r]..=r).map(|c| entry(r, c) * y[c]).sum())
+            .collect()
+    }
+
+    /// [`Skyline::solve_rounded`] of `b` solves the rounded factor's own system to f32's
+    /// rounding (its product with the rounded factor, summed in f64, gives back `b` to
+    /// 1e-5 of its largest entry: rows of a few dozen f32 products), and lies within ten
+    /// unit roundoffs of the factor (at least 1e-5) of the f64 solution `x`, relative to
+    /// its largest entry (each factor entry is within one of itself; on these diagonally
+    /// dominant matrices the solution moves by a few).
+    fn assert_rounded_solve(m: &Skyline, b: &[f64], x: &[f64]) {
+        let mut x32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
+        m.solve_rounded(&mut x32);
+        let back = rounded_product(m, &x32);
+        let b_scale = b.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for (r, (&a, &e)) in back.iter().zip(b).enumerate() {
+            assert!(
+                (a - e).abs() < 1e-5 * b_scale,
+                "row {r}: L̃L̃ᵀx̃ {a} against b {e}"
+            );
+        }
+        let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let tolerance = (10.0 * m.rounding.unit_roundoff()).max(1e-5);
+        for (r, (&a, &e)) in x32.iter().zip(x).enumerate() {
+            assert!(
+                (a as f64 - e).abs() < tolerance * scale,
+                "{:?} row {r}: {a} against {e}",
+                m.rounding
+            );
+        }
+    }
+
+    /// The rounded solves on an irregular envelope (rows reaching 0 to 24 columns back,
+    /// the dot products' vector chunks and tails all taken): see
+    /// [`assert_rounded_solve`].
     #[test]
-    fn f32_solve_matches_on_an_irregular_envelope() {
+    fn rounded_solve_on_an_irregular_envelope() {
         let n: usize = 43;
         let reach = |r: usize| [24, 1, 7, 0, 13, 2, 19, 5][r % 8];
         let first: Vec<usize> = (0..n).map(|r| r.saturating_sub(reach(r))).collect();
-        let mut m = Skyline::new(first.clone());
-        for (r, &fr) in first.iter().enumerate() {
-            for c in fr..r {
-                m.add(r, c, -1.0 / (2.0 + (r * 7 + c * 3) as f64 % 11.0));
+        for rounding in ROUNDINGS {
+            let mut m = Skyline::new(first.clone());
+            for (r, &fr) in first.iter().enumerate() {
+                for c in fr..r {
+                    m.add(r, c, -1.0 / (2.0 + (r * 7 + c * 3) as f64 % 11.0));
+                }
+                m.add(r, r, 30.0 + r as f64 * 0.1);
             }
-            m.add(r, r, 30.0 + r as f64 * 0.1);
+            assert!(!m.by_node);
+            m.factor(rounding).expect("diagonally dominant");
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
+            let mut x = b.clone();
+            m.solve(&mut x);
+            assert_rounded_solve(&m, &b, &x);
         }
-        m.factor().expect("diagonally dominant");
-        let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
-        let mut x = b.clone();
-        m.solve(&mut x);
-        let mut x32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
-        m.solve_f32(&mut x32);
-        let scale = x.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-        for (r, (&a, &e)) in x32.iter().zip(&x).enumerate() {
-            assert!(
-                (a as f64 - e).abs() < 1e-5 * scale,
-                "row {r}: {a} against {e}"
-            );
+    }
+
+    /// The rounded solves a node at a time (rows in triples of one envelope, reaching 0
+    /// to 29 nodes back: the paired, single and scalar tails of the three-row products
+    /// all taken) against the f64 solve ([`assert_rounded_solve`]), and against the same
+    /// factor solved a row at a time (the same sums in another order: 1e-5 of the
+    /// solution's largest entry).
+    #[test]
+    fn rounded_solve_by_node_matches_by_row() {
+        let nodes: usize = 41;
+        let reach = |p: usize| [29, 1, 7, 0, 13, 2, 19, 5, 3][p % 9];
+        let first: Vec<usize> = (0..3 * nodes)
+            .map(|r| 3 * (r / 3).saturating_sub(reach(r / 3)))
+            .collect();
+        for rounding in ROUNDINGS {
+            let mut m = Skyline::new(first.clone());
+            for (r, &fr) in first.iter().enumerate() {
+                for c in fr..r {
+                    m.add(r, c, -1.0 / (4.0 + (r * 7 + c * 3) as f64 % 13.0));
+                }
+                m.add(r, r, 40.0 + r as f64 * 0.1);
+            }
+            assert!(m.by_node);
+            m.factor(rounding).expect("diagonally dominant");
+            let b: Vec<f64> = (0..3 * nodes).map(|i| (i as f64 * 0.37).cos()).collect();
+            let mut x = b.clone();
+            m.solve(&mut x);
+            assert_rounded_solve(&m, &b, &x);
+            let b32: Vec<f32> = b.iter().map(|&v| v as f32).collect();
+            let mut by_node = b32.clone();
+            m.solve_rounded(&mut by_node);
+            let mut by_row = b32;
+            m.by_node = false;
+            m.solve_rounded(&mut by_row);
+            let scale = by_row.iter().fold(0.0f32, |a, v| a.max(v.abs()));
+            for (r, (&a, &e)) in by_node.iter().zip(&by_row).enumerate() {
+                assert!((a - e).abs() < 1e-5 * scale, "row {r}: {a} against {e}");
+            }
         }
     }
 
@@ -328,7 +593,7 @@ mod tests {
         m.add(0, 0, 1.0);
         m.add(1, 0, 2.0);
         m.add(1, 1, 1.0);
-        assert_eq!(m.factor(), Err(1));
+        assert_eq!(m.factor(Rounding::F32), Err(1));
     }
 
     /// RCM on a path graph numbered badly gives a bandwidth of 1.
