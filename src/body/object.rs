@@ -80,12 +80,53 @@ pub struct Object {
     /// Asleep (`world::sleep`): not stepped or advected, and not tested for contact
     /// with static objects or other sleeping bodies, until something moving touches it.
     asleep: bool,
-    /// Seconds the body has been still (the sleep test's clock), the clock at its last
-    /// passed displacement check, and the phyxel positions (with their compensation
-    /// carry) it is measured from.
-    pub(crate) still_for: f32,
-    pub(crate) still_checked: f32,
-    pub(crate) still_from: Vec<(glam::Vec3, glam::Vec3)>,
+    /// The sleep test's state (`world::sleep`).
+    pub(crate) still: Stillness,
+}
+
+/// The state of a body's sleep test (`world::sleep`): how long it has been still, and
+/// where its phyxels have been on average.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Stillness {
+    /// Seconds the body has been still (the test's clock), and the clock at its last
+    /// passed check.
+    pub(crate) time: f32,
+    pub(crate) checked: f32,
+    /// The phyxel positions (with their compensation carry) the displacements are
+    /// measured from.
+    pub(crate) from: Vec<(glam::Vec3, glam::Vec3)>,
+    /// Each phyxel's displacement from `from` summed over the steps of the current
+    /// check interval, and those steps.
+    pub(crate) sum: Vec<glam::Vec3>,
+    pub(crate) steps: u32,
+    /// Each phyxel's mean displacement over the first interval (empty until it ends).
+    pub(crate) base: Vec<glam::Vec3>,
+}
+
+impl Stillness {
+    /// Starts the test again from `here` (each phyxel's position and carry), as still
+    /// for `time` seconds.
+    pub(crate) fn restart(
+        &mut self,
+        here: impl Iterator<Item = (glam::Vec3, glam::Vec3)>,
+        time: f32,
+    ) {
+        self.from.clear();
+        self.from.extend(here);
+        self.sum.clear();
+        self.sum.resize(self.from.len(), glam::Vec3::ZERO);
+        self.steps = 0;
+        self.base.clear();
+        self.time = time;
+        self.checked = time;
+    }
+
+    /// Forgets everything: the next step starts the test again.
+    pub(crate) fn clear(&mut self) {
+        self.from.clear();
+        self.time = 0.0;
+        self.checked = 0.0;
+    }
 }
 
 /// The next [`Object::serial`].
@@ -305,9 +346,7 @@ impl Object {
             mesh: None,
             connectivity: Connectivity::default(),
             asleep: false,
-            still_for: 0.0,
-            still_checked: 0.0,
-            still_from: Vec::new(),
+            still: Stillness::default(),
             serial: NEXT_SERIAL.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         };
         object.refresh_implicit();
@@ -443,9 +482,7 @@ impl Object {
     /// it after writing a sleeping body's velocities or positions.
     pub fn wake(&mut self) {
         self.asleep = false;
-        self.still_for = 0.0;
-        self.still_checked = 0.0;
-        self.still_from.clear();
+        self.still.clear();
     }
 
     /// Wakes the body as still since `still` seconds, from where it is: it counts as
@@ -454,18 +491,16 @@ impl Object {
     pub(crate) fn wake_still(&mut self, still: f32) {
         self.asleep = false;
         let (p, carry) = (&self.phyxels.pos, &self.phyxels.pos_carry);
-        self.still_from.clear();
-        self.still_from
-            .extend((0..self.phyxels.len()).map(|j| (p.get(j), carry.get(j))));
-        self.still_for = still;
-        self.still_checked = still;
+        self.still.restart(
+            (0..self.phyxels.len()).map(|j| (p.get(j), carry.get(j))),
+            still,
+        );
     }
 
     /// Puts the body to sleep at rest: velocities and pending forces zero.
     pub(crate) fn fall_asleep(&mut self) {
         self.asleep = true;
-        self.still_for = 0.0;
-        self.still_checked = 0.0;
+        self.still.clear();
         self.phyxels.vel.fill_zero();
         self.phyxels.force.fill_zero();
     }
