@@ -53,7 +53,8 @@ pub const REFACTOR_CHANGE: f32 = 0.25;
 pub const CONTACT_SHARE: f64 = 0.25;
 
 /// The largest share of a body's mass that the preconditioner's rounding may stand for
-/// when it is kept in bfloat16 ([`rounding_for`]).
+/// when the factor is kept in bfloat16: `u · tr A / tr M` over the free phyxels (the
+/// rounding's share of a rigid motion's Rayleigh quotient), f32 above.
 pub const BF16_SHARE: f64 = 0.5;
 
 /// How to round the factor of `m` (`M + c K₀`, perhaps with contact blocks; rows in RCM
