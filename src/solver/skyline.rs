@@ -124,8 +124,6 @@ impl Rounding {
 
 /// An entry of the rounded factor, widened to f32 for the solves.
 trait Entry: Copy {
-    /// `x` rounded to nearest.
-    fn round(x: f64) -> Self;
     /// The entry as an f32 (exact).
     fn widen(self) -> f32;
     /// The first eight entries of `h` as f32 lanes.
@@ -133,10 +131,6 @@ trait Entry: Copy {
 }
 
 impl Entry for f32 {
-    #[inline]
-    fn round(x: f64) -> Self {
-        x as f32
-    }
     #[inline]
     fn widen(self) -> f32 {
         self
@@ -151,14 +145,17 @@ impl Entry for f32 {
 #[derive(Clone, Copy, Debug)]
 struct Bf16(u16);
 
-impl Entry for Bf16 {
-    /// Rounded to nearest, ties to even (the f32 first: a double rounding, within
+impl Bf16 {
+    /// `x` rounded to nearest, ties to even (the f32 first: a double rounding, within
     /// bfloat16's own unit roundoff and an f32 one).
     #[inline]
-    fn round(x: f64) -> Self {
+    fn new(x: f64) -> Self {
         let b = (x as f32).to_bits();
         Bf16(((b + 0x7fff + ((b >> 16) & 1)) >> 16) as u16)
     }
+}
+
+impl Entry for Bf16 {
     #[inline]
     fn widen(self) -> f32 {
         f32::from_bits((self.0 as u32) << 16)
@@ -332,7 +329,7 @@ impl Skyline {
             Rounding::F32 => self.lower_f32.extend(self.values.iter().map(|&v| v as f32)),
             Rounding::Bf16 => self
                 .lower_bf16
-                .extend(self.values.iter().map(|&v| Bf16::round(v))),
+                .extend(self.values.iter().map(|&v| Bf16::new(v))),
         }
         Ok(())
     }
