@@ -199,20 +199,29 @@ impl MlsImplicit {
         let st = &self.mls.stencil;
         let n = st.len();
         let free = |j: usize| phyxels.fixed[j] == 0;
-        // Nodes coupled through a row (the row's phyxel and its neighbours).
-        let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+        // Nodes coupled through a row (the row's phyxel and its neighbours): each free
+        // node's partners, gathered over the rows it is in with a stamp per node.
+        let row_nodes =
+            |i: usize| std::iter::once(i).chain(st.row(i).map(|k| st.neighbours[k] as usize));
+        let mut rows_of: Vec<Vec<u32>> = vec![Vec::new(); n];
         for i in 0..n {
-            let nodes: Vec<u32> = std::iter::once(i as u32)
-                .chain(st.row(i).map(|k| st.neighbours[k]))
-                .filter(|&j| free(j as usize))
-                .collect();
-            for &a in &nodes {
-                adjacency[a as usize].extend(nodes.iter().copied().filter(|&b| b != a));
+            for j in row_nodes(i).filter(|&j| free(j)) {
+                rows_of[j].push(i as u32);
             }
         }
-        for list in &mut adjacency {
-            list.sort_unstable();
-            list.dedup();
+        let mut stamp = vec![usize::MAX; n];
+        let mut adjacency: Vec<Vec<u32>> = vec![Vec::new(); n];
+        for a in 0..n {
+            stamp[a] = a;
+            for &i in &rows_of[a] {
+                for b in row_nodes(i as usize).filter(|&b| free(b)) {
+                    if stamp[b] != a {
+                        stamp[b] = a;
+                        adjacency[a].push(b as u32);
+                    }
+                }
+            }
+            adjacency[a].sort_unstable();
         }
         let order = rcm_order(&adjacency);
         let mut position = vec![0u32; n];
@@ -250,29 +259,31 @@ impl MlsImplicit {
         };
         let (a_coef, m_coef) = ((s * lambda + material.k_volume()) as f64, (s * mu) as f64);
         let c = c as f64;
+        let mut nodes: Vec<(usize, [f64; 3])> = Vec::new();
         for i in 0..n {
-            let nodes: Vec<(usize, Vec3)> = std::iter::once((i, st.d_self[i]))
-                .chain(st.row(i).map(|k| (st.neighbours[k] as usize, st.d[k])))
-                .filter(|&(j, _)| free(j))
-                .collect();
+            // The row's free nodes, last position first: each pair is visited once with
+            // its upper node's rows, whose columns then run forward in the envelope.
+            nodes.clear();
+            nodes.extend(
+                std::iter::once((i, st.d_self[i]))
+                    .chain(st.row(i).map(|k| (st.neighbours[k] as usize, st.d[k])))
+                    .filter(|&(j, _)| free(j))
+                    .map(|(j, c)| (3 * position[j] as usize, c.as_dvec3().to_array())),
+            );
+            nodes.sort_unstable_by_key(|&(p, _)| std::cmp::Reverse(p));
             let w = c * phyxels.volume[i] as f64;
-            for &(j, cj) in &nodes {
-                for &(k, ck) in &nodes {
-                    let (pj, pk) = (3 * position[j] as usize, 3 * position[k] as usize);
-                    if pj < pk {
-                        continue;
-                    }
-                    let dot = cj.dot(ck) as f64;
+            for (at, &(pj, cj)) in nodes.iter().enumerate() {
+                let dots = |ck: &[f64; 3]| cj[0] * ck[0] + cj[1] * ck[1] + cj[2] * ck[2];
+                for &(pk, ck) in &nodes[at..] {
+                    let dot = dots(&ck);
                     for a in 0..3 {
-                        for e in 0..3 {
-                            if pj == pk && e > a {
-                                continue;
-                            }
-                            let block = a_coef * (cj[a] * ck[e]) as f64
-                                + m_coef
-                                    * (if a == e { dot } else { 0.0 } + (cj[e] * ck[a]) as f64);
-                            m.add(pj + a, pk + e, w * block);
-                        }
+                        let entry = |e: usize| {
+                            let same = if a == e { dot } else { 0.0 };
+                            w * (a_coef * cj[a] * ck[e] + m_coef * (same + cj[e] * ck[a]))
+                        };
+                        let row = [entry(0), entry(1), entry(2)];
+                        let width = if pj == pk { a + 1 } else { 3 };
+                        m.add_row(pj + a, pk, &row[..width]);
                     }
                 }
             }
