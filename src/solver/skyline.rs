@@ -74,40 +74,168 @@ fn last_reached(adjacency: &[Vec<u32>], seed: usize, level: &mut [u32], placed: 
     *queue.last().unwrap_or(&seed)
 }
 
-/// The nine products `rows[a] · cols[b]` (all of one length) in four-lane vectors, one
-/// running sum each.
+/// A float the factor is computed in: f64, or f32 where the factor is rounded to
+/// bfloat16 afterwards (f32's rounding is a hundredth of bfloat16's).
+trait Real: Copy {
+    /// A vector of [`Real::WIDTH`] of them.
+    type Lanes: Copy;
+    const WIDTH: usize;
+    const ZERO: Self::Lanes;
+    /// The first [`Real::WIDTH`] entries of `x`.
+    fn lanes(x: &[Self]) -> Self::Lanes;
+    /// `x` (shorter than [`Real::WIDTH`]) followed by zeros.
+    fn padded(x: &[Self]) -> Self::Lanes;
+    /// `a b + c`, lane by lane.
+    fn fma(a: Self::Lanes, b: Self::Lanes, c: Self::Lanes) -> Self::Lanes;
+    fn total(v: Self::Lanes) -> f64;
+    fn wide(self) -> f64;
+    fn narrow(x: f64) -> Self;
+}
+
+impl Real for f64 {
+    type Lanes = f64x4;
+    const WIDTH: usize = 4;
+    const ZERO: f64x4 = f64x4::ZERO;
+    #[inline]
+    fn lanes(x: &[f64]) -> f64x4 {
+        f64x4::new(x[..4].try_into().expect("four entries"))
+    }
+    #[inline]
+    fn padded(x: &[f64]) -> f64x4 {
+        let mut v = [0.0; 4];
+        v[..x.len()].copy_from_slice(x);
+        f64x4::new(v)
+    }
+    #[inline]
+    fn fma(a: f64x4, b: f64x4, c: f64x4) -> f64x4 {
+        a.mul_add(b, c)
+    }
+    #[inline]
+    fn total(v: f64x4) -> f64 {
+        v.reduce_add()
+    }
+    #[inline]
+    fn wide(self) -> f64 {
+        self
+    }
+    #[inline]
+    fn narrow(x: f64) -> f64 {
+        x
+    }
+}
+
+impl Real for f32 {
+    type Lanes = f32x8;
+    const WIDTH: usize = 8;
+    const ZERO: f32x8 = f32x8::ZERO;
+    #[inline]
+    fn lanes(x: &[f32]) -> f32x8 {
+        f32x8::new(x[..8].try_into().expect("eight entries"))
+    }
+    #[inline]
+    fn padded(x: &[f32]) -> f32x8 {
+        let mut v = [0.0; 8];
+        v[..x.len()].copy_from_slice(x);
+        f32x8::new(v)
+    }
+    #[inline]
+    fn fma(a: f32x8, b: f32x8, c: f32x8) -> f32x8 {
+        a.mul_add(b, c)
+    }
+    #[inline]
+    fn total(v: f32x8) -> f64 {
+        v.reduce_add() as f64
+    }
+    #[inline]
+    fn wide(self) -> f64 {
+        self as f64
+    }
+    #[inline]
+    fn narrow(x: f64) -> f32 {
+        x as f32
+    }
+}
+
+/// The nine products `rows[a] · cols[b]` (all of one length) in vectors, one running
+/// sum each.
 #[inline]
-fn dot9(rows: [&[f64]; 3], cols: [&[f64]; 3]) -> [[f64; 3]; 3] {
+fn dot9<T: Real>(rows: [&[T]; 3], cols: [&[T]; 3]) -> [[f64; 3]; 3] {
     let n = rows[0].len();
-    let whole = n - n % 4;
-    let load = |x: &[f64], k: usize| {
-        let q: &[f64; 4] = x[k..k + 4].try_into().expect("four entries");
-        f64x4::new(*q)
-    };
-    let mut acc = [f64x4::ZERO; 9];
+    let mut acc = [T::ZERO; 9];
     let mut k = 0;
-    while k < whole {
-        let (r0, r1, r2) = (load(rows[0], k), load(rows[1], k), load(rows[2], k));
-        let (c0, c1, c2) = (load(cols[0], k), load(cols[1], k), load(cols[2], k));
-        acc[0] = r0.mul_add(c0, acc[0]);
-        acc[1] = r0.mul_add(c1, acc[1]);
-        acc[2] = r0.mul_add(c2, acc[2]);
-        acc[3] = r1.mul_add(c0, acc[3]);
-        acc[4] = r1.mul_add(c1, acc[4]);
-        acc[5] = r1.mul_add(c2, acc[5]);
-        acc[6] = r2.mul_add(c0, acc[6]);
-        acc[7] = r2.mul_add(c1, acc[7]);
-        acc[8] = r2.mul_add(c2, acc[8]);
-        k += 4;
+    while k < n {
+        // Whole vectors, then the tail as one vector padded with zeros.
+        let load = |x: &[T]| {
+            if k + T::WIDTH <= n {
+                T::lanes(&x[k..])
+            } else {
+                T::padded(&x[k..n])
+            }
+        };
+        let (r0, r1, r2) = (load(rows[0]), load(rows[1]), load(rows[2]));
+        let (c0, c1, c2) = (load(cols[0]), load(cols[1]), load(cols[2]));
+        acc[0] = T::fma(r0, c0, acc[0]);
+        acc[1] = T::fma(r0, c1, acc[1]);
+        acc[2] = T::fma(r0, c2, acc[2]);
+        acc[3] = T::fma(r1, c0, acc[3]);
+        acc[4] = T::fma(r1, c1, acc[4]);
+        acc[5] = T::fma(r1, c2, acc[5]);
+        acc[6] = T::fma(r2, c0, acc[6]);
+        acc[7] = T::fma(r2, c1, acc[7]);
+        acc[8] = T::fma(r2, c2, acc[8]);
+        k += T::WIDTH;
     }
     let mut out = [[0.0; 3]; 3];
     for a in 0..3 {
         for b in 0..3 {
-            let tail: f64 = (whole..n).map(|k| rows[a][k] * cols[b][k]).sum();
-            out[a][b] = acc[3 * a + b].reduce_add() + tail;
+            out[a][b] = T::total(acc[3 * a + b]);
         }
     }
     out
+}
+
+/// The Cholesky factor of a skyline matrix whose rows come in node triples
+/// ([`Skyline::by_node`]), in place in `values`, a node against a node at a time: the
+/// nine dot products of a 3 × 3 block read each row segment once for three products
+/// instead of one (the factor is bound by reading its rows), then the block's own
+/// columns are finished in order. `Err` with the row whose pivot is not positive.
+fn factor_by_node<T: Real>(
+    values: &mut [T],
+    first: &[usize],
+    start: &[usize],
+) -> Result<(), usize> {
+    let index = |r: usize, c: usize| start[r] + c - first[r];
+    for p in 0..first.len() / 3 {
+        let r0 = 3 * p;
+        let fr = first[r0];
+        for q in fr / 3..=p {
+            let c0 = 3 * q;
+            let k0 = fr.max(first[c0]);
+            let segment = |r: usize| &values[index(r, k0)..index(r, c0)];
+            let sums = dot9(
+                [0, 1, 2].map(|a| segment(r0 + a)),
+                [0, 1, 2].map(|b| segment(c0 + b)),
+            );
+            for (a, sums) in sums.iter().enumerate() {
+                let last = if q == p { a } else { 2 };
+                for (b, &sum) in sums.iter().enumerate().take(last + 1) {
+                    let (r, c) = (r0 + a, c0 + b);
+                    let within: f64 = (c0..c)
+                        .map(|k| values[index(r, k)].wide() * values[index(c, k)].wide())
+                        .sum();
+                    let value = values[index(r, c)].wide() - sum - within;
+                    values[index(r, c)] = T::narrow(if c < r {
+                        value / values[index(c, c)].wide()
+                    } else if value > 0.0 && value.is_finite() {
+                        value.sqrt()
+                    } else {
+                        return Err(r);
+                    });
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `Σ aᵢ bᵢ` in four-lane vectors (the factor's inner loop; a plain sequential sum
@@ -278,6 +406,9 @@ pub struct Skyline {
     lower_f32: Vec<f32>,
     lower_bf16: Vec<Bf16>,
     rounding: Rounding,
+    /// The matrix in f32 while a factor to be rounded to bfloat16 is computed (kept for
+    /// its buffer).
+    work: Vec<f32>,
     /// The rows come in triples that start at the same column, a multiple of three (the
     /// three coordinates of a node): [`Skyline::solve_rounded`] takes a node at a time.
     by_node: bool,
@@ -304,6 +435,7 @@ impl Skyline {
             lower_f32: Vec::new(),
             lower_bf16: Vec::new(),
             rounding: Rounding::F32,
+            work: Vec::new(),
             by_node,
         }
     }
@@ -350,8 +482,20 @@ impl Skyline {
     /// rounded as `rounding` says for [`Skyline::solve_rounded`]; `Err` with the row
     /// whose pivot is not positive (the matrix is not positive definite).
     pub fn factor(&mut self, rounding: Rounding) -> Result<(), usize> {
-        if self.by_node {
-            self.factor_by_node()?;
+        if self.by_node && rounding == Rounding::Bf16 {
+            self.work.clear();
+            self.work.extend(self.values.iter().map(|&v| v as f32));
+            match factor_by_node(&mut self.work, &self.first, &self.start) {
+                Ok(()) => {
+                    for (v, &w) in self.values.iter_mut().zip(&self.work) {
+                        *v = w as f64;
+                    }
+                }
+                // A pivot lost in f32: the f64 factor decides.
+                Err(_) => factor_by_node(&mut self.values, &self.first, &self.start)?,
+            }
+        } else if self.by_node {
+            factor_by_node(&mut self.values, &self.first, &self.start)?;
         } else {
             self.factor_by_row()?;
         }
@@ -365,19 +509,6 @@ impl Skyline {
                 .extend(self.values.iter().map(|&v| Bf16::new(v))),
         }
         Ok(())
-    }
-
-    /// The entry of `L` at (r, c) while factoring (`first[r] ≤ c ≤ r`).
-    #[inline]
-    fn at(&self, r: usize, c: usize) -> f64 {
-        self.values[self.start[r] + c - self.first[r]]
-    }
-
-    /// Row `r`'s stored entries in columns `from..to` (`first[r] ≤ from ≤ to ≤ r`).
-    #[inline]
-    fn segment(&self, r: usize, from: usize, to: usize) -> &[f64] {
-        let (s, f) = (self.start[r], self.first[r]);
-        &self.values[s + from - f..s + to - f]
     }
 
     /// The up-looking Cholesky factor, a row at a time: `L[r][c]` from the dot
@@ -400,41 +531,6 @@ impl Skyline {
                 return Err(r);
             }
             self.values[sr + r - fr] = pivot.sqrt();
-        }
-        Ok(())
-    }
-
-    /// The same factor a node (three rows of one envelope) against a node at a time:
-    /// the nine dot products of a 3 × 3 block read each row segment once for three
-    /// products instead of one (the factor is bound by reading its rows), then the
-    /// block's own columns are finished in order.
-    fn factor_by_node(&mut self) -> Result<(), usize> {
-        for p in 0..self.len() / 3 {
-            let r0 = 3 * p;
-            let fr = self.first[r0];
-            for q in fr / 3..=p {
-                let c0 = 3 * q;
-                let k0 = fr.max(self.first[c0]);
-                let rows = [0, 1, 2].map(|a| self.segment(r0 + a, k0, c0));
-                let cols = [0, 1, 2].map(|b| self.segment(c0 + b, k0, c0));
-                let sums = dot9(rows, cols);
-                for (a, sums) in sums.iter().enumerate() {
-                    let last = if q == p { a } else { 2 };
-                    for (b, &sum) in sums.iter().enumerate().take(last + 1) {
-                        let (r, c) = (r0 + a, c0 + b);
-                        let within: f64 = (c0..c).map(|k| self.at(r, k) * self.at(c, k)).sum();
-                        let value = self.at(r, c) - sum - within;
-                        let i = self.start[r] + c - fr;
-                        if c < r {
-                            self.values[i] = value / self.at(c, c);
-                        } else if value > 0.0 && value.is_finite() {
-                            self.values[i] = value.sqrt();
-                        } else {
-                            return Err(r);
-                        }
-                    }
-                }
-            }
         }
         Ok(())
     }
@@ -691,7 +787,8 @@ mod tests {
     /// Factored a node at a time, a matrix of rows in triples (reaching 0 to 29 nodes
     /// back, so that the nine-product kernel's vector body and tails are all taken)
     /// solves its system to round-off against the matrix's own product (1e-10
-    /// relative), and its factor is the row-at-a-time one's within 1e-12.
+    /// relative), and its factor is the row-at-a-time one's within 1e-12 (f64), or
+    /// 1e-5 where it is computed in f32 (to be rounded to bfloat16).
     #[test]
     fn factor_by_node_solves_the_system() {
         let nodes: usize = 41;
@@ -730,6 +827,23 @@ mod tests {
                 "entry {i}: {a} against {e}"
             );
         }
+        // Rounded to bfloat16 afterwards, the factor is computed in f32: within f32's
+        // rounding of the f64 one.
+        let mut in_f32 = build();
+        in_f32.factor(Rounding::Bf16).expect("diagonally dominant");
+        for (i, (&a, &e)) in in_f32.values.iter().zip(&by_row.values).enumerate() {
+            assert!(
+                (a - e).abs() < 1e-5 * e.abs().max(1.0),
+                "entry {i}: {a} against {e}"
+            );
+        }
+        assert!(
+            in_f32
+                .values
+                .iter()
+                .zip(&by_row.values)
+                .any(|(a, e)| a != e)
+        );
         let n = 3 * nodes;
         let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.37).cos()).collect();
         let mut x = b.clone();
@@ -738,6 +852,23 @@ mod tests {
             let ax: f64 = (0..n).map(|c| entry(r, c) * x[c]).sum();
             assert!((ax - br).abs() < 1e-10, "row {r}: {ax} against {br}");
         }
+    }
+
+    /// A node matrix positive definite only beyond f32's rounding (an eigenvalue of
+    /// 2e-9) is factored in f64 when f32 loses its pivot, and still solves its system.
+    #[test]
+    fn a_pivot_lost_in_f32_is_factored_in_f64() {
+        let mut m = Skyline::new(vec![0; 6]);
+        for r in 0..6 {
+            m.add(r, r, 1.0);
+        }
+        m.add(3, 0, 1.0 - 1e-9);
+        m.factor(Rounding::Bf16).expect("positive definite in f64");
+        let b = [1.0, 0.0, 0.0, -1.0, 0.0, 0.0];
+        let mut x = b;
+        m.solve(&mut x);
+        let ax0 = x[0] + (1.0 - 1e-9) * x[3];
+        assert!((ax0 - b[0]).abs() < 1e-6 && (x[3] + (1.0 - 1e-9) * x[0] - b[3]).abs() < 1e-6);
     }
 
     /// A matrix that is not positive definite names its failing row.
