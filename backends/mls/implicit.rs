@@ -114,6 +114,11 @@ struct Preconditioner {
 pub struct MlsImplicit {
     mls: MlsDynamics,
     pre: Option<Preconditioner>,
+    /// Whether a preconditioner has been built (or tried): until then a solve runs on
+    /// the mass alone and builds it only if that does not converge
+    /// ([`Implicit::preconditioner_deferred`]); after, every new dt or rest state
+    /// rebuilds it at once.
+    factored: bool,
     /// The body's rotation from rest at the step's start (the best fit of its phyxels):
     /// the preconditioner is the rest-state system turned by it.
     rotation: Quat,
@@ -147,6 +152,7 @@ impl MlsImplicit {
         Self {
             mls: MlsDynamics::new(phyxels, material),
             pre: None,
+            factored: false,
             rotation: Quat::IDENTITY,
             tolerance: NEWTON_TOLERANCE,
             max_newton: MAX_NEWTON,
@@ -171,6 +177,12 @@ impl MlsImplicit {
     /// The explicit backend underneath (stencil, stress, plastic strain).
     pub fn mls(&self) -> &MlsDynamics {
         &self.mls
+    }
+
+    /// Whether the factored preconditioner is built (it waits until a solve needs it:
+    /// [`Implicit::preconditioner_deferred`]).
+    pub fn has_factor(&self) -> bool {
+        self.pre.is_some()
     }
 
     /// Work and convergence of the solves so far.
@@ -447,7 +459,12 @@ impl Implicit for MlsImplicit {
         let tau = self.mls.tau(ctx.material);
         let c = dt * dt + dt * tau;
         if self.pre.as_ref().is_none_or(|p| p.built_for != (c, tau)) {
-            self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
+            // The first factor waits until a solve needs it (`preconditioner_deferred`).
+            self.pre = if self.factored {
+                self.build_preconditioner(phyxels, ctx.material, c, tau)
+            } else {
+                None
+            };
         }
         self.fit_rotation(phyxels);
         for j in 0..phyxels.len() {
@@ -526,6 +543,17 @@ impl Implicit for MlsImplicit {
     /// Uses the factor of `M + c K₀ + Rᵀ B R` (the blocks turned to rest), refactored
     /// only when the blocks have changed by more than [`REFACTOR_CHANGE`] since it was
     /// made; no blocks: the body's own factor. A factor that fails keeps the body's own.
+    fn preconditioner_deferred(&self) -> bool {
+        !self.factored
+    }
+
+    fn prepare_preconditioner(&mut self, phyxels: &Phyxels, ctx: &StepContext<'_>) {
+        let tau = self.mls.tau(ctx.material);
+        let c = ctx.dt * ctx.dt + ctx.dt * tau;
+        self.factored = true;
+        self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
+    }
+
     fn contact_blocks(&mut self, phyxels: &Phyxels, blocks: &[Mat3]) {
         let rot = Mat3::from_quat(self.rotation);
         let Some(pre) = self.pre.as_mut() else {

@@ -38,6 +38,20 @@ pub trait Implicit: Send {
     /// `z ≈ (M + c K)⁻¹ r`, symmetric positive definite; zero at fixed phyxels.
     fn precondition(&mut self, phyxels: &Phyxels, r: &[Vec3], z: &mut [Vec3]);
 
+    /// Whether [`Implicit::precondition`] is the mass alone because the body's full
+    /// preconditioner has not been built yet. The solve asks for it
+    /// ([`Implicit::prepare_preconditioner`]) only when a CG solve on the mass alone
+    /// has not converged within [`crate::solver::DEFERRED_CG`] iterations: a body in
+    /// free flight, whose step the mass alone solves, never pays for it. The default:
+    /// never deferred.
+    fn preconditioner_deferred(&self) -> bool {
+        false
+    }
+
+    /// Builds the full preconditioner for `ctx.dt` now (see
+    /// [`Implicit::preconditioner_deferred`]).
+    fn prepare_preconditioner(&mut self, _phyxels: &Phyxels, _ctx: &StepContext<'_>) {}
+
     /// The contact springs' share of this step's system, lumped to one symmetric
     /// positive semi-definite 3×3 block per phyxel (world frame; see
     /// [`crate::solver::active`]), for [`Implicit::precondition`] to add: a stiff or

@@ -23,7 +23,7 @@ pub mod skyline;
 pub mod springs;
 
 pub use islands::Islands;
-pub use newton::{Member, ROUNDING_FACTOR, SolveScratch, solve};
+pub use newton::{DEFERRED_CG, Member, ROUNDING_FACTOR, SolveScratch, solve};
 pub use springs::{ContactSpring, ContactSprings, SpringSide};
 
 use crate::body::object::Object;

@@ -17,6 +17,11 @@ use rayon::prelude::*;
 /// corrects the rest).
 const CG_FORCING: f64 = 0.05;
 
+/// CG iterations on the mass alone after which the members whose full preconditioner
+/// is deferred ([`Implicit::preconditioner_deferred`]) build it and the solve starts
+/// again: a body in free flight converges in one.
+pub const DEFERRED_CG: u32 = 4;
+
 /// A stagnated step is at the f32 floor when its residual is at most this multiple of
 /// the rounding estimate: the island's tangent applied to the rounding of the
 /// displacements its forces read ([`Implicit::displacement_rounding`]), a typical size
@@ -543,6 +548,7 @@ fn solve_cg(
     let apply = |members: &mut [Member<'_>], s: &mut SolveScratch| {
         apply_island(members, springs, s, dt, gravity)
     };
+    let mut deferred = members.iter().any(|m| m.dynamics.preconditioner_deferred());
     precondition(members, s);
     s.p.copy_from_slice(&s.z);
     let mut rz = dot(&s.r, &s.z);
@@ -565,6 +571,26 @@ fn solve_cg(
         }
         if dot(&s.r, &s.r).sqrt() <= CG_FORCING * r0 {
             break;
+        }
+        if deferred && it == DEFERRED_CG {
+            // The mass alone does not solve this step: the full preconditioners, with
+            // the step's contact blocks, and CG again from δ = 0.
+            deferred = false;
+            on_each_member(members, &s.offset, &|m| {
+                if m.dynamics.preconditioner_deferred() {
+                    let ctx = StepContext::new(dt, gravity, m.material);
+                    m.dynamics.prepare_preconditioner(m.phyxels, &ctx);
+                }
+            });
+            contact_blocks(members, springs, s, dt);
+            for j in 0..s.v.len() {
+                s.delta[j] = Vec3::ZERO;
+                s.r[j] = -s.g[j];
+            }
+            precondition(members, s);
+            s.p.copy_from_slice(&s.z);
+            rz = dot(&s.r, &s.z);
+            continue;
         }
         precondition(members, s);
         let rz_new = dot(&s.r, &s.z);
