@@ -198,6 +198,32 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
     );
 }
 
+/// A 0.2 m box (Young's modulus `young` Pa, spacing 2.5 cm, 1.25 cm surfels) centred
+/// `y` m above a static plane (E = 1e8 Pa), under gravity.
+fn box_above_plane(young: f32, y: f32) -> Scene {
+    let text = format!(
+        r#"
+        name = "box-above-plane"
+        gravity = [0.0, -9.81, 0.0]
+        [[objects]]
+        name = "ground"
+        shape = {{ type = "plane", size = [0.6, 0.6] }}
+        spacing = 0.025
+        surfel_spacing = 0.0125
+        static = true
+        material = {{ young = 1.0e8 }}
+        [[objects]]
+        name = "box"
+        shape = {{ type = "box", size = [0.2, 0.2, 0.2] }}
+        spacing = 0.025
+        surfel_spacing = 0.0125
+        position = [0.0, {y}, 0.0]
+        material = {{ young = {young:e} }}
+    "#
+    );
+    Scene::parse(&text, "box-above-plane").unwrap()
+}
+
 /// A stiff box (E = 1e8 Pa, 0.2 m, spacing 2.5 cm) set down on a static plane and stepped
 /// at dt = 1/120 s: the contact springs in its solve hold it where explicit contact
 /// forces would need dt below the contact bound. After 1 s its resting penetration (the
@@ -206,25 +232,7 @@ fn two_stiff_spheres_collide_at_a_frame_rate_step() {
 /// 1 mm/s), and every solve converged.
 #[test]
 fn a_stiff_box_rests_on_a_plane_at_a_frame_rate_step() {
-    let text = r#"
-        name = "stiff-box"
-        gravity = [0.0, -9.81, 0.0]
-        [[objects]]
-        name = "ground"
-        shape = { type = "plane", size = [0.6, 0.6] }
-        spacing = 0.025
-        surfel_spacing = 0.0125
-        static = true
-        material = { young = 1.0e8 }
-        [[objects]]
-        name = "box"
-        shape = { type = "box", size = [0.2, 0.2, 0.2] }
-        spacing = 0.025
-        surfel_spacing = 0.0125
-        position = [0.0, 0.101, 0.0]
-        material = { young = 1.0e8 }
-    "#;
-    let scene = Scene::parse(text, "stiff-box").unwrap();
+    let scene = box_above_plane(1.0e8, 0.101);
     let mut world = implicit_world(&scene, 1.0 / 120.0);
     for _ in 0..120 {
         world.step();
@@ -258,25 +266,7 @@ fn a_stiff_box_rests_on_a_plane_at_a_frame_rate_step() {
 /// (under 1 mm/s) with every solve converged.
 #[test]
 fn a_body_in_free_flight_needs_no_factor() {
-    let text = r#"
-        name = "drop"
-        gravity = [0.0, -9.81, 0.0]
-        [[objects]]
-        name = "ground"
-        shape = { type = "plane", size = [0.6, 0.6] }
-        spacing = 0.025
-        surfel_spacing = 0.0125
-        static = true
-        material = { young = 1.0e8 }
-        [[objects]]
-        name = "box"
-        shape = { type = "box", size = [0.2, 0.2, 0.2] }
-        spacing = 0.025
-        surfel_spacing = 0.0125
-        position = [0.0, 0.2, 0.0]
-        material = { young = 1.0e6 }
-    "#;
-    let scene = Scene::parse(text, "drop").unwrap();
+    let scene = box_above_plane(1.0e6, 0.2);
     let dt = 1.0f64 / 120.0;
     let mut world = implicit_world(&scene, dt as f32);
     fn box_of(w: &World) -> &MlsImplicit {
