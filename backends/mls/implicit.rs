@@ -540,9 +540,6 @@ impl Implicit for MlsImplicit {
         self.precondition_into(phyxels, r, z);
     }
 
-    /// Uses the factor of `M + c K₀ + Rᵀ B R` (the blocks turned to rest), refactored
-    /// only when the blocks have changed by more than [`REFACTOR_CHANGE`] since it was
-    /// made; no blocks: the body's own factor. A factor that fails keeps the body's own.
     fn preconditioner_deferred(&self) -> bool {
         !self.factored
     }
@@ -554,6 +551,9 @@ impl Implicit for MlsImplicit {
         self.pre = self.build_preconditioner(phyxels, ctx.material, c, tau);
     }
 
+    /// Uses the factor of `M + c K₀ + Rᵀ B R` (the blocks turned to rest), refactored
+    /// only when the blocks have changed by more than [`REFACTOR_CHANGE`] since it was
+    /// made; no blocks: the body's own factor. A factor that fails keeps the body's own.
     fn contact_blocks(&mut self, phyxels: &Phyxels, blocks: &[Mat3]) {
         let rot = Mat3::from_quat(self.rotation);
         let Some(pre) = self.pre.as_mut() else {
