@@ -130,7 +130,7 @@ impl Real for f32 {
     const ZERO: f32x8 = f32x8::ZERO;
     #[inline]
     fn lanes(x: &[f32]) -> f32x8 {
-        f32x8::new(x[..8].try_into().expect("eight entries"))
+        load(x)
     }
     #[inline]
     fn padded(x: &[f32]) -> f32x8 {
@@ -301,7 +301,7 @@ impl Entry for f32 {
     }
     #[inline]
     fn widen8(h: &[Self]) -> f32x8 {
-        f32x8::new(h[..8].try_into().expect("a chunk of 8"))
+        load(h)
     }
 }
 
