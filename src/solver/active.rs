@@ -21,6 +21,7 @@
 
 use super::newton::Member;
 use super::springs::{ContactSpring, ContactSprings, SpringSide};
+use super::transfer::Transfer;
 use glam::{Mat3, Vec3};
 
 /// Newton iterations over which friction follows the iterates' normal force.
@@ -32,6 +33,8 @@ pub(super) struct Side {
     pub offset: usize,
     pub member: usize,
     pub spring: SpringSide,
+    /// The weights' centroid from the member's mean position (m; [`Transfer`]).
+    pub centroid: Vec3,
 }
 
 /// A spring of the island and its state over the step's Newton iterations.
@@ -82,16 +85,17 @@ impl Active {
     }
 
     /// Velocity of side a relative to side b at the contact surfel, for the island's
-    /// vector `x`.
-    pub fn relative(&self, x: &[Vec3], springs: &ContactSprings) -> Vec3 {
-        let at = |s: &Side| springs.velocity(&s.spring, |j| x[s.offset + j]);
+    /// velocities last loaded into `x` ([`Transfer::load`]).
+    pub fn relative(&self, x: &Transfer, springs: &ContactSprings) -> Vec3 {
+        let at = |s: &Side| x.read(springs, s);
         at(&self.a) - self.b.as_ref().map_or(self.given, at)
     }
 
-    /// The change of [`Active::relative`] for a change `dx` of the island's velocities:
-    /// a side outside the island (static, a tool) does not change with them.
-    pub fn relative_change(&self, dx: &[Vec3], springs: &ContactSprings) -> Vec3 {
-        let at = |s: &Side| springs.velocity(&s.spring, |j| dx[s.offset + j]);
+    /// The change of [`Active::relative`] for a change of the island's velocities last
+    /// loaded into `dx`: a side outside the island (static, a tool) does not change
+    /// with them.
+    pub fn relative_change(&self, dx: &Transfer, springs: &ContactSprings) -> Vec3 {
+        let at = |s: &Side| dx.read(springs, s);
         at(&self.a) - self.b.as_ref().map_or(Vec3::ZERO, at)
     }
 
@@ -180,38 +184,24 @@ pub(super) fn lump(
     blocks: &mut [Mat3],
     springs: &ContactSprings,
     members: &[Member<'_>],
+    transfer: &Transfer,
     s: &Side,
     t: Mat3,
 ) {
     let fixed = &members[s.member].phyxels.fixed;
-    let (weights, offsets) = springs.weights_of(&s.spring);
     let ct = s.spring.couple.transpose();
-    for (&(j, w), &r) in weights.iter().zip(offsets) {
+    for &(j, w) in springs.weights_of(&s.spring) {
         if fixed[j as usize] != 0 {
             continue;
         }
+        let i = s.offset + j as usize;
+        let r = transfer.offset(i, s.centroid);
         let cross = Mat3::from_cols(
             Vec3::new(0.0, r.z, -r.y),
             Vec3::new(-r.z, 0.0, r.x),
             Vec3::new(r.y, -r.x, 0.0),
         );
         let g = Mat3::IDENTITY + ct * cross;
-        blocks[s.offset + j as usize] += g.transpose() * t * g * w;
+        blocks[i] += g.transpose() * t * g * w;
     }
-}
-
-/// Adds `f` spread over a side's phyxels to `rows`, its member's rows (fixed phyxels
-/// take nothing).
-pub(super) fn spread(
-    rows: &mut [Vec3],
-    springs: &ContactSprings,
-    fixed: &[u8],
-    side: &SpringSide,
-    f: Vec3,
-) {
-    springs.spread(side, f, |j, fj| {
-        if fixed[j] == 0 {
-            rows[j] += fj;
-        }
-    });
 }

@@ -21,6 +21,7 @@ mod islands;
 mod newton;
 pub mod skyline;
 pub mod springs;
+mod transfer;
 
 pub use islands::Islands;
 pub use newton::{DEFERRED_CG, Member, ROUNDING_FACTOR, SolveScratch, solve};
@@ -212,7 +213,8 @@ impl Solver {
                 let sp = &springs.springs[index];
                 if let (Some(b), Some(_)) = (sp.b, sp.given) {
                     let tool = &mut objects[b.object as usize].phyxels;
-                    springs.spread(&b, f, |j, fj| tool.force.add(j, fj));
+                    let (pos, force) = (&tool.pos, &mut tool.force);
+                    springs.spread(&b, f, |j| pos.get(j), |j, fj| force.add(j, fj));
                 }
             }
         }

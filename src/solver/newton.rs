@@ -2,8 +2,9 @@
 //! members' backward-Euler residuals and tangents ([`Implicit`]) plus the rows of the
 //! contact springs between them ([`super::active`]).
 
-use super::active::{Active, Side, lump, spread};
+use super::active::{Active, Side, lump};
 use super::springs::{ContactSprings, SpringSide};
+use super::transfer::{self, Transfer};
 use crate::dynamics::StepContext;
 use crate::dynamics::implicit::{
     FLOOR_TOLERANCE, Implicit, MOMENTUM_FLOOR, MOMENTUM_SHARE, SolveReport, SolveSettings,
@@ -12,6 +13,7 @@ use crate::material::Material;
 use crate::points::phyxels::Phyxels;
 use glam::{DVec3, Mat3, Vec3};
 use rayon::prelude::*;
+use wide::f32x8;
 
 /// CG stops at this fraction of the Newton residual (inexact Newton: the outer loop
 /// corrects the rest).
@@ -59,6 +61,15 @@ pub struct SolveScratch {
     springs: Vec<Active>,
     /// Each spring's force on side a in the current product (N, or N·s in the residual).
     spring_force: Vec<Vec3>,
+    /// The springs' reading and spreading in lanes.
+    transfer: Transfer,
+    /// Per island row, the springs' spread forces before [`transfer::finish`].
+    sums: Vec<f32x8>,
+    /// The springs' sides by member: `sides[side_start[k]..side_start[k + 1]]` are
+    /// member k's, each `2 × spring + (0 for side a, 1 for side b)`, in the springs'
+    /// order.
+    sides: Vec<u32>,
+    side_start: Vec<usize>,
 }
 
 impl SolveScratch {
@@ -125,6 +136,9 @@ pub fn solve(
         col.clear();
         col.resize(total, Vec3::ZERO);
     }
+    s.transfer.begin(members.iter().map(|m| &*m.phyxels));
+    s.sums.clear();
+    s.sums.resize(total, f32x8::ZERO);
     let slot = |object: u32| members.iter().position(|m| m.object == object as usize);
     // The island's springs: side a a member, side b a member, static or a tool (a body
     // outside every island: its motion is given).
@@ -142,9 +156,11 @@ pub fn solve(
                 (None, None) => (None, Vec3::ZERO),
             },
         };
-        s.springs
-            .push(Active::new(k as u32, side(&s.offset, ma, sp.a), mb, given));
+        let mb = mb.map(|b| with_centroid(b, &s.transfer, springs));
+        let a = with_centroid(side(&s.offset, ma, sp.a), &s.transfer, springs);
+        s.springs.push(Active::new(k as u32, a, mb, given));
     }
+    sides_by_member(members.len(), s);
     let mut momentum = 0.0f64;
     on_each_member(members, &s.offset, &|m| {
         m.dynamics
@@ -162,9 +178,10 @@ pub fn solve(
         }
     }
     let momentum = momentum.sqrt();
+    s.transfer.load(&s.v0);
     for e in s.springs.iter_mut() {
         let sp = &springs.springs[e.index as usize];
-        e.approach0 = sp.normal.dot(e.relative(&s.v0, springs));
+        e.approach0 = sp.normal.dot(e.relative(&s.transfer, springs));
     }
     let (mut newton, mut cg, mut scale, mut floor) = (0u32, 0u32, 0.0f64, 0.0f64);
     let (mut previous, mut stagnated, mut halvings) = (f64::INFINITY, false, 0);
@@ -175,7 +192,8 @@ pub fn solve(
             let ctx = StepContext::new(dt, gravity, m.material);
             m.dynamics.residual(m.phyxels, &ctx, v, g)
         });
-        let v = &s.v;
+        s.transfer.load(&s.v);
+        let transfer = &s.transfer;
         s.spring_force.resize(s.springs.len(), Vec3::ZERO);
         s.springs
             .par_iter_mut()
@@ -183,7 +201,7 @@ pub fn solve(
             .with_min_len(SPRING_TASK)
             .for_each(|(e, f)| {
                 let sp = &springs.springs[e.index as usize];
-                *f = e.force(sp, e.relative(v, springs), dt, newton) * -dt;
+                *f = e.force(sp, e.relative(transfer, springs), dt, newton) * -dt;
             });
         spread_springs(members, springs, s, Target::Residual);
         let norm = inverse_mass_norm(members, &s.offset, |i, _| s.g[i]);
@@ -238,11 +256,17 @@ pub fn solve(
         newton += 1;
     }
     remove_translation(members, s);
-    each_member(members, &s.offset, &s.v, &mut [], &|_, m, v, _| {
-        let ctx = StepContext::new(dt, gravity, m.material);
-        m.dynamics.commit(m.phyxels, &ctx, v);
-        0.0
-    });
+    each_member(
+        members,
+        &s.offset,
+        &s.v,
+        &mut [] as &mut [Vec3],
+        &|_, m, v, _| {
+            let ctx = StepContext::new(dt, gravity, m.material);
+            m.dynamics.commit(m.phyxels, &ctx, v);
+            0.0
+        },
+    );
     let tolerance = settings.tolerance as f64;
     // A stagnated step above the tolerance is at the floor only if the backend's
     // rounding explains its residual; otherwise it has stalled, and says so.
@@ -276,16 +300,17 @@ pub fn solve(
 /// that fixed tree: the same bits on any number of threads. An island's members are
 /// independent between the springs' rows, so a heap of bodies preconditions, applies
 /// and refactors in parallel.
-fn each_member<T, F>(
+fn each_member<T, O, F>(
     members: &mut [Member<'_>],
     offset: &[usize],
     input: &[T],
-    output: &mut [Vec3],
+    output: &mut [O],
     f: &F,
 ) -> f64
 where
     T: Sync,
-    F: Fn(usize, &mut Member<'_>, &[T], &mut [Vec3]) -> f64 + Sync,
+    O: Send,
+    F: Fn(usize, &mut Member<'_>, &[T], &mut [O]) -> f64 + Sync,
 {
     match members.len() {
         0 => 0.0,
@@ -314,10 +339,16 @@ fn on_each_member<F>(members: &mut [Member<'_>], offset: &[usize], f: &F)
 where
     F: Fn(&mut Member<'_>) + Sync,
 {
-    each_member(members, offset, &[] as &[Vec3], &mut [], &|_, m, _, _| {
-        f(m);
-        0.0
-    });
+    each_member(
+        members,
+        offset,
+        &[] as &[Vec3],
+        &mut [] as &mut [Vec3],
+        &|_, m, _, _| {
+            f(m);
+            0.0
+        },
+    );
 }
 
 /// `s.ap = A s.p`: the island's tangent (the members' `M + c K` and the pushing springs'
@@ -334,7 +365,8 @@ fn apply_island(
         m.dynamics.apply(m.phyxels, &ctx, p, ap);
         0.0
     });
-    let p = &s.p;
+    s.transfer.load(&s.p);
+    let transfer = &s.transfer;
     s.spring_force.resize(s.springs.len(), Vec3::ZERO);
     s.springs
         .par_iter()
@@ -343,7 +375,7 @@ fn apply_island(
         .filter(|(e, _)| e.pushing)
         .for_each(|(e, f)| {
             let sp = &springs.springs[e.index as usize];
-            *f = e.tangent(sp, e.relative_change(p, springs), dt);
+            *f = e.tangent(sp, e.relative_change(transfer, springs), dt);
         });
     spread_springs(members, springs, s, Target::Product);
 }
@@ -362,9 +394,9 @@ enum Target {
 }
 
 /// Adds each spring's `s.spring_force` to its side a's phyxels and its opposite to side
-/// b's, member by member in parallel ([`each_member`]): a member takes the sides at its
-/// first row (every object has phyxels, so no two members share one) in the springs'
-/// order, so each row sums in the same order on any number of threads.
+/// b's, member by member in parallel ([`each_member`]): a member sums its sides in the
+/// springs' order ([`transfer::spread`]), so each row sums in the same order on any
+/// number of threads, then adds the sums to its rows ([`transfer::finish`]).
 fn spread_springs(
     members: &mut [Member<'_>],
     springs: &ContactSprings,
@@ -372,25 +404,70 @@ fn spread_springs(
     target: Target,
 ) {
     let (active, forces) = (&s.springs, &s.spring_force);
+    let (sides, side_start) = (&s.sides, &s.side_start);
+    each_member(
+        members,
+        &s.offset,
+        &[] as &[Vec3],
+        &mut s.sums,
+        &|at, _, _, sums| {
+            sums.fill(f32x8::ZERO);
+            let k = s.offset.partition_point(|&o| o < at);
+            for &code in &sides[side_start[k]..side_start[k + 1]] {
+                let e = &active[code as usize / 2];
+                if target == Target::Product && !e.pushing {
+                    continue;
+                }
+                let f = forces[code as usize / 2];
+                match (code % 2, &e.b) {
+                    (0, _) => transfer::spread(sums, springs, &e.a, f),
+                    (_, Some(b)) => transfer::spread(sums, springs, b, -f),
+                    _ => unreachable!("a side b in a member's list is a member"),
+                }
+            }
+            0.0
+        },
+    );
     let out = match target {
         Target::Residual => &mut s.g,
         Target::Product => &mut s.ap,
     };
-    each_member(members, &s.offset, &[] as &[Vec3], out, &|at, m, _, out| {
-        let fixed = &m.phyxels.fixed;
-        for (e, &f) in active.iter().zip(forces) {
-            if target == Target::Product && !e.pushing {
-                continue;
-            }
-            let (side, f) = match &e.b {
-                _ if e.a.offset == at => (&e.a, f),
-                Some(b) if b.offset == at => (b, -f),
-                _ => continue,
-            };
-            spread(out, springs, fixed, &side.spring, f);
-        }
+    let transfer = &s.transfer;
+    each_member(members, &s.offset, &s.sums, out, &|at, m, sums, out| {
+        let local = transfer.local(at, m.phyxels.len());
+        transfer::finish(sums, local, &m.phyxels.fixed, out);
         0.0
     });
+}
+
+/// Lists each member's spring sides in `s.sides` (see [`SolveScratch::sides`]).
+fn sides_by_member(members: usize, s: &mut SolveScratch) {
+    s.side_start.clear();
+    s.side_start.resize(members + 1, 0);
+    for e in &s.springs {
+        s.side_start[e.a.member + 1] += 1;
+        if let Some(b) = &e.b {
+            s.side_start[b.member + 1] += 1;
+        }
+    }
+    for k in 0..members {
+        s.side_start[k + 1] += s.side_start[k];
+    }
+    s.sides.clear();
+    s.sides.resize(s.side_start[members], 0);
+    // Each member's start serves as its cursor, and ends at the next member's start.
+    for (i, e) in s.springs.iter().enumerate() {
+        let mut put = |member: usize, code: u32| {
+            s.sides[s.side_start[member]] = code;
+            s.side_start[member] += 1;
+        };
+        put(e.a.member, 2 * i as u32);
+        if let Some(b) = &e.b {
+            put(b.member, 2 * i as u32 + 1);
+        }
+    }
+    s.side_start.copy_within(0..members, 1);
+    s.side_start[0] = 0;
 }
 
 /// The residual's f32 floor, `‖δg‖_{M⁻¹}`: what rounding the displacements the forces
@@ -495,18 +572,24 @@ fn contact_blocks(
         for e in &s.springs {
             let sp = &springs.springs[e.index as usize];
             if let Some(t) = e.tangent_matrix(sp, dt) {
-                lump(&mut s.blocks, springs, members, &e.a, t);
+                lump(&mut s.blocks, springs, members, &s.transfer, &e.a, t);
                 if let Some(b) = &e.b {
-                    lump(&mut s.blocks, springs, members, b, t);
+                    lump(&mut s.blocks, springs, members, &s.transfer, b, t);
                 }
             }
         }
     }
     let blocks: &[Mat3] = if any { &s.blocks } else { &[] };
-    each_member(members, &s.offset, blocks, &mut [], &|_, m, blocks, _| {
-        m.dynamics.contact_blocks(m.phyxels, blocks);
-        0.0
-    });
+    each_member(
+        members,
+        &s.offset,
+        blocks,
+        &mut [] as &mut [Vec3],
+        &|_, m, blocks, _| {
+            m.dynamics.contact_blocks(m.phyxels, blocks);
+            0.0
+        },
+    );
 }
 
 fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
@@ -514,6 +597,15 @@ fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
         offset: offset[member],
         member,
         spring,
+        centroid: Vec3::ZERO,
+    }
+}
+
+/// `side` with its weights' centroid at the members' positions.
+fn with_centroid(side: Side, transfer: &Transfer, springs: &ContactSprings) -> Side {
+    Side {
+        centroid: transfer.centroid(springs, &side),
+        ..side
     }
 }
 

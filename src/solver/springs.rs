@@ -18,12 +18,12 @@ use glam::{Mat3, Vec3};
 pub struct SpringSide {
     /// The object (index into `World::objects`).
     pub object: u32,
-    /// Its phyxels, their normalised weights and offsets from the weights' centroid:
-    /// `ContactSprings::weights[start..end]`, `offsets[start..end]`.
+    /// Its phyxels and their normalised weights: `ContactSprings::weights[start..end]`.
     pub start: u32,
     pub end: u32,
-    /// The couple's map `f ↦ ω` (1/m): phyxel `j` takes `ŵⱼ (f + ω × rⱼ)`, which acts
-    /// at the surfel (zero: at the weights' centroid).
+    /// The couple's map `f ↦ ω` (1/m): phyxel `j` takes `ŵⱼ (f + ω × rⱼ)`, `rⱼ` its
+    /// offset from the weights' centroid, which acts at the surfel (zero: at the
+    /// centroid).
     pub couple: Mat3,
 }
 
@@ -62,36 +62,63 @@ pub struct ContactSpring {
 }
 
 /// The contact springs of the last step, over the whole world.
+///
+/// A side's offsets `rⱼ` are its phyxels' positions from their weighted centroid at
+/// the time of reading: the positions at the build for the springs built from this
+/// step's patches, and a rigid fit about where the phyxels are now for a spring kept
+/// from the step before ([`keep_parted`]) or a tool that has moved since.
 #[derive(Clone, Debug, Default)]
 pub struct ContactSprings {
     pub springs: Vec<ContactSpring>,
     /// (phyxel, normalised weight) lists of the springs' sides.
     pub weights: Vec<(u32, f32)>,
-    /// Each weight's phyxel offset from its side's weighted centroid (m), at the step's
-    /// start.
-    pub offsets: Vec<Vec3>,
 }
 
 impl ContactSprings {
     pub fn clear(&mut self) {
         self.springs.clear();
         self.weights.clear();
-        self.offsets.clear();
     }
 
-    /// A side's (phyxel, normalised weight) list and the phyxels' offsets.
-    pub fn weights_of(&self, side: &SpringSide) -> (&[(u32, f32)], &[Vec3]) {
-        let r = side.start as usize..side.end as usize;
-        (&self.weights[r.clone()], &self.offsets[r])
+    /// A side's (phyxel, normalised weight) list.
+    pub fn weights_of(&self, side: &SpringSide) -> &[(u32, f32)] {
+        &self.weights[side.start as usize..side.end as usize]
     }
 
-    /// Velocity of a side's contact surfel from its phyxels' `velocity(phyxel)`: the
-    /// weighted mean plus the weights' fitted rotation at the surfel (the transpose of
-    /// [`ContactSprings::spread`]).
-    pub fn velocity(&self, side: &SpringSide, velocity: impl Fn(usize) -> Vec3) -> Vec3 {
-        let (weights, offsets) = self.weights_of(side);
+    /// The offsets `rⱼ = xⱼ − Σₖ ŵₖ xₖ` of a side's phyxels at positions `pos(phyxel)`,
+    /// in the order of its weights, computed about the first phyxel (a local origin:
+    /// no cancellation against the positions' magnitude).
+    pub fn offsets<'a>(
+        &'a self,
+        side: &SpringSide,
+        pos: impl Fn(usize) -> Vec3 + 'a,
+    ) -> impl Iterator<Item = Vec3> + 'a {
+        let weights = self.weights_of(side);
+        let origin = weights
+            .first()
+            .map_or(Vec3::ZERO, |&(j, _)| pos(j as usize));
+        let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
+        for &(j, w) in weights {
+            sum += (pos(j as usize) - origin) * w;
+            total += w;
+        }
+        let centroid = origin + sum / total;
+        weights
+            .iter()
+            .map(move |&(j, _)| pos(j as usize) - centroid)
+    }
+
+    /// Velocity of a side's contact surfel from its phyxels' `velocity(phyxel)` at
+    /// positions `pos(phyxel)`: the weighted mean plus the weights' fitted rotation at
+    /// the surfel (the transpose of [`ContactSprings::spread`]).
+    pub fn velocity(
+        &self,
+        side: &SpringSide,
+        pos: impl Fn(usize) -> Vec3,
+        velocity: impl Fn(usize) -> Vec3,
+    ) -> Vec3 {
         let (mut mean, mut moment) = (Vec3::ZERO, Vec3::ZERO);
-        for (&(j, w), &r) in weights.iter().zip(offsets) {
+        for (&(j, w), r) in self.weights_of(side).iter().zip(self.offsets(side, pos)) {
             let v = velocity(j as usize) * w;
             mean += v;
             moment += r.cross(v);
@@ -99,11 +126,17 @@ impl ContactSprings {
         mean + side.couple.transpose() * moment
     }
 
-    /// Spreads `f` over a side's phyxels: `add(phyxel, ŵⱼ (f + ω × rⱼ))`.
-    pub fn spread(&self, side: &SpringSide, f: Vec3, mut add: impl FnMut(usize, Vec3)) {
-        let (weights, offsets) = self.weights_of(side);
+    /// Spreads `f` over a side's phyxels at positions `pos(phyxel)`:
+    /// `add(phyxel, ŵⱼ (f + ω × rⱼ))`.
+    pub fn spread(
+        &self,
+        side: &SpringSide,
+        f: Vec3,
+        pos: impl Fn(usize) -> Vec3,
+        mut add: impl FnMut(usize, Vec3),
+    ) {
         let omega = side.couple * f;
-        for (&(j, w), &r) in weights.iter().zip(offsets) {
+        for (&(j, w), r) in self.weights_of(side).iter().zip(self.offsets(side, pos)) {
             add(j as usize, (f + omega.cross(r)) * w);
         }
     }
@@ -193,13 +226,12 @@ fn sides(
     let ob = &objects[second];
     if b.is_none() && !ob.is_frozen() {
         out.weights.truncate(a.start as usize);
-        out.offsets.truncate(a.start as usize);
         return None;
     }
     let given = b
         .as_ref()
         .filter(|_| ob.is_prescribed())
-        .map(|b| out.velocity(b, |j| ob.phyxels.vel.get(j)));
+        .map(|b| out.velocity(b, |j| ob.phyxels.pos.get(j), |j| ob.phyxels.vel.get(j)));
     Some((a, b, given))
 }
 
@@ -228,12 +260,11 @@ fn side(
     if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
-    let (centroid, map) = Couple::map(at, total, m1, m2);
+    let (_, map) = Couple::map(at, total, m1, m2);
     let couple = if widened { Mat3::ZERO } else { map.as_mat3() };
     let start = out.weights.len() as u32;
     for &(j, w) in near.iter() {
         out.weights.push((j as u32, w / total));
-        out.offsets.push(o.phyxels.pos.get(j) - centroid);
     }
     Some(SpringSide {
         object: k as u32,
@@ -397,7 +428,10 @@ pub fn keep_parted(
         let involves = |p: &ContactPatch, k: u32| p.a == k as usize || p.b == k as usize;
         patches.iter().any(|p| involves(p, a) && involves(p, b))
     };
-    let mean = |s: &SpringSide| last.velocity(s, |j| objects[s.object as usize].phyxels.vel.get(j));
+    let mean = |s: &SpringSide| {
+        let p = &objects[s.object as usize].phyxels;
+        last.velocity(s, |j| p.pos.get(j), |j| p.vel.get(j))
+    };
     for sp in &last.springs {
         if touching(sp.a.object, sp.b_object) {
             continue;
@@ -409,9 +443,7 @@ pub fn keep_parted(
         }
         let mut copy = |s: &SpringSide| {
             let start = out.weights.len() as u32;
-            let (weights, offsets) = last.weights_of(s);
-            out.weights.extend_from_slice(weights);
-            out.offsets.extend_from_slice(offsets);
+            out.weights.extend_from_slice(last.weights_of(s));
             SpringSide {
                 start,
                 end: out.weights.len() as u32,
