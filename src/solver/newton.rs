@@ -16,8 +16,20 @@ use rayon::prelude::*;
 use wide::f32x8;
 
 /// CG stops at this fraction of the Newton residual (inexact Newton: the outer loop
-/// corrects the rest).
+/// corrects the rest), or at a larger one near the tolerance ([`forcing`]).
 const CG_FORCING: f64 = 0.05;
+
+/// The largest forcing [`forcing`] gives.
+const MAX_FORCING: f64 = 0.5;
+
+/// The fraction of the Newton residual at which CG stops, for a relative residual `rel`
+/// and the step's `tolerance`: [`CG_FORCING`], or, when the residual is already near the
+/// tolerance, the fraction that brings it to half the tolerance if the step were linear
+/// (at most [`MAX_FORCING`]). The last Newton step then solves only as accurately as
+/// the tolerance asks, in the spirit of Eisenstat and Walker's forcing terms (1996).
+fn forcing(rel: f64, tolerance: f64) -> f64 {
+    (0.5 * tolerance / rel).clamp(CG_FORCING, MAX_FORCING)
+}
 
 /// CG iterations on the mass alone after which the members whose full preconditioner
 /// is deferred ([`Implicit::preconditioner_deferred`]) build it and the solve starts
@@ -249,7 +261,8 @@ pub fn solve(
             m.dynamics
                 .linearise(m.phyxels, &StepContext::new(dt, gravity, m.material));
         });
-        cg += solve_cg(members, springs, s, settings.max_cg, dt, gravity);
+        let forcing = forcing(rel, settings.tolerance as f64);
+        cg += solve_cg(members, springs, s, settings.max_cg, forcing, dt, gravity);
         for (v, d) in s.v.iter_mut().zip(&s.delta) {
             *v += *d;
         }
@@ -609,8 +622,8 @@ fn with_centroid(side: Side, transfer: &Transfer, springs: &ContactSprings) -> S
     }
 }
 
-/// Solves `A δ = −g` over the island by preconditioned CG from δ = 0, to [`CG_FORCING`]
-/// of `‖g‖`; returns the iterations. `A` is the members' tangents plus the pushing
+/// Solves `A δ = −g` over the island by preconditioned CG from δ = 0, to `forcing` of
+/// `‖g‖`; returns the iterations. `A` is the members' tangents plus the pushing
 /// springs' rows (normal spring, dashpot and friction); the preconditioner is the members' own
 /// (block diagonal). Stops early on a direction of non-positive curvature (an
 /// indefinite tangent: a buckling body), keeping the last iterate.
@@ -619,6 +632,7 @@ fn solve_cg(
     springs: &ContactSprings,
     s: &mut SolveScratch,
     max_cg: u32,
+    forcing: f64,
     dt: f32,
     gravity: Vec3,
 ) -> u32 {
@@ -661,7 +675,7 @@ fn solve_cg(
             s.delta[j] += s.p[j] * alpha;
             s.r[j] -= s.ap[j] * alpha;
         }
-        if dot(&s.r, &s.r).sqrt() <= CG_FORCING * r0 {
+        if dot(&s.r, &s.r).sqrt() <= forcing * r0 {
             break;
         }
         if deferred && it == DEFERRED_CG {
