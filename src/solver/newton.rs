@@ -77,11 +77,53 @@ pub struct SolveScratch {
     transfer: Transfer,
     /// Per island row, the springs' spread forces before [`transfer::finish`].
     sums: Vec<f32x8>,
-    /// The springs' sides by member: `sides[side_start[k]..side_start[k + 1]]` are
-    /// member k's, each `2 × spring + (0 for side a, 1 for side b)`, in the springs'
-    /// order.
+    /// The springs' sides by member.
+    sides: MemberSides,
+}
+
+/// The springs' sides by member: `sides[start[k]..start[k + 1]]` are member k's, each
+/// `2 × spring + (0 for side a, 1 for side b)`, in the springs' order.
+#[derive(Clone, Debug, Default)]
+struct MemberSides {
     sides: Vec<u32>,
-    side_start: Vec<usize>,
+    start: Vec<usize>,
+}
+
+impl MemberSides {
+    /// Lists the sides of `springs` for `members` members.
+    fn list(&mut self, members: usize, springs: &[Active]) {
+        self.start.clear();
+        self.start.resize(members + 1, 0);
+        for e in springs {
+            self.start[e.a.member + 1] += 1;
+            if let Some(b) = &e.b {
+                self.start[b.member + 1] += 1;
+            }
+        }
+        for k in 0..members {
+            self.start[k + 1] += self.start[k];
+        }
+        self.sides.clear();
+        self.sides.resize(self.start[members], 0);
+        // Each member's start serves as its cursor, and ends at the next member's start.
+        for (i, e) in springs.iter().enumerate() {
+            let mut put = |member: usize, code: u32| {
+                self.sides[self.start[member]] = code;
+                self.start[member] += 1;
+            };
+            put(e.a.member, 2 * i as u32);
+            if let Some(b) = &e.b {
+                put(b.member, 2 * i as u32 + 1);
+            }
+        }
+        self.start.copy_within(0..members, 1);
+        self.start[0] = 0;
+    }
+
+    /// Member k's sides.
+    fn of(&self, k: usize) -> &[u32] {
+        &self.sides[self.start[k]..self.start[k + 1]]
+    }
 }
 
 impl SolveScratch {
@@ -172,7 +214,7 @@ pub fn solve(
         let a = with_centroid(side(&s.offset, ma, sp.a), &s.transfer, springs);
         s.springs.push(Active::new(k as u32, a, mb, given));
     }
-    sides_by_member(members.len(), s);
+    s.sides.list(members.len(), &s.springs);
     let mut momentum = 0.0f64;
     on_each_member(members, &s.offset, &|m| {
         m.dynamics
@@ -199,11 +241,7 @@ pub fn solve(
     let (mut previous, mut stagnated, mut halvings) = (f64::INFINITY, false, 0);
     let mut rel;
     loop {
-        // The residual: each member's, then the springs'.
-        let external = each_member(members, &s.offset, &s.v, &mut s.g, &|_, m, v, g| {
-            let ctx = StepContext::new(dt, gravity, m.material);
-            m.dynamics.residual(m.phyxels, &ctx, v, g)
-        });
+        // The residual: the springs' forces, then each member's own with its springs'.
         s.transfer.load(&s.v);
         let transfer = &s.transfer;
         s.spring_force.resize(s.springs.len(), Vec3::ZERO);
@@ -215,7 +253,22 @@ pub fn solve(
                 let sp = &springs.springs[e.index as usize];
                 *f = e.force(sp, e.relative(transfer, springs), dt, newton) * -dt;
             });
-        spread_springs(members, springs, s, Target::Residual);
+        let spread = Spread {
+            springs,
+            active: &s.springs,
+            forces: &s.spring_force,
+            sides: &s.sides,
+            offset: &s.offset,
+            transfer: &s.transfer,
+            target: Target::Residual,
+        };
+        let rows = (&mut s.g[..], &mut s.sums[..]);
+        let external = each_member(members, &s.offset, &s.v, rows, &|at, m, v, (g, sums)| {
+            let ctx = StepContext::new(dt, gravity, m.material);
+            let external = m.dynamics.residual(m.phyxels, &ctx, v, g);
+            spread.add(at, m, sums, g);
+            external
+        });
         let norm = inverse_mass_norm(members, &s.offset, |i, _| s.g[i]);
         if newton == 0 {
             // Relative to the step's momentum change, its impulses or a share of its
@@ -307,6 +360,27 @@ pub fn solve(
     report
 }
 
+/// Rows of the island's vectors that [`each_member`] hands out member by member: one
+/// vector, or two side by side.
+trait Rows: Send + Sized {
+    /// The first `at` rows and the rest (an empty vector stays empty).
+    fn split(self, at: usize) -> (Self, Self);
+}
+
+impl<T: Send> Rows for &mut [T] {
+    fn split(self, at: usize) -> (Self, Self) {
+        let at = at.min(self.len());
+        self.split_at_mut(at)
+    }
+}
+
+impl<A: Rows, B: Rows> Rows for (A, B) {
+    fn split(self, at: usize) -> (Self, Self) {
+        let ((a0, a1), (b0, b1)) = (self.0.split(at), self.1.split(at));
+        ((a0, b0), (a1, b1))
+    }
+}
+
 /// Runs `f` on every member with its first row in the island's vectors and its rows of
 /// `input` and `output` (either may be empty: then each member gets an empty slice), the
 /// members split into halves of the rows by `rayon::join`, and sums what `f` returns in
@@ -317,13 +391,13 @@ fn each_member<T, O, F>(
     members: &mut [Member<'_>],
     offset: &[usize],
     input: &[T],
-    output: &mut [O],
+    output: O,
     f: &F,
 ) -> f64
 where
     T: Sync,
-    O: Send,
-    F: Fn(usize, &mut Member<'_>, &[T], &mut [O]) -> f64 + Sync,
+    O: Rows,
+    F: Fn(usize, &mut Member<'_>, &[T], O) -> f64 + Sync,
 {
     match members.len() {
         0 => 0.0,
@@ -337,7 +411,7 @@ where
             let cut = offset[mid] - offset[0];
             let (ml, mr) = members.split_at_mut(mid);
             let (il, ir) = input.split_at(cut.min(input.len()));
-            let (ol, or) = output.split_at_mut(cut.min(output.len()));
+            let (ol, or) = output.split(cut);
             let (l, r) = rayon::join(
                 || each_member(ml, &offset[..=mid], il, ol, f),
                 || each_member(mr, &offset[mid..], ir, or, f),
@@ -373,11 +447,6 @@ fn apply_island(
     dt: f32,
     gravity: Vec3,
 ) {
-    each_member(members, &s.offset, &s.p, &mut s.ap, &|_, m, p, ap| {
-        let ctx = StepContext::new(dt, gravity, m.material);
-        m.dynamics.apply(m.phyxels, &ctx, p, ap);
-        0.0
-    });
     s.transfer.load(&s.p);
     let transfer = &s.transfer;
     s.spring_force.resize(s.springs.len(), Vec3::ZERO);
@@ -390,97 +459,74 @@ fn apply_island(
             let sp = &springs.springs[e.index as usize];
             *f = e.tangent(sp, e.relative_change(transfer, springs), dt);
         });
-    spread_springs(members, springs, s, Target::Product);
+    let spread = Spread {
+        springs,
+        active: &s.springs,
+        forces: &s.spring_force,
+        sides: &s.sides,
+        offset: &s.offset,
+        transfer: &s.transfer,
+        target: Target::Product,
+    };
+    let rows = (&mut s.ap[..], &mut s.sums[..]);
+    each_member(members, &s.offset, &s.p, rows, &|at, m, p, (ap, sums)| {
+        let ctx = StepContext::new(dt, gravity, m.material);
+        m.dynamics.apply(m.phyxels, &ctx, p, ap);
+        spread.add(at, m, sums, ap);
+        0.0
+    });
 }
 
 /// Contact springs per parallel task of their forces: a spring reads some fifty
 /// phyxels' velocities (about half a µs), so smaller tasks cost more to hand over.
 const SPRING_TASK: usize = 64;
 
-/// Which vector [`spread_springs`] adds the springs' forces to.
+/// Which springs [`Spread`] adds.
 #[derive(Clone, Copy, PartialEq)]
 enum Target {
-    /// `s.g`, every spring.
+    /// Every spring (the residual).
     Residual,
-    /// `s.ap`, the pushing springs (the others are out of the tangent).
+    /// The pushing springs (the others are out of the tangent).
     Product,
 }
 
-/// Adds each spring's `s.spring_force` to its side a's phyxels and its opposite to side
-/// b's, member by member in parallel ([`each_member`]): a member sums its sides in the
-/// springs' order ([`transfer::spread`]), so each row sums in the same order on any
-/// number of threads, then adds the sums to its rows ([`transfer::finish`]).
-fn spread_springs(
-    members: &mut [Member<'_>],
-    springs: &ContactSprings,
-    s: &mut SolveScratch,
+/// The springs' `s.spring_force` on side a, and its opposite on side b, to be added to
+/// a member's rows by [`Spread::add`].
+struct Spread<'a> {
+    springs: &'a ContactSprings,
+    active: &'a [Active],
+    forces: &'a [Vec3],
+    sides: &'a MemberSides,
+    offset: &'a [usize],
+    transfer: &'a Transfer,
     target: Target,
-) {
-    let (active, forces) = (&s.springs, &s.spring_force);
-    let (sides, side_start) = (&s.sides, &s.side_start);
-    each_member(
-        members,
-        &s.offset,
-        &[] as &[Vec3],
-        &mut s.sums,
-        &|at, _, _, sums| {
-            sums.fill(f32x8::ZERO);
-            let k = s.offset.partition_point(|&o| o < at);
-            for &code in &sides[side_start[k]..side_start[k + 1]] {
-                let e = &active[code as usize / 2];
-                if target == Target::Product && !e.pushing {
-                    continue;
-                }
-                let f = forces[code as usize / 2];
-                match (code % 2, &e.b) {
-                    (0, _) => transfer::spread(sums, springs, &e.a, f),
-                    (_, Some(b)) => transfer::spread(sums, springs, b, -f),
-                    _ => unreachable!("a side b in a member's list is a member"),
-                }
-            }
-            0.0
-        },
-    );
-    let out = match target {
-        Target::Residual => &mut s.g,
-        Target::Product => &mut s.ap,
-    };
-    let transfer = &s.transfer;
-    each_member(members, &s.offset, &s.sums, out, &|at, m, sums, out| {
-        let local = transfer.local(at, m.phyxels.len());
-        transfer::finish(sums, local, &m.phyxels.fixed, out);
-        0.0
-    });
 }
 
-/// Lists each member's spring sides in `s.sides` (see [`SolveScratch::sides`]).
-fn sides_by_member(members: usize, s: &mut SolveScratch) {
-    s.side_start.clear();
-    s.side_start.resize(members + 1, 0);
-    for e in &s.springs {
-        s.side_start[e.a.member + 1] += 1;
-        if let Some(b) = &e.b {
-            s.side_start[b.member + 1] += 1;
+impl Spread<'_> {
+    /// Adds the forces of the member whose first row is `at` to its `rows`, summed in
+    /// `sums` in the springs' order ([`transfer::spread`]), so that each row sums in the
+    /// same order on any number of threads, then added ([`transfer::finish`]).
+    fn add(&self, at: usize, m: &Member<'_>, sums: &mut [f32x8], rows: &mut [Vec3]) {
+        let sides = self.sides.of(self.offset.partition_point(|&o| o < at));
+        if sides.is_empty() {
+            return;
         }
-    }
-    for k in 0..members {
-        s.side_start[k + 1] += s.side_start[k];
-    }
-    s.sides.clear();
-    s.sides.resize(s.side_start[members], 0);
-    // Each member's start serves as its cursor, and ends at the next member's start.
-    for (i, e) in s.springs.iter().enumerate() {
-        let mut put = |member: usize, code: u32| {
-            s.sides[s.side_start[member]] = code;
-            s.side_start[member] += 1;
-        };
-        put(e.a.member, 2 * i as u32);
-        if let Some(b) = &e.b {
-            put(b.member, 2 * i as u32 + 1);
+        sums.fill(f32x8::ZERO);
+        for &code in sides {
+            let e = &self.active[code as usize / 2];
+            if self.target == Target::Product && !e.pushing {
+                continue;
+            }
+            let f = self.forces[code as usize / 2];
+            match (code % 2, &e.b) {
+                (0, _) => transfer::spread(sums, self.springs, &e.a, f),
+                (_, Some(b)) => transfer::spread(sums, self.springs, b, -f),
+                _ => unreachable!("a side b in a member's list is a member"),
+            }
         }
+        let local = self.transfer.local(at, m.phyxels.len());
+        transfer::finish(sums, local, &m.phyxels.fixed, rows);
     }
-    s.side_start.copy_within(0..members, 1);
-    s.side_start[0] = 0;
 }
 
 /// The residual's f32 floor, `‖δg‖_{M⁻¹}`: what rounding the displacements the forces
@@ -646,7 +692,7 @@ fn solve_cg(
         return 0;
     }
     let precondition = |members: &mut [Member<'_>], s: &mut SolveScratch| {
-        each_member(members, &s.offset, &s.r, &mut s.z, &|_, m, r, z| {
+        each_member(members, &s.offset, &s.r, &mut s.z[..], &|_, m, r, z| {
             m.dynamics.precondition(m.phyxels, r, z);
             0.0
         });
