@@ -253,17 +253,8 @@ pub fn solve(
                 let sp = &springs.springs[e.index as usize];
                 *f = e.force(sp, e.relative(transfer, springs), dt, newton) * -dt;
             });
-        let spread = Spread {
-            springs,
-            active: &s.springs,
-            forces: &s.spring_force,
-            sides: &s.sides,
-            offset: &s.offset,
-            transfer: &s.transfer,
-            target: Target::Residual,
-        };
-        let rows = (&mut s.g[..], &mut s.sums[..]);
-        let external = each_member(members, &s.offset, &s.v, rows, &|at, m, v, (g, sums)| {
+        let (spread, v, rows) = Spread::pass(springs, s, Target::Residual);
+        let external = each_member(members, spread.offset, v, rows, &|at, m, v, (g, sums)| {
             let ctx = StepContext::new(dt, gravity, m.material);
             let external = m.dynamics.residual(m.phyxels, &ctx, v, g);
             spread.add(at, m, sums, g);
@@ -459,17 +450,8 @@ fn apply_island(
             let sp = &springs.springs[e.index as usize];
             *f = e.tangent(sp, e.relative_change(transfer, springs), dt);
         });
-    let spread = Spread {
-        springs,
-        active: &s.springs,
-        forces: &s.spring_force,
-        sides: &s.sides,
-        offset: &s.offset,
-        transfer: &s.transfer,
-        target: Target::Product,
-    };
-    let rows = (&mut s.ap[..], &mut s.sums[..]);
-    each_member(members, &s.offset, &s.p, rows, &|at, m, p, (ap, sums)| {
+    let (spread, p, rows) = Spread::pass(springs, s, Target::Product);
+    each_member(members, spread.offset, p, rows, &|at, m, p, (ap, sums)| {
         let ctx = StepContext::new(dt, gravity, m.material);
         m.dynamics.apply(m.phyxels, &ctx, p, ap);
         spread.add(at, m, sums, ap);
@@ -502,7 +484,35 @@ struct Spread<'a> {
     target: Target,
 }
 
-impl Spread<'_> {
+/// What [`Spread::pass`] hands each member: its rows of the vector it adds the springs'
+/// forces to, and of the sums it adds them with.
+type SpreadRows<'a> = (&'a mut [Vec3], &'a mut [f32x8]);
+
+impl<'a> Spread<'a> {
+    /// A pass over the members that adds the springs' forces of `s.spring_force`: the
+    /// spreading, the vector the members read (`s.v` for the residual, `s.p` for the
+    /// product) and the rows they write (`s.g` or `s.ap`, and `s.sums`).
+    fn pass(
+        springs: &'a ContactSprings,
+        s: &'a mut SolveScratch,
+        target: Target,
+    ) -> (Self, &'a [Vec3], SpreadRows<'a>) {
+        let (input, out) = match target {
+            Target::Residual => (&s.v, &mut s.g),
+            Target::Product => (&s.p, &mut s.ap),
+        };
+        let spread = Spread {
+            springs,
+            active: &s.springs,
+            forces: &s.spring_force,
+            sides: &s.sides,
+            offset: &s.offset,
+            transfer: &s.transfer,
+            target,
+        };
+        (spread, input, (&mut out[..], &mut s.sums[..]))
+    }
+
     /// Adds the forces of the member whose first row is `at` to its `rows`, summed in
     /// `sums` in the springs' order ([`transfer::spread`]), so that each row sums in the
     /// same order on any number of threads, then added ([`transfer::finish`]).
