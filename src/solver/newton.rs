@@ -204,14 +204,16 @@ pub fn solve(
         let (mb, given) = match sp.b {
             None => (None, Vec3::ZERO),
             Some(b) => match (slot(b.object), sp.given) {
-                (Some(mb), _) => (Some(side(&s.offset, mb, b)), Vec3::ZERO),
+                (Some(mb), _) => (
+                    Some(side(&s.offset, mb, b, &s.transfer, springs)),
+                    Vec3::ZERO,
+                ),
                 (None, Some(given)) => (None, given),
                 // A body asleep since the springs were built: held where it is.
                 (None, None) => (None, Vec3::ZERO),
             },
         };
-        let mb = mb.map(|b| with_centroid(b, &s.transfer, springs));
-        let a = with_centroid(side(&s.offset, ma, sp.a), &s.transfer, springs);
+        let a = side(&s.offset, ma, sp.a, &s.transfer, springs);
         s.springs.push(Active::new(k as u32, a, mb, given));
     }
     s.sides.list(members.len(), &s.springs);
@@ -661,20 +663,21 @@ fn contact_blocks(
     );
 }
 
-fn side(offset: &[usize], member: usize, spring: SpringSide) -> Side {
+/// A spring side on `member` (its rows from `offset[member]`), with its weights'
+/// centroid at the members' positions.
+fn side(
+    offset: &[usize],
+    member: usize,
+    spring: SpringSide,
+    transfer: &Transfer,
+    springs: &ContactSprings,
+) -> Side {
+    let offset = offset[member];
     Side {
-        offset: offset[member],
+        offset,
         member,
         spring,
-        centroid: Vec3::ZERO,
-    }
-}
-
-/// `side` with its weights' centroid at the members' positions.
-fn with_centroid(side: Side, transfer: &Transfer, springs: &ContactSprings) -> Side {
-    Side {
-        centroid: transfer.centroid(springs, &side),
-        ..side
+        centroid: transfer.centroid(springs, &spring, offset),
     }
 }
 

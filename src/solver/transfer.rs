@@ -11,7 +11,7 @@
 //! cross products stay of the size of the body rather than of its place in the world.
 
 use super::active::Side;
-use super::springs::ContactSprings;
+use super::springs::{ContactSprings, SpringSide};
 use crate::points::phyxels::Phyxels;
 use glam::{DVec3, Vec3};
 use wide::f32x8;
@@ -41,14 +41,20 @@ impl Transfer {
         self.lanes.resize(self.local.len(), f32x8::ZERO);
     }
 
-    /// A side's weighted centroid, from its member's mean position (m).
-    pub fn centroid(&self, springs: &ContactSprings, side: &Side) -> Vec3 {
+    /// The weighted centroid of a spring side whose member's rows start at `offset`,
+    /// from the member's mean position (m).
+    pub fn centroid(&self, springs: &ContactSprings, side: &SpringSide, offset: usize) -> Vec3 {
         let (mut sum, mut total) = (Vec3::ZERO, 0.0f32);
-        for &(j, w) in springs.weights_of(&side.spring) {
-            sum += self.local[side.offset + j as usize] * w;
+        for &(j, w) in springs.weights_of(side) {
+            sum += self.local[offset + j as usize] * w;
             total += w;
         }
         sum / total
+    }
+
+    /// A member's rows of positions (m), from its first row `at`, `n` rows.
+    pub fn local(&self, at: usize, n: usize) -> &[Vec3] {
+        &self.local[at..at + n]
     }
 
     /// The offset of row `i`'s phyxel from a side's `centroid` (m).
@@ -111,17 +117,9 @@ pub fn finish(sums: &[f32x8], local: &[Vec3], fixed: &[u8], rows: &mut [Vec3]) {
     }
 }
 
-impl Transfer {
-    /// A member's rows of positions (m), from its first row `at`, `n` rows.
-    pub fn local(&self, at: usize, n: usize) -> &[Vec3] {
-        &self.local[at..at + n]
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solver::springs::SpringSide;
     use glam::Mat3;
 
     /// Two bodies 10 m from the origin (the positions' magnitude a thousand times the
@@ -157,13 +155,12 @@ mod tests {
         };
         let mut transfer = Transfer::default();
         transfer.begin([&first, &second]);
-        let mut side = Side {
+        let side = Side {
             offset: 27,
             member: 1,
             spring,
-            centroid: Vec3::ZERO,
+            centroid: transfer.centroid(&springs, &spring, 27),
         };
-        side.centroid = transfer.centroid(&springs, &side);
         let x: Vec<Vec3> = (0..54)
             .map(|i| {
                 Vec3::new(
