@@ -241,6 +241,9 @@ pub fn solve(
     }
     let (mut newton, mut cg, mut scale, mut floor) = (0u32, 0u32, 0.0f64, 0.0f64);
     let (mut previous, mut stagnated, mut halvings) = (f64::INFINITY, false, 0);
+    // The rounding estimate, relative to the scale ([`rounding_floor`]; negative: not
+    // yet computed), and the springs' states at the last accepted iterate.
+    let (mut rounding, mut previous_contact) = (-1.0f64, 0u64);
     let mut rel;
     loop {
         // The residual: the springs' forces, then each member's own with its springs'.
@@ -294,12 +297,22 @@ pub fn solve(
         if newton >= settings.max_newton || !rel.is_finite() {
             break;
         }
-        // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE).
+        // No longer halving: the forces' f32 rounding is reached (see FLOOR_TOLERANCE),
+        // unless the residual is far above that rounding and the step moved the contact
+        // onto another piece of its law (a spring started or stopped pushing, or
+        // turned between sticking and sliding), from which Newton converges again.
+        let contact = contact_state(&s.springs);
         if rel > 0.5 * previous && norm <= floor {
-            stagnated = true;
-            break;
+            if rounding < 0.0 {
+                rounding = rounding_floor(members, springs, s, dt, gravity) / scale;
+            }
+            if rel <= ROUNDING_FACTOR * rounding || contact == previous_contact {
+                stagnated = true;
+                break;
+            }
         }
         previous = rel;
+        previous_contact = contact;
         if newton == 0 {
             contact_blocks(members, springs, s, dt);
         }
@@ -329,11 +342,7 @@ pub fn solve(
     let tolerance = settings.tolerance as f64;
     // A stagnated step above the tolerance is at the floor only if the backend's
     // rounding explains its residual; otherwise it has stalled, and says so.
-    let rounding = if stagnated && rel > tolerance {
-        rounding_floor(members, springs, s, dt, gravity) / scale
-    } else {
-        0.0
-    };
+    let rounding = rounding.max(0.0);
     let at_floor = stagnated && rel > tolerance && rel <= ROUNDING_FACTOR * rounding;
     let stalled = stagnated && rel > tolerance && !at_floor;
     let report = SolveReport {
@@ -587,6 +596,15 @@ fn inverse_mass_norm(
         }
     }
     norm.sqrt()
+}
+
+/// Which of `springs` push and which slide, as one number (an FNV-1a hash of the two
+/// flags in the springs' order): equal between two iterates when no spring changed.
+fn contact_state(springs: &[Active]) -> u64 {
+    springs.iter().fold(0xcbf2_9ce4_8422_2325, |h, e| {
+        let flags = u64::from(e.pushing) | u64::from(e.slide != Vec3::ZERO) << 1;
+        (h ^ flags).wrapping_mul(0x0000_0100_0000_01b3)
+    })
 }
 
 /// Three signs (±1) for entry `i`, from a fixed integer hash (SplitMix64's finaliser).
