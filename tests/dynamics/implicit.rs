@@ -405,13 +405,7 @@ fn a_frictional_pile_keeps_its_energy_at_the_default_frame_rate_step() {
 /// measured; 44 when every step that stopped halving above the rounding stopped).
 #[test]
 fn landings_in_a_pile_of_twenty_do_not_stall() {
-    let scene = Scene::builtin("pile-20").unwrap();
-    let mut world = scene
-        .build(&BuildOptions {
-            backend: Some("mls-implicit".into()),
-            ..BuildOptions::default()
-        })
-        .unwrap();
+    let mut world = crate::common::build(&Scene::builtin("pile-20").unwrap(), Some("mls-implicit"));
     for _ in 0..48 {
         world.step();
     }
