@@ -47,6 +47,11 @@ pub fn grain(active: impl IntoIterator<Item = bool>) -> usize {
         items += 1;
         busy += usize::from(a);
     }
+    grain_of(items, busy)
+}
+
+/// [`grain`] of a loop over `items` items of which `busy` have work.
+pub fn grain_of(items: usize, busy: usize) -> usize {
     if busy > 1 { 1 } else { items.max(1) }
 }
 
@@ -59,5 +64,7 @@ mod tests {
         assert_eq!(grain([false, true, false]), 3);
         assert_eq!(grain([true, true, false]), 1);
         assert_eq!(grain(std::iter::empty()), 1);
+        assert_eq!(grain_of(1, 1), 1);
+        assert_eq!(grain_of(4, 2), 1);
     }
 }

@@ -294,6 +294,8 @@ impl SurfelBinding {
         }
         self.table[..phyxels.len()]
             .par_chunks_mut(CHUNK)
+            // A row costs what a surfel's advection does: tasks of SURFEL_TASK rows.
+            .with_min_len(SURFEL_TASK.div_ceil(CHUNK))
             .enumerate()
             .for_each(|(c, rows)| {
                 for (k, row) in rows.iter_mut().enumerate() {
@@ -320,6 +322,8 @@ impl SurfelBinding {
         self.block_boxes
             .par_iter_mut()
             .zip(self.rest_box.par_iter())
+            // Tasks of SURFEL_TASK surfels' blocks, as `advect_blocks`.
+            .with_min_len(SURFEL_TASK.div_ceil(BLOCK))
             .enumerate()
             .for_each(|(k, (bound, &(m, e)))| {
                 let mut b = Aabb::EMPTY;

@@ -86,9 +86,15 @@ impl Solver {
         }
         let islands = &self.islands;
         let alone = |k: usize, o: &Object| !o.is_frozen() && !islands.shared(k);
-        let grain = par::grain(objects.iter().enumerate().map(|(k, o)| alone(k, o)));
-        // Bodies stepping side by side split their own loops finely.
-        let task = if grain == 1 {
+        let busy = objects
+            .iter()
+            .enumerate()
+            .filter(|&(k, o)| alone(k, o))
+            .count();
+        let grain = par::grain_of(objects.len(), busy);
+        // Bodies stepping side by side split their own loops finely; a body stepping
+        // alone keeps its loops whole below twice `POINT_TASK`.
+        let task = if busy > 1 {
             par::SHARED_POINT_TASK
         } else {
             par::POINT_TASK
