@@ -62,6 +62,12 @@ pub struct Material {
     pub strain: StrainForm,
     /// Basis of the MLS gradient fit (a method option of the MLS backend).
     pub gradient: GradientBasis,
+    /// Weight α of the MLS fit's residual stabilisation, in units of the shear modulus
+    /// (`dynamics::stabilisation`: a residual `r` a distance `x` away costs as much as a
+    /// shear strain `r/x`). Negative (the default) means 1 on a graded cloud, where a
+    /// level interface couples nodal integration's spurious modes to bending, and 0 on a
+    /// uniform one (method option of the MLS backends).
+    pub stabilisation: f32,
 }
 
 impl Default for Material {
@@ -81,6 +87,7 @@ impl Default for Material {
             contact_damping: 0.2,
             strain: StrainForm::Calibrated,
             gradient: GradientBasis::Quadratic,
+            stabilisation: -1.0,
         }
     }
 }
@@ -98,6 +105,10 @@ pub const MAX_YOUNG: f32 = 1e15;
 /// at its corners, with `young` from 1e-30 to [`MAX_YOUNG`]; `sph` goes NaN in its first
 /// step at 1e25, and at 1e-30 with `young = 1e-30` (products under- and overflowing f32).
 pub const DENSITY_RANGE: (f32, f32) = (1e-6, 1e10);
+
+/// Largest stabilisation weight accepted: at 100 the term is a hundred times the shear
+/// stiffness on the residual, which only shrinks the stable step.
+pub const MAX_STABILISATION: f32 = 100.0;
 
 /// Largest Coulomb coefficient accepted. Measured coefficients of dry contacts lie well
 /// below it (rubber on rough surfaces about 1–2). The bound was set by a viscous
@@ -127,6 +138,18 @@ impl Material {
     pub fn wave_speed(&self) -> f32 {
         let (lambda, mu) = self.lame();
         ((lambda + 2.0 * mu) / self.density).sqrt()
+    }
+
+    /// The stabilisation weight α for a cloud that is graded or not: the scene's value,
+    /// or the default (1 graded, 0 uniform).
+    pub fn stabilisation_for(&self, graded: bool) -> f32 {
+        if self.stabilisation >= 0.0 {
+            self.stabilisation
+        } else if graded {
+            1.0
+        } else {
+            0.0
+        }
     }
 
     /// Lamé parameters (λ, μ) of the isotropic Hooke law (Pa).
@@ -286,6 +309,13 @@ impl Material {
         }
         positive("contact_stiffness", self.contact_stiffness)?;
         non_negative("contact_damping", self.contact_damping)?;
+        if self.stabilisation.is_nan() || self.stabilisation > MAX_STABILISATION {
+            return Err(format!(
+                "stabilisation = {}: must be at most {MAX_STABILISATION} (negative means the \
+                 default: 1 on a graded cloud, 0 on a uniform one)",
+                self.stabilisation
+            ));
+        }
         Ok(())
     }
 }

@@ -16,6 +16,7 @@ mod tests;
 use glam::{Mat3, Quat, Vec3};
 use phyxel::columns::Vec3s;
 use phyxel::dynamics::gradient::MlsStencil;
+use phyxel::dynamics::stabilisation::Stabilisation;
 use phyxel::dynamics::{
     Diagnostics, Dynamics, StepContext, damped_euler_limit, integrate_symplectic,
 };
@@ -88,6 +89,8 @@ pub struct MlsDynamics {
     /// `ω²_max` (1/s²) of the rest stencil with the object's material;
     /// see [`MlsDynamics::stable_dt`].
     omega2_max: f32,
+    /// The fit's residual stabilisation (`None` at weight 0).
+    stabilisation: Option<Stabilisation>,
 }
 
 impl MlsDynamics {
@@ -97,6 +100,7 @@ impl MlsDynamics {
         let stencil = fracture_stencil(phyxels, material);
         let (in_off, incoming) = incoming_of(&stencil);
         let lanes = LaneStencil::new(&stencil, &in_off, &incoming);
+        let stabilisation = stabilisation_of(phyxels, material, &stencil);
         let mut mls = Self {
             stress_rows: RowBuffer::zeroed(lanes.padded()),
             state: RowBuffer::zeroed(lanes.padded()),
@@ -123,6 +127,7 @@ impl MlsDynamics {
                 .iter()
                 .fold(f32::INFINITY, |a, &b| a.min(b)),
             omega2_max: 0.0,
+            stabilisation,
         };
         mls.omega2_max = mls.stiffness_rate(phyxels, material);
         mls
@@ -235,6 +240,9 @@ impl MlsDynamics {
                 }
                 *o = sum;
             });
+        if let Some(k) = &self.stabilisation {
+            k.add_product(|l| v[l], 1.0, out);
+        }
     }
 
     /// The rest stencil (for diagnostics and tests).
@@ -282,6 +290,10 @@ impl MlsDynamics {
         self.after_plastic_flow(material);
         let f = &mut self.internal;
         lanes::force_pass(&self.lanes, &self.stress_rows, &mut f.x, &mut f.y, &mut f.z);
+        if let Some(k) = &self.stabilisation {
+            let state = &self.state;
+            add_stabilisation(k, |l| Vec3::from_slice(&state[l][..3]), f);
+        }
     }
 
     /// Displacement (and, with viscosity, velocity) packed per phyxel for the stencil
@@ -370,6 +382,10 @@ impl MlsDynamics {
         self.max_strain = max_strain;
         self.after_plastic_flow(material);
         self.gather_forces();
+        if let Some(k) = &self.stabilisation {
+            let disp = &self.disp;
+            add_stabilisation(k, |l| disp[l], &mut self.internal);
+        }
     }
 
     /// `f_j = P_j d_j(self) + Σ_{i: j ∈ N(i)} P_i d_ij`, gathered per phyxel so the
@@ -426,6 +442,59 @@ impl MlsDynamics {
     pub fn internal_forces(&self) -> &Vec3s {
         &self.internal
     }
+}
+
+/// Largest ratio of a cloud's spacings that still counts as uniform: graded levels lie
+/// 2× apart, while a uniform lattice's spacings (each phyxel's mean distance to its
+/// nearest) differ only at faces and corners.
+const GRADED_SPREAD: f32 = 1.5;
+
+/// The fit's residual stabilisation of `phyxels` at the material's weight (the default
+/// weight follows whether the cloud is graded: spacings spread over [`GRADED_SPREAD`]), with
+/// the law's small-strain shear modulus; `None` at weight 0.
+fn stabilisation_of(
+    phyxels: &Phyxels,
+    material: &Material,
+    stencil: &MlsStencil,
+) -> Option<Stabilisation> {
+    let spacing = &phyxels.spacing[..phyxels.len()];
+    let (lo, hi) = spacing
+        .iter()
+        .fold((f32::INFINITY, 0.0f32), |(lo, hi), &s| {
+            (lo.min(s), hi.max(s))
+        });
+    let graded = hi > GRADED_SPREAD * lo;
+    let alpha = material.stabilisation_for(graded);
+    (alpha > 0.0).then(|| {
+        let scale = if material.strain == StrainForm::Paper {
+            4.0
+        } else {
+            1.0
+        };
+        Stabilisation::build(
+            phyxels,
+            stencil,
+            (scale * material.lame().1) as f64,
+            alpha as f64,
+        )
+    })
+}
+
+/// `f −= K u`: the stabilisation's forces added to the internal forces.
+fn add_stabilisation(k: &Stabilisation, u: impl Fn(usize) -> Vec3 + Sync, f: &mut Vec3s) {
+    let n = k.len();
+    f.x[..n]
+        .par_iter_mut()
+        .zip(f.y[..n].par_iter_mut())
+        .zip(f.z[..n].par_iter_mut())
+        .with_min_len(par::point_task())
+        .enumerate()
+        .for_each(|(j, ((x, y), z))| {
+            let p = k.product_at(j, &u);
+            *x -= p.x;
+            *y -= p.y;
+            *z -= p.z;
+        });
 }
 
 /// Smallest isotropy `det A / (tr A / 3)³` of a moment matrix whose row is kept in a
@@ -552,6 +621,7 @@ impl Dynamics for MlsDynamics {
         self.in_off = in_off;
         self.incoming = incoming;
         self.grad.iter_mut().for_each(|g| *g = Mat3::ZERO);
+        self.stabilisation = stabilisation_of(phyxels, material, &self.stencil);
         self.new_rest = false;
         self.rest_updates += 1;
         // The new stencil has its own highest frequency (a torn or compressed rest
@@ -566,7 +636,10 @@ impl Dynamics for MlsDynamics {
                 law.energy_density(self.grad[i], self.plastic.get(i)) as f64
                     * phyxels.volume[i] as f64
             })
-            .sum();
+            .sum::<f64>()
+            + self.stabilisation.as_ref().map_or(0.0, |k| {
+                k.energy(|l| (phyxels.pos.get(l) - phyxels.rest.get(l)) + phyxels.pos_carry.get(l))
+            });
         Diagnostics {
             elastic_energy: Some(energy),
             max_strain: Some(self.max_strain),

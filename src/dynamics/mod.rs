@@ -7,6 +7,7 @@
 pub mod gradient;
 pub mod implicit;
 pub mod kinematic;
+pub mod stabilisation;
 
 /// Renamed [`gradient`] (the MLS estimate of the displacement gradient); `mls` is the
 /// backend ([`crate::backends::mls`]).

@@ -85,6 +85,22 @@ fn error_poisson_out_of_range() {
     );
 }
 
+/// A stabilisation weight above `material::MAX_STABILISATION`, or NaN, names the object,
+/// the field and the value.
+#[test]
+fn error_stabilisation_out_of_range() {
+    expect_scene_error(
+        "stabilisation",
+        &format!("{SPHERE}material = {{ stabilisation = 1e3 }}\n"),
+        &["objects[0]", "stabilisation = 1000", "at most 100"],
+    );
+    expect_scene_error(
+        "stabilisation-nan",
+        &format!("{SPHERE}material = {{ stabilisation = nan }}\n"),
+        &["objects[0]", "stabilisation = NaN"],
+    );
+}
+
 /// A zero phyxel spacing names the object, the field and the value; a missing one
 /// says what to give.
 #[test]

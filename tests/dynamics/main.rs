@@ -12,3 +12,4 @@ mod implicit;
 mod kinematic;
 mod mls;
 mod plasticity;
+mod stabilisation;
