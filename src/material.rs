@@ -64,9 +64,10 @@ pub struct Material {
     pub gradient: GradientBasis,
     /// Weight α of the MLS fit's residual stabilisation, in units of the shear modulus
     /// (`dynamics::stabilisation`: a residual `r` a distance `x` away costs as much as a
-    /// shear strain `r/x`). Negative (the default) means 1 on a graded cloud, where a
-    /// level interface couples nodal integration's spurious modes to bending, and 0 on a
-    /// uniform one (method option of the MLS backends).
+    /// shear strain `r/x`). Negative (the default) means 1 on the phyxels whose stencil
+    /// spans two levels of graded sampling, where the one-sided stencils couple nodal
+    /// integration's spurious modes to bending, and 0 elsewhere (method option of the
+    /// MLS backends).
     pub stabilisation: f32,
 }
 
@@ -138,18 +139,6 @@ impl Material {
     pub fn wave_speed(&self) -> f32 {
         let (lambda, mu) = self.lame();
         ((lambda + 2.0 * mu) / self.density).sqrt()
-    }
-
-    /// The stabilisation weight α for a cloud that is graded or not: the scene's value,
-    /// or the default (1 graded, 0 uniform).
-    pub fn stabilisation_for(&self, graded: bool) -> f32 {
-        if self.stabilisation >= 0.0 {
-            self.stabilisation
-        } else if graded {
-            1.0
-        } else {
-            0.0
-        }
     }
 
     /// Lamé parameters (λ, μ) of the isotropic Hooke law (Pa).
@@ -312,7 +301,7 @@ impl Material {
         if self.stabilisation.is_nan() || self.stabilisation > MAX_STABILISATION {
             return Err(format!(
                 "stabilisation = {}: must be at most {MAX_STABILISATION} (negative means the \
-                 default: 1 on a graded cloud, 0 on a uniform one)",
+                 default: 1 where graded levels meet, 0 elsewhere)",
                 self.stabilisation
             ));
         }

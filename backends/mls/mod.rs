@@ -444,40 +444,50 @@ impl MlsDynamics {
     }
 }
 
-/// Largest ratio of a cloud's spacings that still counts as uniform: graded levels lie
-/// 2× apart, while a uniform lattice's spacings (each phyxel's mean distance to its
-/// nearest) differ only at faces and corners.
-const GRADED_SPREAD: f32 = 1.5;
+/// Largest ratio of the spacings within a phyxel's stencil that still counts as one
+/// level: graded levels lie 2× apart, while a uniform lattice's spacings (each phyxel's
+/// mean distance to its nearest) differ by at most 1.3× between a corner and the inside.
+const LEVEL_SPREAD: f32 = 1.5;
 
-/// The fit's residual stabilisation of `phyxels` at the material's weight (the default
-/// weight follows whether the cloud is graded: spacings spread over [`GRADED_SPREAD`]), with
-/// the law's small-strain shear modulus; `None` at weight 0.
+/// The fit's residual stabilisation of `phyxels`, with the law's small-strain shear
+/// modulus: at the material's weight on every phyxel, or by default at weight 1 on the
+/// phyxels whose stencil spans two levels of a graded cloud (spacings over
+/// [`LEVEL_SPREAD`] apart), where the one-sided stencils couple nodal integration's
+/// spurious modes to smooth loads. `None` where no phyxel takes it.
 fn stabilisation_of(
     phyxels: &Phyxels,
     material: &Material,
     stencil: &MlsStencil,
 ) -> Option<Stabilisation> {
-    let spacing = &phyxels.spacing[..phyxels.len()];
-    let (lo, hi) = spacing
-        .iter()
-        .fold((f32::INFINITY, 0.0f32), |(lo, hi), &s| {
-            (lo.min(s), hi.max(s))
-        });
-    let graded = hi > GRADED_SPREAD * lo;
-    let alpha = material.stabilisation_for(graded);
-    (alpha > 0.0).then(|| {
-        let scale = if material.strain == StrainForm::Paper {
-            4.0
-        } else {
-            1.0
-        };
-        Stabilisation::build(
-            phyxels,
-            stencil,
-            (scale * material.lame().1) as f64,
-            alpha as f64,
-        )
-    })
+    let spacing = &phyxels.spacing;
+    let interface = |i: usize| {
+        let (lo, hi) = stencil.neighbours[stencil.row(i)]
+            .iter()
+            .map(|&j| spacing[j as usize])
+            .fold((spacing[i], spacing[i]), |(lo, hi), s| {
+                (lo.min(s), hi.max(s))
+            });
+        hi > LEVEL_SPREAD * lo
+    };
+    let alpha = |i: usize| match material.stabilisation {
+        a if a >= 0.0 => a as f64,
+        _ if interface(i) => 1.0,
+        _ => 0.0,
+    };
+    if (0..stencil.len()).all(|i| alpha(i) == 0.0) {
+        return None;
+    }
+    let scale = if material.strain == StrainForm::Paper {
+        4.0
+    } else {
+        1.0
+    };
+    Some(Stabilisation::build(
+        phyxels,
+        stencil,
+        (scale * material.lame().1) as f64,
+        alpha,
+    ))
 }
 
 /// `f −= K u`: the stabilisation's forces added to the internal forces.

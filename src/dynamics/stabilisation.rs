@@ -75,6 +75,9 @@ fn fit(phyxels: &Phyxels, stencil: &MlsStencil, i: usize, stiffness: f64) -> Fit
         k: 0.0,
         m_inv: [[0.0; 9]; 9],
     };
+    if stiffness <= 0.0 {
+        return none;
+    }
     let nb = neighbourhood(phyxels, stencil, i);
     if nb.len() < MIN_NEIGHBOURS || stencil.ill_conditioned[i] {
         return none;
@@ -120,13 +123,19 @@ fn dot(a: &[f64; 9], b: &[f64; 9]) -> f64 {
 
 impl Stabilisation {
     /// Assembles `K` for `phyxels` with the rest stencil `stencil`, shear modulus `shear`
-    /// (Pa; the law's small-strain μ) and the dimensionless weight `alpha`.
-    pub fn build(phyxels: &Phyxels, stencil: &MlsStencil, shear: f64, alpha: f64) -> Self {
+    /// (Pa; the law's small-strain μ) and the dimensionless weight `alpha(i)` of each
+    /// phyxel's fit (0: none).
+    pub fn build(
+        phyxels: &Phyxels,
+        stencil: &MlsStencil,
+        shear: f64,
+        alpha: impl Fn(usize) -> f64 + Sync,
+    ) -> Self {
         let n = stencil.len();
         let fits: Vec<Fit> = (0..n)
             .into_par_iter()
             .with_min_len(par::point_task())
-            .map(|i| fit(phyxels, stencil, i, alpha * shear))
+            .map(|i| fit(phyxels, stencil, i, alpha(i) * shear))
             .collect();
         // Rows that name phyxel j, in increasing order (j's own among them).
         let mut rows_of: Vec<Vec<(u32, u32)>> = vec![Vec::new(); n];

@@ -214,12 +214,12 @@ fn meshed_square_and_round_bars_sag_as_euler_bernoulli() {
 /// `qL⁴/(8EI)` (analytic, independent). The refined layers lie a quarter base spacing
 /// either side of the base's, so the clamp's face is put on the fine layer at
 /// x = −0.455 m and the free length is 0.955 m. Asserted: every graded bar within the
-/// cantilever's 5% and no further from Euler–Bernoulli than the uniform bar (the graded
-/// clouds take the fit's residual stabilisation by default; without it a level
-/// interface where the bending moment is large acts as a hinge, +4.7% at x = −0.35),
+/// cantilever's 5% and no further from Euler–Bernoulli than the uniform bar (the fit's
+/// residual stabilisation holds the level interface by default; without it the
+/// interface acts as a hinge where the bending moment is large, +4.7% at x = −0.35),
 /// the bar refined whole within 1% (it is the uniform fine lattice), and fewer phyxels
-/// than the uniform bar at the fine spacing. Measured: box +2.17% uniform, −0.15%,
-/// −1.77%, +0.23% refined; round +1.62%, +0.97%, +0.19%, +0.06%.
+/// than the uniform bar at the fine spacing. Measured: box +2.17% uniform, +0.33%,
+/// −1.45%, +0.23% refined; round +1.62%, +1.46%, +0.58%, +0.06%.
 #[test]
 fn graded_bars_sag_as_euler_bernoulli() {
     use phyxel::body::shape::Shape;
