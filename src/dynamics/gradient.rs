@@ -158,17 +158,17 @@ impl MlsStencil {
 /// Largest condition number accepted for the quadratic fit (in units scaled by h).
 const MAX_CONDITION_QUADRATIC: f64 = 1.0e7;
 
-/// Gradient weights `d_j` of the fit `u_j − u_i ≈ ∇u x_ij + ½ x_ijᵀ H x_ij` (9 unknowns
-/// per component), or `None` when the neighbourhood cannot support it.
-fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
+/// The inverse of the quadratic fit's moment matrix `M = Σ_j w_j b_j b_jᵀ`, `b` the
+/// linear and quadratic terms of the offsets `x_j` in units of `h` (so that both are of
+/// one size), for neighbours `(x_j, w_j)`; `None` when the neighbourhood cannot support
+/// the fit (under 12 neighbours, or condition above [`MAX_CONDITION_QUADRATIC`]).
+pub(crate) fn quadratic_fit_inverse(offsets: &[(DVec3, f64)], h: f64) -> Option<[[f64; 9]; 9]> {
     if offsets.len() < 12 {
         return None;
     }
-    // Offsets scaled by h so linear and quadratic terms are of one size.
-    let basis = |x: DVec3| linalg::quadratic_terms(x / h);
     let mut m = [[0.0f64; 9]; 9];
     for &(x, w) in offsets {
-        let p = basis(x);
+        let p = linalg::quadratic_terms(x / h);
         for r in 0..9 {
             for c in 0..9 {
                 m[r][c] += w * p[r] * p[c];
@@ -180,13 +180,21 @@ fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
     if lmax.is_nan() || lmax <= 0.0 || vals.iter().any(|&v| v < lmax / MAX_CONDITION_QUADRATIC) {
         return None;
     }
-    // Rows 0..3 of M⁻¹ = V diag(1/λ) Vᵀ.
-    let mut inv3 = [[0.0f64; 9]; 3];
-    for r in 0..3 {
-        for c in 0..9 {
-            inv3[r][c] = (0..9).map(|k| vecs[r][k] * vecs[c][k] / vals[k]).sum();
+    // M⁻¹ = V diag(1/λ) Vᵀ.
+    let mut inv = [[0.0f64; 9]; 9];
+    for (r, row) in inv.iter_mut().enumerate() {
+        for (c, e) in row.iter_mut().enumerate() {
+            *e = (0..9).map(|k| vecs[r][k] * vecs[c][k] / vals[k]).sum();
         }
     }
+    Some(inv)
+}
+
+/// Gradient weights `d_j` of the fit `u_j − u_i ≈ ∇u x_ij + ½ x_ijᵀ H x_ij` (9 unknowns
+/// per component): rows 0..3 of [`quadratic_fit_inverse`]; `None` where it is.
+fn quadratic_weights(offsets: &[(DVec3, f64)], h: f64) -> Option<Vec<Vec3>> {
+    let inv3 = quadratic_fit_inverse(offsets, h)?;
+    let basis = |x: DVec3| linalg::quadratic_terms(x / h);
     Some(
         offsets
             .iter()

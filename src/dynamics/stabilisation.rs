@@ -30,14 +30,7 @@ use crate::points::phyxels::Phyxels;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::gradient::MlsStencil;
-
-/// Largest condition number of a fit's moment matrix (in units scaled by h) for which
-/// the phyxel gets the term; the quadratic gradient fit uses the same bound.
-const MAX_CONDITION: f64 = 1.0e7;
-
-/// Fewest neighbours of a quadratic fit (9 unknowns per component and a margin).
-const MIN_NEIGHBOURS: usize = 12;
+use super::gradient::{MlsStencil, quadratic_fit_inverse};
 
 /// The stabilisation's stiffness `K` in compressed rows, the diagonal left out (it is
 /// minus the row's sum).
@@ -49,7 +42,7 @@ pub struct Stabilisation {
 }
 
 /// One phyxel's fit: `k_i = α μ v_i / Σ w |x|²` and the inverse of its moment matrix
-/// `M = Σ w b bᵀ` (b in units of h). `k = 0` where the fit is ill-conditioned.
+/// (the gradient's quadratic fit). `k = 0` where that fit cannot be made.
 struct Fit {
     k: f64,
     m_inv: [[f64; 9]; 9],
@@ -75,41 +68,18 @@ fn fit(phyxels: &Phyxels, stencil: &MlsStencil, i: usize, stiffness: f64) -> Fit
         k: 0.0,
         m_inv: [[0.0; 9]; 9],
     };
-    if stiffness <= 0.0 {
+    if stiffness <= 0.0 || stencil.ill_conditioned[i] {
         return none;
     }
     let nb = neighbourhood(phyxels, stencil, i);
-    if nb.len() < MIN_NEIGHBOURS || stencil.ill_conditioned[i] {
-        return none;
-    }
-    let mut m = [[0.0f64; 9]; 9];
-    let mut spread = 0.0;
-    for (x, w, b) in &nb {
-        for r in 0..9 {
-            for c in 0..9 {
-                m[r][c] += w * b[r] * b[c];
-            }
-        }
-        spread += w * x.length_squared();
-    }
-    let (vals, vecs) = linalg::jacobi_eigen(m);
-    let largest = vals.iter().fold(0.0f64, |a, &v| a.max(v.abs()));
-    if largest.is_nan()
-        || largest <= 0.0
-        || vals.iter().any(|&v| v < largest / MAX_CONDITION)
-        || spread <= 0.0
-    {
-        return none;
-    }
-    let mut m_inv = [[0.0f64; 9]; 9];
-    for (r, row) in m_inv.iter_mut().enumerate() {
-        for (c, e) in row.iter_mut().enumerate() {
-            *e = (0..9).map(|q| vecs[r][q] * vecs[c][q] / vals[q]).sum();
-        }
-    }
-    Fit {
-        k: stiffness * phyxels.volume[i] as f64 / spread,
-        m_inv,
+    let offsets: Vec<(DVec3, f64)> = nb.iter().map(|&(x, w, _)| (x, w)).collect();
+    let spread: f64 = nb.iter().map(|(x, w, _)| w * x.length_squared()).sum();
+    match quadratic_fit_inverse(&offsets, phyxels.radius[i] as f64) {
+        Some(m_inv) if spread > 0.0 => Fit {
+            k: stiffness * phyxels.volume[i] as f64 / spread,
+            m_inv,
+        },
+        _ => none,
     }
 }
 
