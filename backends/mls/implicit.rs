@@ -100,7 +100,8 @@ struct Preconditioner {
     system: Skyline,
     factor: Skyline,
     /// The factor of `system` plus `blocks`, the contact blocks it was made with (rest
-    /// frame; empty: none made yet). The step uses it when `with_contact`.
+    /// frame; empty: none made yet, and no rows until the first contact factor). The
+    /// step uses it when `with_contact`.
     contact: Skyline,
     blocks: Vec<Mat3>,
     with_contact: bool,
@@ -321,7 +322,7 @@ impl MlsImplicit {
         let rounding = rounding_for(&m, &position, phyxels);
         m.factor(rounding).ok()?;
         Some(Preconditioner {
-            contact: m.clone(),
+            contact: Skyline::new(Vec::new()),
             blocks: Vec::new(),
             factor: m,
             system,
@@ -618,7 +619,11 @@ impl Implicit for MlsImplicit {
                 return;
             }
         }
-        pre.contact.copy_from(&pre.system);
+        if pre.contact.len() == pre.system.len() {
+            pre.contact.copy_from(&pre.system);
+        } else {
+            pre.contact = pre.system.clone();
+        }
         for (j, b) in rest.iter().enumerate() {
             if *b == Mat3::ZERO {
                 continue;

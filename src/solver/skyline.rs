@@ -161,29 +161,31 @@ impl Real for f32 {
 #[inline]
 fn dot9<T: Real>(rows: [&[T]; 3], cols: [&[T]; 3]) -> [[f64; 3]; 3] {
     let n = rows[0].len();
+    let whole = n - n % T::WIDTH;
     let mut acc = [T::ZERO; 9];
-    let mut k = 0;
-    while k < n {
-        // Whole vectors, then the tail as one vector padded with zeros.
-        let load = |x: &[T]| {
-            if k + T::WIDTH <= n {
-                T::lanes(&x[k..])
-            } else {
-                T::padded(&x[k..n])
+    let add = |acc: &mut [T::Lanes; 9], r: [T::Lanes; 3], c: [T::Lanes; 3]| {
+        for a in 0..3 {
+            for b in 0..3 {
+                acc[3 * a + b] = T::fma(r[a], c[b], acc[3 * a + b]);
             }
-        };
-        let (r0, r1, r2) = (load(rows[0]), load(rows[1]), load(rows[2]));
-        let (c0, c1, c2) = (load(cols[0]), load(cols[1]), load(cols[2]));
-        acc[0] = T::fma(r0, c0, acc[0]);
-        acc[1] = T::fma(r0, c1, acc[1]);
-        acc[2] = T::fma(r0, c2, acc[2]);
-        acc[3] = T::fma(r1, c0, acc[3]);
-        acc[4] = T::fma(r1, c1, acc[4]);
-        acc[5] = T::fma(r1, c2, acc[5]);
-        acc[6] = T::fma(r2, c0, acc[6]);
-        acc[7] = T::fma(r2, c1, acc[7]);
-        acc[8] = T::fma(r2, c2, acc[8]);
-        k += T::WIDTH;
+        }
+    };
+    // Whole vectors (exact chunks: no bounds test or tail test in the loop), then the
+    // tail as one vector padded with zeros.
+    fn chunks<T>(x: &[T], whole: usize, width: usize) -> std::slice::ChunksExact<'_, T> {
+        x[..whole].chunks_exact(width)
+    }
+    let chunks = |x| chunks(x, whole, T::WIDTH);
+    let r = chunks(rows[0]).zip(chunks(rows[1])).zip(chunks(rows[2]));
+    let c = chunks(cols[0]).zip(chunks(cols[1])).zip(chunks(cols[2]));
+    for (((r0, r1), r2), ((c0, c1), c2)) in r.zip(c) {
+        let r = [T::lanes(r0), T::lanes(r1), T::lanes(r2)];
+        add(&mut acc, r, [T::lanes(c0), T::lanes(c1), T::lanes(c2)]);
+    }
+    if whole < n {
+        let tail = |x: &[T]| T::padded(&x[whole..n]);
+        let r = [tail(rows[0]), tail(rows[1]), tail(rows[2])];
+        add(&mut acc, r, [tail(cols[0]), tail(cols[1]), tail(cols[2])]);
     }
     let mut out = [[0.0; 3]; 3];
     for a in 0..3 {
@@ -197,42 +199,60 @@ fn dot9<T: Real>(rows: [&[T]; 3], cols: [&[T]; 3]) -> [[f64; 3]; 3] {
 /// The Cholesky factor of a skyline matrix whose rows come in node triples
 /// ([`Skyline::by_node`]), in place in `values`, a node against a node at a time: the
 /// nine dot products of a 3 × 3 block read each row segment once for three products
-/// instead of one (the factor is bound by reading its rows), then the block's own
+/// instead of one, then the block's own
 /// columns are finished in order. `Err` with the row whose pivot is not positive.
 fn factor_by_node<T: Real>(
     values: &mut [T],
     first: &[usize],
     start: &[usize],
 ) -> Result<(), usize> {
-    let index = |r: usize, c: usize| start[r] + c - first[r];
+    // 1 / L[c][c] of the finished pivots: a product per entry rather than a division.
+    let mut inverse = vec![0.0f64; first.len()];
     for p in 0..first.len() / 3 {
-        let r0 = 3 * p;
-        let fr = first[r0];
-        for q in fr / 3..=p {
-            let c0 = 3 * q;
-            let k0 = fr.max(first[c0]);
-            let segment = |r: usize| &values[index(r, k0)..index(r, c0)];
-            let sums = dot9(
-                [0, 1, 2].map(|a| segment(r0 + a)),
-                [0, 1, 2].map(|b| segment(c0 + b)),
-            );
-            for (a, sums) in sums.iter().enumerate() {
-                let last = if q == p { a } else { 2 };
-                for (b, &sum) in sums.iter().enumerate().take(last + 1) {
-                    let (r, c) = (r0 + a, c0 + b);
-                    let within: f64 = (c0..c)
-                        .map(|k| values[index(r, k)].wide() * values[index(c, k)].wide())
-                        .sum();
-                    let value = values[index(r, c)].wide() - sum - within;
-                    values[index(r, c)] = T::narrow(if c < r {
-                        value / values[index(c, c)].wide()
-                    } else if value > 0.0 && value.is_finite() {
-                        value.sqrt()
-                    } else {
-                        return Err(r);
-                    });
-                }
-            }
+        for q in first[3 * p] / 3..=p {
+            factor_block(values, first, start, &mut inverse, p, q)?;
+        }
+    }
+    Ok(())
+}
+
+/// Finishes the 3 × 3 block of node rows `p` against node `q ≤ p` (see
+/// [`factor_by_node`]): rows `q` and row p's blocks before it are done.
+#[inline]
+fn factor_block<T: Real>(
+    values: &mut [T],
+    first: &[usize],
+    start: &[usize],
+    inverse: &mut [f64],
+    p: usize,
+    q: usize,
+) -> Result<(), usize> {
+    let index = |r: usize, c: usize| start[r] + c - first[r];
+    let r0 = 3 * p;
+    let c0 = 3 * q;
+    let k0 = first[r0].max(first[c0]);
+    let segment = |r: usize| &values[index(r, k0)..index(r, c0)];
+    let sums = dot9(
+        [0, 1, 2].map(|a| segment(r0 + a)),
+        [0, 1, 2].map(|b| segment(c0 + b)),
+    );
+    for (a, sums) in sums.iter().enumerate() {
+        let last = if q == p { a } else { 2 };
+        for (b, &sum) in sums.iter().enumerate().take(last + 1) {
+            let (r, c) = (r0 + a, c0 + b);
+            let within: f64 = (c0..c)
+                .map(|k| values[index(r, k)].wide() * values[index(c, k)].wide())
+                .sum();
+            let value = values[index(r, c)].wide() - sum - within;
+            values[index(r, c)] = T::narrow(if c < r {
+                value * inverse[c]
+            } else if value > 0.0 && value.is_finite() {
+                let pivot = T::narrow(value.sqrt());
+                inverse[r] = 1.0 / pivot.wide();
+                pivot.wide()
+            } else {
+                return Err(r);
+            });
         }
     }
     Ok(())
