@@ -205,12 +205,14 @@ fn factor_by_node<T: Real>(
     values: &mut [T],
     first: &[usize],
     start: &[usize],
+    inverse: &mut Vec<f64>,
 ) -> Result<(), usize> {
     // 1 / L[c][c] of the finished pivots: a product per entry rather than a division.
-    let mut inverse = vec![0.0f64; first.len()];
+    inverse.clear();
+    inverse.resize(first.len(), 0.0);
     for p in 0..first.len() / 3 {
         for q in first[3 * p] / 3..=p {
-            factor_block(values, first, start, &mut inverse, p, q)?;
+            factor_block(values, first, start, inverse, p, q)?;
         }
     }
     Ok(())
@@ -429,6 +431,8 @@ pub struct Skyline {
     /// The matrix in f32 while a factor to be rounded to bfloat16 is computed (kept for
     /// its buffer).
     work: Vec<f32>,
+    /// The pivots' reciprocals while the factor is computed (kept for its buffer).
+    inverse: Vec<f64>,
     /// The rows come in triples that start at the same column, a multiple of three (the
     /// three coordinates of a node): [`Skyline::solve_rounded`] takes a node at a time.
     by_node: bool,
@@ -456,6 +460,7 @@ impl Skyline {
             lower_bf16: Vec::new(),
             rounding: Rounding::F32,
             work: Vec::new(),
+            inverse: Vec::new(),
             by_node,
         }
     }
@@ -505,17 +510,27 @@ impl Skyline {
         if self.by_node && rounding == Rounding::Bf16 {
             self.work.clear();
             self.work.extend(self.values.iter().map(|&v| v as f32));
-            match factor_by_node(&mut self.work, &self.first, &self.start) {
+            match factor_by_node(&mut self.work, &self.first, &self.start, &mut self.inverse) {
                 Ok(()) => {
                     for (v, &w) in self.values.iter_mut().zip(&self.work) {
                         *v = w as f64;
                     }
                 }
                 // A pivot lost in f32: the f64 factor decides.
-                Err(_) => factor_by_node(&mut self.values, &self.first, &self.start)?,
+                Err(_) => factor_by_node(
+                    &mut self.values,
+                    &self.first,
+                    &self.start,
+                    &mut self.inverse,
+                )?,
             }
         } else if self.by_node {
-            factor_by_node(&mut self.values, &self.first, &self.start)?;
+            factor_by_node(
+                &mut self.values,
+                &self.first,
+                &self.start,
+                &mut self.inverse,
+            )?;
         } else {
             self.factor_by_row()?;
         }
