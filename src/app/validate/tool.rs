@@ -226,6 +226,10 @@ pub struct BreakAway {
     pub peak: f64,
     /// μ m g (N).
     pub reference: f64,
+    /// The ground's friction over its normal force on the block over the same
+    /// interval (sums of the pair's totals): the friction law's own ratio, μ while every
+    /// contact slides, below it while some stick.
+    pub friction_ratio: f64,
     pub run: RunInfo,
 }
 
@@ -279,6 +283,7 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
     let x0 = com(&w, 1).x;
     let steps = (0.55 / w.dt as f64).round() as usize;
     let (mut peak, mut sum, mut n) = (0.0f64, 0.0f64, 0usize);
+    let (mut friction, mut normal) = (0.0f64, 0.0f64);
     let info = timed(&mut w, steps, |w| {
         let moved = com(w, 1).x - x0;
         let force = w.objects[2]
@@ -289,6 +294,11 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
         } else if moved < 3e-3 {
             sum += force;
             n += 1;
+            let ground = w.contact.patches.iter().position(|p| (p.a, p.b) == (0, 1));
+            if let Some(t) = ground.map(|k| w.contact_totals().swap_remove(k)) {
+                friction += t.friction_force[0].abs();
+                normal += t.normal_force;
+            }
         }
         true
     });
@@ -302,6 +312,7 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
         peak,
         sliding: sum / n as f64,
         reference: 0.5 * mass * 9.81,
+        friction_ratio: friction / normal,
         run: info,
     })
 }
@@ -320,7 +331,10 @@ pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
                 measured: b.sliding,
                 reference: b.reference,
                 run: b.run,
-                note: format!("{n} across; largest before 1 mm of sliding {:.3} N", b.peak),
+                note: format!(
+                    "{n} across; largest before 1 mm of sliding {:.3} N; ground friction / normal {:.3}",
+                    b.peak, b.friction_ratio
+                ),
                 rel_error: None,
             })
         },
