@@ -139,7 +139,7 @@ pub const CASES: &[(&str, &str, bool)] = &[
     ),
     (
         "break-away",
-        "MLS backends: a 1 kg block on the ground (μ = 0.5) pushed sideways at 1 cm/s by a frictionless kinematic plate: the plate's force while the block slides (N) vs μ m g",
+        "MLS backends: a 1 kg block on the ground (μ = 0.5) pushed sideways at 1 cm/s by a frictionless kinematic plate: the plate's mean force over the run's last 0.2 s, while the block slides with it (N) vs μ m g",
         false,
     ),
     (

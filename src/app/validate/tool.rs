@@ -217,8 +217,9 @@ pub fn squeeze_tolerance(across: u32) -> f64 {
 /// What [`break_away`] measured.
 #[derive(Clone, Copy, Debug)]
 pub struct BreakAway {
-    /// The tool's mean force along its motion while the block slides from 1 to 3 mm
-    /// (N): the force at which it breaks away and keeps sliding (Coulomb's law has one μ).
+    /// The tool's mean force along its motion over the run's last [`SLIDE_WINDOW`]
+    /// seconds (N), while the block slides with it (checked): the force at which it
+    /// breaks away and keeps sliding (Coulomb's law has one μ).
     pub sliding: f64,
     /// The tool's largest force before the block has moved 1 mm (N). An elastic block
     /// slips from its pushed edge on before it slides as a whole (partial slip), so this
@@ -233,6 +234,16 @@ pub struct BreakAway {
     pub run: RunInfo,
 }
 
+/// The span at the end of a `break-away` run over which the sliding force is averaged
+/// (s): from 0.35 s the block slides with the plate on both MLS backends. Earlier it
+/// still slips in part: `mls-implicit`'s block has moved 1 mm by 0.225 s but keeps the
+/// plate's speed only from about 0.29 s, and a window from 1 mm read 1.5–3.3% low.
+pub const SLIDE_WINDOW: f64 = 0.2;
+
+/// How far the block's mean speed over [`SLIDE_WINDOW`] may differ from the plate's
+/// for it to count as sliding with it (fraction).
+pub const SLIDE_SPEED_SHARE: f64 = 0.1;
+
 /// A 0.1 m elastic block (E = 1e5 Pa, τ = 1 ms, `across` phyxels along an edge, 1 kg)
 /// resting on a static ground (E = 1e9) with μ = 0.5 between them, pushed sideways at
 /// 1 cm/s by a frictionless kinematic plate that starts 1 mm from it, over 0.55 s. The
@@ -244,6 +255,7 @@ pub fn break_away(across: u32, backend: &str, dt: Option<f32>) -> Result<BreakAw
     let gap = 1e-4f32;
     let y_ground = -0.5 * edge - gap - 0.01;
     let x_pusher = -0.5 * edge - 1e-3 - 0.01;
+    let plate_speed = 0.01f32;
     let text = format!(
         r#"name = "break-away"
 gravity = [0.0, -9.81, 0.0]
@@ -269,7 +281,7 @@ backend = "kinematic"
 shape = {{ type = "box", size = [0.02, 0.06, 0.12] }}
 spacing = 0.01
 position = [{x_pusher}, 0.0, 0.0]
-velocity = [0.01, 0.0, 0.0]
+velocity = [{plate_speed}, 0.0, 0.0]
 material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
 "#
     );
@@ -281,9 +293,12 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
         .map(|&m| m as f64)
         .sum::<f64>();
     let x0 = com(&w, 1).x;
-    let steps = (0.55 / w.dt as f64).round() as usize;
+    let duration = 0.55;
+    let steps = (duration / w.dt as f64).round() as usize;
     let (mut peak, mut sum, mut n) = (0.0f64, 0.0f64, 0usize);
     let (mut friction, mut normal) = (0.0f64, 0.0f64);
+    // The block's (time, x) at the window's first and last steps.
+    let (mut start, mut end) = (None, (0.0f64, 0.0f64));
     let info = timed(&mut w, steps, |w| {
         let moved = com(w, 1).x - x0;
         let force = w.objects[2]
@@ -291,9 +306,12 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
             .map_or(0.0, |k| -k.reaction().x as f64);
         if moved < 1e-3 {
             peak = peak.max(force);
-        } else if moved < 3e-3 {
+        }
+        if w.time >= duration - SLIDE_WINDOW {
             sum += force;
             n += 1;
+            end = (w.time, moved);
+            start.get_or_insert(end);
             let ground = w.contact.patches.iter().position(|p| (p.a, p.b) == (0, 1));
             if let Some(t) = ground.map(|k| w.contact_totals().swap_remove(k)) {
                 friction += t.friction_force[0].abs();
@@ -302,9 +320,14 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
         }
         true
     });
-    if n == 0 {
+    let speed = match start {
+        Some(start) if end.0 > start.0 => (end.1 - start.1) / (end.0 - start.0),
+        _ => 0.0,
+    };
+    if (speed / plate_speed as f64 - 1.0).abs() > SLIDE_SPEED_SHARE {
         return Err(format!(
-            "break-away: the block did not slide 1 mm (dt {})",
+            "break-away: the block did not slide with the plate over the run's last {SLIDE_WINDOW} s \
+             (its mean speed {speed:.4} m/s against the plate's {plate_speed}; dt {})",
             info.dt
         ));
     }
@@ -317,7 +340,7 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
     })
 }
 
-/// Break-away rows: the tool's force while the block slides against μ m g, at three
+/// Break-away rows: the tool's force while the block slides with it against μ m g, at three
 /// resolutions, within [`BREAK_AWAY_TOLERANCE`].
 pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     sweep(
@@ -342,12 +365,12 @@ pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
 }
 
 /// Tolerance of `break-away` (relative error of the sliding force): a regression bound
-/// about 1.5 times the largest error measured. The force is low on both MLS backends
-/// (`mls` 2.2–6.7%, `mls-implicit` 4.6% at 4 across falling to 1.0% at 10): the
-/// pushed block rocks, its normal force swinging ±15% at about 25 Hz, and it slides
-/// (friction at μN) only while that force is low; the aim, 2%, is docs/ACCURACY.md's
-/// known limit.
-pub const BREAK_AWAY_TOLERANCE: f64 = 0.10;
+/// about 1.5 times the largest error measured. `mls` reads 3.0–4.8% low (4 to 10
+/// across): the pushed block rocks at about 20 Hz as it slides, its normal force
+/// swinging by a tenth, and its contacts stick in part of each cycle (the ground's
+/// friction over its normal force 0.47–0.48); `mls-implicit` reads 0.2–0.3% high
+/// (that ratio 0.500). The aim, 2%, is docs/ACCURACY.md's known limit.
+pub const BREAK_AWAY_TOLERANCE: f64 = 0.075;
 
 /// Radius of the indenting sphere (m).
 pub const INDENT_RADIUS: f64 = 0.05;
