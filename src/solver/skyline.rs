@@ -172,13 +172,9 @@ fn dot9<T: Real>(rows: [&[T]; 3], cols: [&[T]; 3]) -> [[f64; 3]; 3] {
     };
     // Whole vectors (exact chunks: no bounds test or tail test in the loop), then the
     // tail as one vector padded with zeros.
-    fn chunks<T>(x: &[T], whole: usize, width: usize) -> std::slice::ChunksExact<'_, T> {
-        x[..whole].chunks_exact(width)
-    }
-    let chunks = |x| chunks(x, whole, T::WIDTH);
-    let r = chunks(rows[0]).zip(chunks(rows[1])).zip(chunks(rows[2]));
-    let c = chunks(cols[0]).zip(chunks(cols[1])).zip(chunks(cols[2]));
-    for (((r0, r1), r2), ((c0, c1), c2)) in r.zip(c) {
+    let [r0, r1, r2] = rows.map(|x| x[..whole].chunks_exact(T::WIDTH));
+    let [c0, c1, c2] = cols.map(|x| x[..whole].chunks_exact(T::WIDTH));
+    for (((r0, r1), r2), ((c0, c1), c2)) in r0.zip(r1).zip(r2).zip(c0.zip(c1).zip(c2)) {
         let r = [T::lanes(r0), T::lanes(r1), T::lanes(r2)];
         add(&mut acc, r, [T::lanes(c0), T::lanes(c1), T::lanes(c2)]);
     }
@@ -199,8 +195,8 @@ fn dot9<T: Real>(rows: [&[T]; 3], cols: [&[T]; 3]) -> [[f64; 3]; 3] {
 /// The Cholesky factor of a skyline matrix whose rows come in node triples
 /// ([`Skyline::by_node`]), in place in `values`, a node against a node at a time: the
 /// nine dot products of a 3 × 3 block read each row segment once for three products
-/// instead of one, then the block's own
-/// columns are finished in order. `Err` with the row whose pivot is not positive.
+/// instead of one, then the block's own columns are finished in order. `Err` with the
+/// row whose pivot is not positive.
 fn factor_by_node<T: Real>(
     values: &mut [T],
     first: &[usize],

@@ -335,13 +335,13 @@ material = {{ young = 1.0e9, poisson = 0.3, friction = 0.0 }}
         peak,
         sliding: sum / n as f64,
         reference: 0.5 * mass * 9.81,
-        friction_ratio: friction / normal,
+        friction_ratio: friction / normal.max(f64::MIN_POSITIVE),
         run: info,
     })
 }
 
-/// Break-away rows: the tool's force while the block slides with it against μ m g, at three
-/// resolutions, within [`BREAK_AWAY_TOLERANCE`].
+/// Break-away rows: the tool's force while the block slides with it against μ m g, at
+/// three resolutions, within [`BREAK_AWAY_TOLERANCE`].
 pub fn case_break_away(backend: &str, quick: bool) -> Result<Vec<Row>, String> {
     sweep(
         "break-away",
